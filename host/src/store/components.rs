@@ -1,0 +1,117 @@
+//! Component- and mesh-level edits: remove or transform a component, transform, clear.
+
+use super::{Affine, EditError, MeshStore, check_finite};
+
+impl MeshStore {
+    /// The live triangles edge-connected to `seed` (sharing two distinct corners), ascending.
+    fn component_of(&mut self, seed: u32) -> Vec<u32> {
+        self.incidence();
+        let (incidence, triangles) =
+            (self.incidence.as_ref().expect("built above"), &self.triangles);
+        let corners = |t: u32| &triangles[3 * t as usize..3 * t as usize + 3];
+        let mut in_component = vec![false; triangles.len() / 3];
+        in_component[seed as usize] = true;
+        let mut component = vec![seed];
+        let mut next = 0;
+        while next < component.len() {
+            let c = corners(component[next]);
+            next += 1;
+            for k in 0..3 {
+                let (a, b) = (c[k], c[(k + 1) % 3]);
+                if a == b {
+                    continue;
+                }
+                for &t in incidence.around(a) {
+                    if !in_component[t as usize] && corners(t).contains(&b) {
+                        in_component[t as usize] = true;
+                        component.push(t);
+                    }
+                }
+            }
+        }
+        component.sort_unstable();
+        component
+    }
+
+    /// Distinct corners of the given triangles, ascending.
+    fn vertices_of(&self, triangles: &[u32]) -> Vec<u32> {
+        let mut vertices: Vec<u32> = triangles.iter().flat_map(|&t| self.corners(t)).collect();
+        vertices.sort_unstable();
+        vertices.dedup();
+        vertices
+    }
+
+    pub(super) fn remove_component(&mut self, triangle: u32) -> Result<(), EditError> {
+        self.check_triangle(triangle)?;
+        let component = self.component_of(triangle);
+        let vertices = self.vertices_of(&component);
+        for &t in &component {
+            self.kill_triangle(t);
+        }
+        for v in vertices {
+            if self.incidence().around(v).is_empty() {
+                self.kill_vertex(v);
+            }
+        }
+        Ok(())
+    }
+
+    pub(super) fn transform_component(
+        &mut self,
+        triangle: u32,
+        matrix: &Affine,
+    ) -> Result<(), EditError> {
+        self.check_triangle(triangle)?;
+        let component = self.component_of(triangle);
+        let vertices = self.vertices_of(&component);
+        self.transform_vertices(&vertices, matrix, "transform-component")
+    }
+
+    pub(super) fn transform(&mut self, matrix: &Affine) -> Result<(), EditError> {
+        let live: Vec<u32> = (0..self.vertex_slots()).filter(|&v| self.is_vertex_live(v)).collect();
+        self.transform_vertices(&live, matrix, "transform")
+    }
+
+    /// A finite map can still overflow to infinity: every image is checked before any write.
+    fn transform_vertices(
+        &mut self,
+        vertices: &[u32],
+        matrix: &Affine,
+        op: &str,
+    ) -> Result<(), EditError> {
+        check_finite(matrix, &format!("{op} matrix"))?;
+        let images: Vec<[f32; 3]> =
+            vertices.iter().map(|&v| apply_affine(matrix, self.point(v))).collect();
+        for (v, p) in vertices.iter().zip(&images) {
+            check_finite(p, &format!("{op}: image of vertex {v}"))?;
+        }
+        for (&v, p) in vertices.iter().zip(images) {
+            self.positions[3 * v as usize..3 * v as usize + 3].copy_from_slice(&p);
+        }
+        Ok(())
+    }
+
+    pub(super) fn clear(&mut self) -> Result<(), EditError> {
+        // Every list would end empty: dropping the index is cheaper than emptying it.
+        self.incidence = None;
+        for t in 0..self.triangle_slots() {
+            if self.is_triangle_live(t) {
+                self.kill_triangle(t);
+            }
+        }
+        for v in 0..self.vertex_slots() {
+            if self.is_vertex_live(v) {
+                self.kill_vertex(v);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `R p + t` with a fixed order of f32 operations, so every host computes the same bits.
+pub(crate) fn apply_affine(m: &Affine, p: [f32; 3]) -> [f32; 3] {
+    std::array::from_fn(|r| {
+        let row = &m[4 * r..4 * r + 4];
+        row[0] * p[0] + row[1] * p[1] + row[2] * p[2] + row[3]
+    })
+}

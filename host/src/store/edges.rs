@@ -1,0 +1,141 @@
+//! Edge edits, addressed by half-edge id `3 * t + k` (corner k to corner (k+1) % 3).
+
+use super::{EditError, EditErrorKind, MeshStore, check_finite};
+
+/// A validated half-edge: its triangle, corner, and end points.
+struct HalfEdge {
+    triangle: u32,
+    corner: usize,
+    from: u32,
+    to: u32,
+}
+
+impl MeshStore {
+    fn half_edge(&self, edge: u32, op: &str) -> Result<HalfEdge, EditError> {
+        let triangle = edge / 3;
+        if triangle >= self.triangle_slots() || !self.is_triangle_live(triangle) {
+            return Err(EditError::new(
+                EditErrorKind::InvalidEdge,
+                format!("{op}: half-edge {edge} belongs to no live triangle"),
+            ));
+        }
+        let corner = (edge % 3) as usize;
+        let corners = self.corners(triangle);
+        let (from, to) = (corners[corner], corners[(corner + 1) % 3]);
+        if from == to {
+            return Err(EditError::not_applicable(format!(
+                "{op}: half-edge {edge} joins vertex {from} to itself"
+            )));
+        }
+        Ok(HalfEdge { triangle, corner, from, to })
+    }
+
+    /// Live triangles that have both ends of the edge as corners, ascending.
+    fn triangles_on_edge(&mut self, a: u32, b: u32) -> Vec<u32> {
+        let mut on_edge = self.triangles_around(a);
+        on_edge.retain(|&t| self.corners(t).contains(&b));
+        on_edge
+    }
+
+    pub(super) fn extend_edge(&mut self, edge: u32, vertex: u32) -> Result<u32, EditError> {
+        let HalfEdge { from, to, .. } = self.half_edge(edge, "extend-edge")?;
+        self.check_new_triangle([to, from, vertex])?;
+        Ok(self.push_triangle([to, from, vertex]))
+    }
+
+    /// Each triangle `(x, y, o)` on the edge becomes `(x, v, o)` and appends `(v, y, o)`,
+    /// in ascending triangle order, so orientation is kept and ids are canonical.
+    pub(super) fn split_edge(&mut self, edge: u32, at: Option<[f32; 3]>) -> Result<u32, EditError> {
+        let HalfEdge { from: a, to: b, .. } = self.half_edge(edge, "split-edge")?;
+        if let Some(p) = at {
+            check_finite(&p, "split-edge")?;
+        }
+        let on_edge = self.triangles_on_edge(a, b);
+        if let Some(&t) = on_edge.iter().find(|&&t| is_degenerate(self.corners(t))) {
+            return Err(EditError::not_applicable(format!(
+                "split-edge: degenerate triangle {t} lies on edge ({a}, {b})"
+            )));
+        }
+        let (pa, pb) = (self.point(a), self.point(b));
+        let v = self.push_vertex(at.unwrap_or_else(|| midpoint(pa, pb)));
+        for t in on_edge {
+            let corners = self.corners(t);
+            let j = (0..3)
+                .find(|&j| {
+                    let (x, y) = (corners[j], corners[(j + 1) % 3]);
+                    (x, y) == (a, b) || (x, y) == (b, a)
+                })
+                .expect("a non-degenerate triangle with both ends has the edge");
+            let (y, o) = (corners[(j + 1) % 3], corners[(j + 2) % 3]);
+            let mut kept = corners;
+            kept[(j + 1) % 3] = v;
+            self.set_corners(t, kept);
+            self.push_triangle([v, y, o]);
+        }
+        Ok(v)
+    }
+
+    /// `(a, b, c)` and `(b, a, d)` become `(a, d, c)` and `(b, c, d)`, each keeping its id
+    /// and the corner slot of its edge's start.
+    pub(super) fn swap_edge(&mut self, edge: u32) -> Result<(), EditError> {
+        let HalfEdge { triangle: t, corner: k, from: a, to: b } =
+            self.half_edge(edge, "swap-edge")?;
+        let on_edge = self.triangles_on_edge(a, b);
+        let [first, second] = on_edge[..] else {
+            return Err(EditError::not_applicable(format!(
+                "swap-edge: edge ({a}, {b}) has {} triangles, not 2",
+                on_edge.len()
+            )));
+        };
+        let u = if first == t { second } else { first };
+        let tc = self.corners(t);
+        let uc = self.corners(u);
+        let Some(m) = (0..3).find(|&m| uc[m] == b && uc[(m + 1) % 3] == a) else {
+            return Err(EditError::not_applicable(format!(
+                "swap-edge: triangles {t} and {u} are not oriented alike across ({a}, {b})"
+            )));
+        };
+        let (c, d) = (tc[(k + 2) % 3], uc[(m + 2) % 3]);
+        if c == d || is_degenerate(tc) || is_degenerate(uc) {
+            return Err(EditError::not_applicable(format!(
+                "swap-edge: triangles {t} and {u} do not form a quad"
+            )));
+        }
+        if !self.triangles_on_edge(c, d).is_empty() {
+            return Err(EditError::not_applicable(format!(
+                "swap-edge: the other diagonal ({c}, {d}) is already an edge"
+            )));
+        }
+        let mut new_t = tc;
+        new_t[(k + 1) % 3] = d;
+        let mut new_u = uc;
+        new_u[(m + 1) % 3] = c;
+        self.set_corners(t, new_t);
+        self.set_corners(u, new_u);
+        Ok(())
+    }
+
+    /// Triangles on the edge are removed; every other use of the end vertex becomes the start.
+    pub(super) fn collapse_edge(&mut self, edge: u32) -> Result<(), EditError> {
+        let HalfEdge { from: a, to: b, .. } = self.half_edge(edge, "collapse-edge")?;
+        for t in self.triangles_around(b) {
+            let corners = self.corners(t);
+            if corners.contains(&a) {
+                self.kill_triangle(t);
+            } else {
+                self.set_corners(t, corners.map(|v| if v == b { a } else { v }));
+            }
+        }
+        self.kill_vertex(b);
+        Ok(())
+    }
+}
+
+fn is_degenerate([a, b, c]: [u32; 3]) -> bool {
+    a == b || b == c || a == c
+}
+
+/// `(a + b) * 0.5` per axis, in f32: part of the contract, as replaying hosts must agree.
+fn midpoint(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    std::array::from_fn(|k| (a[k] + b[k]) * 0.5)
+}

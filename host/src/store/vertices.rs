@@ -1,0 +1,72 @@
+//! Vertex edits: add, move, move all, remove.
+
+use super::{EditError, MeshStore, check_distinct, check_finite, check_triples};
+
+impl MeshStore {
+    pub(super) fn add_vertices(&mut self, xyz: &[f32]) -> Result<u32, EditError> {
+        check_triples(xyz.len(), "add-vertices")?;
+        check_finite(xyz, "add-vertices")?;
+        let first = self.vertex_slots();
+        for p in xyz.chunks_exact(3) {
+            self.push_vertex([p[0], p[1], p[2]]);
+        }
+        Ok(first)
+    }
+
+    pub(super) fn move_vertices(&mut self, ids: &[u32], xyz: &[f32]) -> Result<(), EditError> {
+        if xyz.len() != 3 * ids.len() {
+            return Err(EditError::argument(format!(
+                "move-vertices: {} ids need {} coordinates, got {}",
+                ids.len(),
+                3 * ids.len(),
+                xyz.len()
+            )));
+        }
+        check_finite(xyz, "move-vertices")?;
+        for &v in ids {
+            self.check_vertex(v)?;
+        }
+        for (&v, p) in ids.iter().zip(xyz.chunks_exact(3)) {
+            let i = 3 * v as usize;
+            self.positions[i..i + 3].copy_from_slice(p);
+        }
+        Ok(())
+    }
+
+    /// Removed slots keep their positions whatever `xyz` says there; `apply` records the
+    /// positions as they are afterwards, so the log never carries ignored values.
+    pub(super) fn set_positions(&mut self, xyz: &[f32]) -> Result<(), EditError> {
+        let expected = self.positions.len();
+        if xyz.len() != expected {
+            return Err(EditError::argument(format!(
+                "set-positions: expected {expected} values (3 per vertex slot), got {}",
+                xyz.len()
+            )));
+        }
+        for (v, p) in xyz.chunks_exact(3).enumerate() {
+            if !self.vertex_removed[v] {
+                check_finite(p, &format!("set-positions, vertex {v}"))?;
+            }
+        }
+        for (v, p) in xyz.chunks_exact(3).enumerate() {
+            if !self.vertex_removed[v] {
+                self.positions[3 * v..3 * v + 3].copy_from_slice(p);
+            }
+        }
+        Ok(())
+    }
+
+    pub(super) fn remove_vertices(&mut self, ids: &[u32]) -> Result<(), EditError> {
+        for &v in ids {
+            self.check_vertex(v)?;
+        }
+        check_distinct(ids, "remove-vertices")?;
+        for &v in ids {
+            for t in self.incidence().around(v).to_vec() {
+                self.kill_triangle(t);
+            }
+            self.kill_vertex(v);
+        }
+        Ok(())
+    }
+}

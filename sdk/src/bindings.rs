@@ -1,0 +1,11 @@
+//! The generated bindings of the `meshflow:geometry` plugin world. The SDK's own types wrap
+//! them; plugin authors rarely need to look in here.
+
+wit_bindgen::generate!({
+    path: "../wit",
+    world: "plugin",
+    pub_export_macro: true,
+    export_macro_name: "export_component",
+    default_bindings_module: "meshflow_sdk::bindings",
+    runtime_path: "meshflow_sdk::__private::wit_bindgen::rt",
+});

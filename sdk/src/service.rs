@@ -1,0 +1,196 @@
+//! Describing services and reading their parameters.
+
+use crate::bindings::meshflow::geometry::types::{
+    Outcome, Param, ParamInfo, ServiceInfo, ServiceKind, Value, ValueType,
+};
+use crate::{Error, Mesh, Result};
+
+/// A filter edits the mesh and returns a short report of what it did.
+pub type FilterFn = fn(&Mesh, &Params) -> Result<String>;
+/// A check reads the mesh (the host refuses edits) and returns a value.
+pub type CheckFn = fn(&Mesh, &Params) -> Result<Value>;
+
+enum Runner {
+    Filter(FilterFn),
+    Check(CheckFn),
+}
+
+/// One service of a plugin: its description and the function that runs it.
+///
+/// ```
+/// use meshflow_sdk::{Mesh, ParamSpec, Params, Result, Service, Value, ValueType};
+///
+/// fn count(mesh: &Mesh, _: &Params) -> Result<Value> {
+///     Ok(Value::Integer(mesh.vertex_count() as i64))
+/// }
+///
+/// let service = Service::check("my-count", "Counts vertices.", ValueType::Integer, count)
+///     .param(ParamSpec::integer("unused", 1).range(0.0, 10.0).doc("Shows a parameter."));
+/// assert_eq!(service.name(), "my-count");
+/// ```
+pub struct Service {
+    info: ServiceInfo,
+    runner: Runner,
+}
+
+impl Service {
+    pub fn filter(name: &str, doc: &str, run: FilterFn) -> Self {
+        Self { info: info(name, doc, ServiceKind::Filter, None), runner: Runner::Filter(run) }
+    }
+
+    pub fn check(name: &str, doc: &str, result: ValueType, run: CheckFn) -> Self {
+        let info = info(name, doc, ServiceKind::Check, Some(result));
+        Self { info, runner: Runner::Check(run) }
+    }
+
+    pub fn param(mut self, param: ParamSpec) -> Self {
+        self.info.params.push(param.0);
+        self
+    }
+
+    pub fn name(&self) -> &str {
+        &self.info.name
+    }
+
+    pub fn info(&self) -> &ServiceInfo {
+        &self.info
+    }
+
+    fn run(&self, mesh: &Mesh, params: &Params) -> Result<Outcome> {
+        Ok(match self.runner {
+            Runner::Filter(run) => Outcome { value: None, report: run(mesh, params)? },
+            Runner::Check(run) => {
+                Outcome { value: Some(run(mesh, params)?), report: String::new() }
+            }
+        })
+    }
+}
+
+fn info(name: &str, doc: &str, kind: ServiceKind, result: Option<ValueType>) -> ServiceInfo {
+    ServiceInfo {
+        name: name.into(),
+        kind,
+        doc: doc.into(),
+        params: Vec::new(),
+        result_type: result,
+    }
+}
+
+/// A parameter declaration: name, type, default, and optionally range, choices and doc.
+pub struct ParamSpec(ParamInfo);
+
+impl ParamSpec {
+    fn new(name: &str, ty: ValueType, default: Value) -> Self {
+        ParamSpec(ParamInfo {
+            name: name.into(),
+            doc: String::new(),
+            ty,
+            default,
+            min: None,
+            max: None,
+            choices: Vec::new(),
+        })
+    }
+
+    pub fn integer(name: &str, default: i64) -> Self {
+        Self::new(name, ValueType::Integer, Value::Integer(default))
+    }
+
+    pub fn real(name: &str, default: f64) -> Self {
+        Self::new(name, ValueType::Real, Value::Real(default))
+    }
+
+    pub fn boolean(name: &str, default: bool) -> Self {
+        Self::new(name, ValueType::Boolean, Value::Boolean(default))
+    }
+
+    /// A text parameter that must be one of `choices`.
+    pub fn choice(name: &str, default: &str, choices: &[&str]) -> Self {
+        let mut spec = Self::new(name, ValueType::Text, Value::Text(default.into()));
+        spec.0.choices = choices.iter().map(|c| c.to_string()).collect();
+        spec
+    }
+
+    /// Inclusive bounds for a numeric parameter; the host refuses values outside them.
+    pub fn range(mut self, min: f64, max: f64) -> Self {
+        self.0.min = Some(min);
+        self.0.max = Some(max);
+        self
+    }
+
+    pub fn doc(mut self, doc: &str) -> Self {
+        self.0.doc = doc.into();
+        self
+    }
+}
+
+/// The parameters of one run. The host has checked them against the description and filled
+/// in defaults, so a lookup only fails if the code asks for a parameter it did not declare.
+pub struct Params(Vec<Param>);
+
+impl Params {
+    pub fn new(params: Vec<Param>) -> Self {
+        Params(params)
+    }
+
+    fn get(&self, name: &str) -> Result<&Value> {
+        self.0
+            .iter()
+            .find(|p| p.name == name)
+            .map(|p| &p.value)
+            .ok_or_else(|| Error(format!("parameter `{name}` was not given")))
+    }
+
+    pub fn integer(&self, name: &str) -> Result<i64> {
+        match self.get(name)? {
+            Value::Integer(v) => Ok(*v),
+            other => Err(type_error(name, "an integer", other)),
+        }
+    }
+
+    /// A real parameter; integers are accepted and widened.
+    pub fn real(&self, name: &str) -> Result<f64> {
+        match self.get(name)? {
+            Value::Real(v) => Ok(*v),
+            Value::Integer(v) => Ok(*v as f64),
+            other => Err(type_error(name, "a real", other)),
+        }
+    }
+
+    pub fn boolean(&self, name: &str) -> Result<bool> {
+        match self.get(name)? {
+            Value::Boolean(v) => Ok(*v),
+            other => Err(type_error(name, "a boolean", other)),
+        }
+    }
+
+    pub fn text(&self, name: &str) -> Result<&str> {
+        match self.get(name)? {
+            Value::Text(v) => Ok(v),
+            other => Err(type_error(name, "a text", other)),
+        }
+    }
+}
+
+fn type_error(name: &str, expected: &str, got: &Value) -> Error {
+    Error(format!("parameter `{name}` should be {expected}, got {got:?}"))
+}
+
+/// What the export macro calls: the description of every service.
+pub fn describe(services: &[Service]) -> Vec<ServiceInfo> {
+    services.iter().map(|s| s.info.clone()).collect()
+}
+
+/// What the export macro calls: runs the named service.
+pub fn run(
+    services: &[Service],
+    name: &str,
+    mesh: Mesh,
+    params: Vec<Param>,
+) -> std::result::Result<Outcome, String> {
+    let service = services.iter().find(|s| s.info.name == name).ok_or_else(|| {
+        let known: Vec<&str> = services.iter().map(|s| s.name()).collect();
+        format!("unknown service `{name}`; this plugin has: {}", known.join(", "))
+    })?;
+    service.run(&mesh, &Params::new(params)).map_err(|e| e.0)
+}

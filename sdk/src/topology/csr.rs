@@ -1,0 +1,86 @@
+//! Compressed sparse rows: the flat list-of-lists used by every adjacency structure.
+
+/// A list of lists of `u32` in compressed sparse row form: row `i` is
+/// `items[offsets[i] as usize..offsets[i + 1] as usize]`.
+///
+/// Invariants (checked by [`Csr::from_parts`]): `offsets` is non-empty, starts at 0, never
+/// decreases, and ends at `items.len()`. Both arrays are plain `Vec<u32>`, so they can be
+/// handed to or received from the host as `list<u32>` without conversion.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Csr {
+    offsets: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl Csr {
+    /// Wraps `offsets` and `items`, or returns `None` if they break the invariants. O(rows).
+    pub fn from_parts(offsets: Vec<u32>, items: Vec<u32>) -> Option<Self> {
+        let ok = offsets.first() == Some(&0)
+            && offsets.last().map(|&l| l as usize) == Some(items.len())
+            && offsets.windows(2).all(|w| w[0] <= w[1]);
+        ok.then_some(Self { offsets, items })
+    }
+
+    /// Wraps parts the caller has built correctly (checked in debug builds only).
+    pub(crate) fn from_parts_unchecked(offsets: Vec<u32>, items: Vec<u32>) -> Self {
+        debug_assert!(Self::from_parts(offsets.clone(), items.clone()).is_some());
+        Self { offsets, items }
+    }
+
+    /// An empty CSR with `rows` empty rows.
+    pub fn empty(rows: usize) -> Self {
+        Self { offsets: vec![0; rows + 1], items: Vec::new() }
+    }
+
+    /// The number of rows. O(1).
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.offsets.len() - 1
+    }
+
+    /// Whether there are no rows. O(1).
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Row `i`. O(1). Panics if `i >= self.len()`.
+    #[inline]
+    pub fn row(&self, i: usize) -> &[u32] {
+        &self.items[self.offsets[i] as usize..self.offsets[i + 1] as usize]
+    }
+
+    /// Row `i`, or `None` if out of range. O(1).
+    #[inline]
+    pub fn get(&self, i: usize) -> Option<&[u32]> {
+        (i < self.len()).then(|| self.row(i))
+    }
+
+    /// The length of row `i`. O(1). Panics if `i >= self.len()`.
+    #[inline]
+    pub fn row_len(&self, i: usize) -> usize {
+        (self.offsets[i + 1] - self.offsets[i]) as usize
+    }
+
+    /// The offsets array (`len() + 1` entries).
+    #[inline]
+    pub fn offsets(&self) -> &[u32] {
+        &self.offsets
+    }
+
+    /// All items, row after row.
+    #[inline]
+    pub fn items(&self) -> &[u32] {
+        &self.items
+    }
+
+    /// Iterates over the rows in order.
+    pub fn rows(&self) -> impl ExactSizeIterator<Item = &[u32]> + '_ {
+        self.offsets.windows(2).map(|w| &self.items[w[0] as usize..w[1] as usize])
+    }
+
+    /// Gives back `(offsets, items)`.
+    pub fn into_parts(self) -> (Vec<u32>, Vec<u32>) {
+        (self.offsets, self.items)
+    }
+}

@@ -1,0 +1,160 @@
+//! Manifoldness and orientation tests.
+//!
+//! All tests look only at proper triangles (three distinct in-range vertex ids); degenerate
+//! triangles neither break nor establish manifoldness or orientation.
+
+use super::halfedge::{EdgeKind, HalfEdges, next, origin, prev};
+
+/// Whether no edge has three or more triangles. O(1).
+#[inline]
+pub fn is_edge_manifold(half_edges: &HalfEdges) -> bool {
+    half_edges.non_manifold_edge_count() == 0
+}
+
+/// Whether every interior (two-triangle) edge is traversed in opposite directions by its two
+/// half-edges. Boundary and non-manifold edges do not matter. O(1).
+#[inline]
+pub fn is_oriented(half_edges: &HalfEdges) -> bool {
+    half_edges.inconsistent_edge_count() == 0
+}
+
+/// The vertices whose triangles do not form a single fan, ascending. O(V + T).
+///
+/// A vertex is manifold when its proper triangles are all connected to each other by
+/// crossing *interior* (two-triangle) edges that contain the vertex — one open fan (a disk
+/// touching the boundary) or one closed fan (a disk around the vertex). A bow-tie (two fans
+/// meeting at the vertex) fails, as does every endpoint of a non-manifold edge (the sheets
+/// meeting there are separate fans). Vertices without proper triangles (unreferenced, or
+/// only in degenerate triangles) are manifold.
+pub fn non_manifold_vertices(
+    vertex_count: usize,
+    triangles: &[u32],
+    half_edges: &HalfEdges,
+) -> Vec<u32> {
+    scan_vertices(vertex_count, triangles, half_edges, false)
+}
+
+/// Whether every vertex is manifold (see [`non_manifold_vertices`]); stops at the first
+/// failure. O(V + T).
+pub fn is_vertex_manifold(vertex_count: usize, triangles: &[u32], half_edges: &HalfEdges) -> bool {
+    scan_vertices(vertex_count, triangles, half_edges, true).is_empty()
+}
+
+/// Edge- and vertex-manifold: the `is-manifold` check. O(V + T).
+pub fn is_manifold(vertex_count: usize, triangles: &[u32], half_edges: &HalfEdges) -> bool {
+    is_edge_manifold(half_edges) && is_vertex_manifold(vertex_count, triangles, half_edges)
+}
+
+fn scan_vertices(
+    vertex_count: usize,
+    triangles: &[u32],
+    half_edges: &HalfEdges,
+    first_only: bool,
+) -> Vec<u32> {
+    // Per vertex: how many proper triangles surround it, and one half-edge leaving it.
+    let mut around = vec![0u32; vertex_count];
+    let mut leaving = vec![u32::MAX; vertex_count];
+    for h in 0..half_edges.len() as u32 {
+        if half_edges.kind(h) != EdgeKind::Degenerate {
+            let v = origin(triangles, h) as usize;
+            around[v] += 1;
+            if leaving[v] == u32::MAX {
+                leaving[v] = h;
+            }
+        }
+    }
+    let mut bad = Vec::new();
+    for v in 0..vertex_count {
+        if around[v] > 1 && fan_size(triangles, half_edges, leaving[v], around[v]) != around[v] {
+            bad.push(v as u32);
+            if first_only {
+                break;
+            }
+        }
+    }
+    bad
+}
+
+/// The number of triangles in the fan around `origin(h)` that contains `h`'s triangle,
+/// walking both ways over interior edges; stops early beyond `limit`.
+fn fan_size(triangles: &[u32], half_edges: &HalfEdges, h: u32, limit: u32) -> u32 {
+    let v = origin(triangles, h);
+    let start = h / 3;
+    let other_at = |g: u32| {
+        if origin(triangles, g) == v { prev(g) } else { next(g) }
+    };
+    let mut count = 1;
+    // Turn one way across h's edge, then (if the fan is open) the other way across prev(h).
+    for first in [h, prev(h)] {
+        let mut e = first;
+        while half_edges.kind(e).is_interior() {
+            let g = half_edges.opposite(e);
+            if g / 3 == start {
+                return count; // closed fan
+            }
+            count += 1;
+            if count > limit {
+                return count;
+            }
+            e = other_at(g);
+        }
+    }
+    count
+}
+
+/// Which triangles to flip to make the mesh oriented, or `None` if it is not orientable.
+/// O(T) time and memory.
+///
+/// Triangles are 2-coloured by breadth-first search over interior (two-triangle) edges; the
+/// mesh is orientable when no interior edge demands a contradiction (a Möbius strip does).
+/// Non-manifold edges impose nothing. Within each interior-edge-connected patch the smaller
+/// side is flipped (on a tie, the side without the patch's smallest triangle), so an
+/// oriented mesh yields all `false`. Degenerate triangles are never flipped.
+pub fn orientation_flips(half_edges: &HalfEdges) -> Option<Vec<bool>> {
+    let tris = half_edges.len() / 3;
+    let mut flip = vec![false; tris];
+    let mut seen = vec![false; tris];
+    let mut queue: Vec<u32> = Vec::new();
+    for root in 0..tris as u32 {
+        if seen[root as usize] {
+            continue;
+        }
+        seen[root as usize] = true;
+        queue.clear();
+        queue.push(root);
+        let mut head = 0;
+        let mut flipped = 0usize;
+        while head < queue.len() {
+            let t = queue[head];
+            head += 1;
+            for h in 3 * t..3 * t + 3 {
+                let kind = half_edges.kind(h);
+                if !kind.is_interior() {
+                    continue;
+                }
+                let u = half_edges.opposite(h) / 3;
+                let want = flip[t as usize] ^ (kind == EdgeKind::InteriorInconsistent);
+                if !seen[u as usize] {
+                    seen[u as usize] = true;
+                    flip[u as usize] = want;
+                    flipped += want as usize;
+                    queue.push(u);
+                } else if flip[u as usize] != want {
+                    return None;
+                }
+            }
+        }
+        if 2 * flipped > queue.len() {
+            for &t in &queue {
+                flip[t as usize] = !flip[t as usize];
+            }
+        }
+    }
+    Some(flip)
+}
+
+/// Whether some choice of triangle flips makes every interior edge consistently oriented
+/// (see [`orientation_flips`]; a Möbius strip is not orientable). O(T).
+pub fn is_orientable(half_edges: &HalfEdges) -> bool {
+    orientation_flips(half_edges).is_some()
+}

@@ -1,0 +1,33 @@
+//! `meshflow hash` and `meshflow info`: facts about a mesh file.
+
+use std::path::Path;
+
+use meshflow_host::io;
+
+pub fn hash(input: &Path) -> anyhow::Result<()> {
+    let mesh = io::load(input)?;
+    println!("{}", mesh.content_hash());
+    Ok(())
+}
+
+pub fn info(input: &Path, json: bool) -> anyhow::Result<()> {
+    let mesh = io::load(input)?;
+    let bbox = mesh.bounding_box();
+    if json {
+        let bbox = bbox.map(|(lo, hi)| serde_json::json!({ "min": lo, "max": hi }));
+        let info = serde_json::json!({
+            "vertices": mesh.vertex_count(),
+            "triangles": mesh.triangle_count(),
+            "bbox": bbox,
+        });
+        println!("{info}");
+    } else {
+        println!("vertices:  {}", mesh.vertex_count());
+        println!("triangles: {}", mesh.triangle_count());
+        match bbox {
+            Some((lo, hi)) => println!("bbox:      {lo:?} .. {hi:?}"),
+            None => println!("bbox:      (empty)"),
+        }
+    }
+    Ok(())
+}
