@@ -12,6 +12,7 @@
 //!
 //! Angles are radians unless the name says `degrees`.
 
+use crate::topology::VertexNeighbours;
 use crate::topology::halfedge::{HalfEdges, next, prev};
 
 /// A point or vector in `f64`.
@@ -230,6 +231,44 @@ pub fn cotangent_weight(
         w += half_edge_cotangent(positions, triangles, twin);
     }
     0.5 * w
+}
+
+/// Cotangent Laplacian weights aligned with a neighbour CSR: entry `i` of the result belongs
+/// to `neighbours.neighbours()[i]`, so row `v` of weights pairs with `neighbours.of(v)`. The
+/// weight of edge `{a, b}` is `Σ cot(angle opposite {a, b}) / 2` over every proper triangle on
+/// the edge (two on an interior edge, one on a boundary edge, all of them on a non-manifold
+/// edge); it is symmetric. Cotangents are computed in `f64` and summed into `f32` (at most
+/// a few terms per entry); zero-area triangles contribute 0, weights may be negative (clamp in
+/// the caller if needed). Triangles with repeated or out-of-range ids are skipped.
+///
+/// `neighbours` must have been built from the same `triangles`. O(T log d) (binary search of
+/// the slot in each row), memory 4 bytes per CSR entry.
+pub fn cotangent_weights(
+    positions: &[f32],
+    triangles: &[u32],
+    neighbours: &VertexNeighbours,
+) -> Vec<f32> {
+    let vertex_count = neighbours.vertex_count().min(positions.len() / 3);
+    let mut weights = vec![0f32; neighbours.neighbours().len()];
+    let offsets = neighbours.offsets();
+    let mut add_to = |a: u32, b: u32, w: f64| {
+        if let Ok(i) = neighbours.of(a).binary_search(&b) {
+            weights[offsets[a as usize] as usize + i] += w as f32;
+        }
+    };
+    for c in triangles.chunks_exact(3) {
+        if !crate::topology::proper([c[0], c[1], c[2]], vertex_count) {
+            continue;
+        }
+        let p = [point(positions, c[0]), point(positions, c[1]), point(positions, c[2])];
+        for k in 0..3 {
+            let (a, b, o) = (k, (k + 1) % 3, (k + 2) % 3);
+            let w = 0.5 * cotangent(sub(p[a], p[o]), sub(p[b], p[o]));
+            add_to(c[a], c[b], w);
+            add_to(c[b], c[a], w);
+        }
+    }
+    weights
 }
 
 /// The angle in `[0, π]` between the normals of triangles `t0` and `t1` as they are stored

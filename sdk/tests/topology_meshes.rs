@@ -188,6 +188,13 @@ fn cube() {
     // (opposite two 45° angles) is 1.
     assert!(geometry::cotangent_weight(&p, &t, &he, 2).abs() < 1e-12); // 3 -> 0
     assert!((geometry::cotangent_weight(&p, &t, &he, 0) - 1.0).abs() < 1e-12); // 0 -> 2
+    let vn = VertexNeighbours::new(8, &t);
+    let w = geometry::cotangent_weights(&p, &t, &vn);
+    // Vertex 0's neighbours: 1, 2, 4 along cube edges (weight 1), 3, 5, 6 across faces (0).
+    assert_eq!(vn.of(0), [1, 2, 3, 4, 5, 6]);
+    let row = &w[vn.offsets()[0] as usize..vn.offsets()[1] as usize];
+    let expect = [1.0, 1.0, 0.0, 1.0, 0.0, 0.0];
+    assert!(row.iter().zip(expect).all(|(x, e)| (x - e).abs() < 1e-6), "{row:?}");
 }
 
 #[test]

@@ -122,9 +122,9 @@ fn naive_labels(n: usize, connected: impl Fn(usize, usize) -> bool) -> Vec<u32> 
         label[s] = next_label;
         let mut stack = vec![s];
         while let Some(a) = stack.pop() {
-            for b in 0..n {
-                if label[b] == u32::MAX && connected(a, b) {
-                    label[b] = next_label;
+            for (b, l) in label.iter_mut().enumerate() {
+                if *l == u32::MAX && connected(a, b) {
+                    *l = next_label;
                     stack.push(b);
                 }
             }
@@ -358,6 +358,27 @@ proptest! {
         for x in vn {
             let len = (x[0] as f64).hypot(x[1] as f64).hypot(x[2] as f64);
             prop_assert!(len == 0.0 || (len - 1.0).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn cotangent_weights_match_half_edges((v, t) in any_mesh(), seed in any::<u64>()) {
+        let mut s = seed;
+        let p: Vec<f32> = (0..3 * v).map(|_| { s = s.wrapping_mul(6364136223846793005).wrapping_add(1); (s >> 44) as f32 / 1e3 }).collect();
+        let vn = VertexNeighbours::new(v, &t);
+        let w = geometry::cotangent_weights(&p, &t, &vn);
+        prop_assert_eq!(w.len(), vn.neighbours().len());
+        let he = HalfEdges::new(v, &t);
+        for ((a, b), group) in naive_edges(v, &t) {
+            let naive: f64 = group.iter().map(|&h| 0.5 * geometry::half_edge_cotangent(&p, &t, h)).sum();
+            for (x, y) in [(a, b), (b, a)] {
+                let i = vn.offsets()[x as usize] as usize + vn.of(x).binary_search(&y).unwrap();
+                prop_assert!((w[i] as f64 - naive).abs() <= 1e-5 * naive.abs().max(1.0), "{} vs {}", w[i], naive);
+            }
+            if group.len() <= 2 {
+                let per_half_edge = geometry::cotangent_weight(&p, &t, &he, group[0]);
+                prop_assert!((per_half_edge - naive).abs() <= 1e-9 * naive.abs().max(1.0));
+            }
         }
     }
 

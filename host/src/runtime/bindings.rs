@@ -8,7 +8,7 @@ wasmtime::component::bindgen!({
     },
     // Host functions may trap: that is how a run that exceeds its edit budget is stopped.
     imports: { default: trappable },
-    additional_derives: [serde::Serialize, serde::Deserialize],
+    additional_derives: [PartialEq, serde::Serialize, serde::Deserialize],
 });
 
 pub use exports::meshflow::geometry::service::{Outcome, Param, ServiceInfo};

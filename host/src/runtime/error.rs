@@ -32,6 +32,8 @@ pub enum RunError {
     Fuel { service: String, fuel: u64 },
     #[error("{service}: stopped after exhausting its edit budget (it kept editing without end?)")]
     EditBudget { service: String },
+    #[error("{service}: stopped for printing more than {limit_kib} KiB")]
+    Output { service: String, limit_kib: usize },
     #[error("{service}: the plugin crashed: {message}")]
     Trap { service: String, message: String },
     #[error("{service}: {message}")]

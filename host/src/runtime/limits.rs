@@ -18,7 +18,7 @@ pub const MAX_WASM_STACK_BYTES: usize = 2 << 20;
 pub const BASE_HOSTCALL_BYTES: usize = 64 << 20;
 /// Elements (coordinates, ids) a run may pass to edit calls in total, beyond a multiple of
 /// the input's size: stops a plugin from growing the host's memory without bound.
-pub const BASE_EDIT_BUDGET: u64 = 64 << 20;
+pub const BASE_EDIT_BUDGET: u64 = 16 << 20;
 /// The edit budget grows by this multiple of the input's element count.
 pub const EDIT_BUDGET_PER_INPUT_ELEMENT: u64 = 64;
 /// Runs executing at once in one runtime.

@@ -62,7 +62,7 @@ impl Runtime {
     /// when one is given.
     pub fn new(limits: Limits, cache_dir: Option<&Path>) -> Result<Self, PluginError> {
         let engine =
-            Engine::new(&engine_config()).map_err(|e| PluginError::Compile(e.to_string()))?;
+            Engine::new(&engine_config(&limits)).map_err(|e| PluginError::Compile(e.to_string()))?;
         let mut linker = Linker::new(&engine);
         wasmtime_wasi::p2::add_to_linker_sync(&mut linker)
             .and_then(|()| bindings::Plugin::add_to_linker::<_, HasSelf<_>>(&mut linker, |s| s))
@@ -190,6 +190,9 @@ impl Runtime {
         if state.edit_budget_exceeded {
             return RunError::EditBudget { service };
         }
+        if [&state.stdout, &state.stderr].iter().any(|p| p.contents().len() >= OUTPUT_CAPTURE_BYTES) {
+            return RunError::Output { service, limit_kib: OUTPUT_CAPTURE_BYTES >> 10 };
+        }
         match error.downcast_ref::<Trap>() {
             Some(Trap::Interrupt) => RunError::Deadline { service, deadline: self.limits.deadline },
             Some(Trap::OutOfFuel) => {
@@ -208,19 +211,18 @@ impl Runtime {
     }
 }
 
-fn engine_config() -> Config {
+fn engine_config(limits: &Limits) -> Config {
     let mut config = Config::new();
     // Synchronous calls only: halves the cost of a host call (~190 ns -> ~95 ns).
     config.concurrency_support(false);
     config.epoch_interruption(true);
-    config.consume_fuel(Limits::default().fuel.is_some());
+    config.consume_fuel(limits.fuel.is_some());
     // The same plugin on the same mesh must give the same bits on every host.
     config.cranelift_nan_canonicalization(true);
     config.max_wasm_stack(MAX_WASM_STACK_BYTES);
     config
 }
 
-/// Fuel metering is per engine; runtimes that want fuel need it on in the config.
 fn ticks(deadline: Duration) -> u64 {
     (deadline.as_millis() / EPOCH_TICK.as_millis()).max(1) as u64
 }

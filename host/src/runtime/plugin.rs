@@ -14,6 +14,13 @@ pub struct Plugin {
     pub(crate) pre: PluginPre<RunState>,
 }
 
+impl std::fmt::Debug for Plugin {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let names: Vec<&str> = self.services.iter().map(|s| s.name.as_str()).collect();
+        f.debug_struct("Plugin").field("digest", &self.digest).field("services", &names).finish()
+    }
+}
+
 impl Plugin {
     pub fn service(&self, name: &str) -> Option<&ServiceInfo> {
         self.services.iter().find(|s| s.name == name)

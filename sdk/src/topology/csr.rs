@@ -6,10 +6,17 @@
 /// Invariants (checked by [`Csr::from_parts`]): `offsets` is non-empty, starts at 0, never
 /// decreases, and ends at `items.len()`. Both arrays are plain `Vec<u32>`, so they can be
 /// handed to or received from the host as `list<u32>` without conversion.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Csr {
     offsets: Vec<u32>,
     items: Vec<u32>,
+}
+
+impl Default for Csr {
+    /// No rows.
+    fn default() -> Self {
+        Self::empty(0)
+    }
 }
 
 impl Csr {

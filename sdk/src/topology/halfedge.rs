@@ -35,7 +35,7 @@ pub fn next(h: u32) -> u32 {
 /// The previous half-edge in the same triangle (it ends where `h` starts). O(1).
 #[inline]
 pub fn prev(h: u32) -> u32 {
-    if h % 3 == 0 { h + 2 } else { h - 1 }
+    if h.is_multiple_of(3) { h + 2 } else { h - 1 }
 }
 
 /// The vertex `h` starts at. O(1). Panics if `h` is out of range.
@@ -97,7 +97,9 @@ impl EdgeKind {
 ///   [`non_manifold_edges`](Self::non_manifold_edges).
 ///
 /// Memory: 5 bytes per half-edge (15 per triangle) plus the non-manifold list; building
-/// needs another 4 bytes per half-edge and 4 per vertex temporarily.
+/// needs another 8 bytes per half-edge and 4 per vertex temporarily. Measured natively on a
+/// 1M-vertex, 2M-triangle grid: ≈ 55 ms with local vertex order, ≈ 200 ms with randomly
+/// permuted vertex ids (memory-latency bound).
 #[derive(Clone, Debug, Default)]
 pub struct HalfEdges {
     opposite: Vec<u32>,

@@ -51,27 +51,37 @@ fn scan_vertices(
     half_edges: &HalfEdges,
     first_only: bool,
 ) -> Vec<u32> {
-    // Per vertex: how many proper triangles surround it, and one half-edge leaving it.
+    // Per vertex: how many proper triangles surround it. Each vertex's fan walk starts at its
+    // first half-edge (marked in `starts`), and walks run in half-edge order, so they touch
+    // neighbouring triangles even when vertex ids have no locality.
     let mut around = vec![0u32; vertex_count];
-    let mut leaving = vec![u32::MAX; vertex_count];
+    let mut starts = vec![0u64; half_edges.len().div_ceil(64)];
     for h in 0..half_edges.len() as u32 {
         if half_edges.kind(h) != EdgeKind::Degenerate {
-            let v = origin(triangles, h) as usize;
-            around[v] += 1;
-            if leaving[v] == u32::MAX {
-                leaving[v] = h;
+            let n = &mut around[origin(triangles, h) as usize];
+            if *n == 0 {
+                starts[h as usize / 64] |= 1 << (h % 64);
             }
+            *n += 1;
         }
     }
     let mut bad = Vec::new();
-    for v in 0..vertex_count {
-        if around[v] > 1 && fan_size(triangles, half_edges, leaving[v], around[v]) != around[v] {
-            bad.push(v as u32);
-            if first_only {
-                break;
+    for (word, &bits) in starts.iter().enumerate() {
+        let mut bits = bits;
+        while bits != 0 {
+            let h = (64 * word) as u32 + bits.trailing_zeros();
+            bits &= bits - 1;
+            let v = origin(triangles, h);
+            let n = around[v as usize];
+            if n > 1 && fan_size(triangles, half_edges, h, n) != n {
+                bad.push(v);
+                if first_only {
+                    return bad;
+                }
             }
         }
     }
+    bad.sort_unstable();
     bad
 }
 

@@ -1,0 +1,98 @@
+//! Test fixture: every way a plugin can misbehave. The host must stop each with a clear
+//! error, within its limits, and stay usable for the next run.
+
+use meshflow_sdk::{Mesh, Params, Result, Service, Value, ValueType};
+
+fn loop_forever(_: &Mesh, _: &Params) -> Result<String> {
+    let mut x = 0u64;
+    loop {
+        // Opaque to the optimiser, so the loop is really executed.
+        x = std::hint::black_box(x.wrapping_add(1));
+    }
+}
+
+fn allocate_forever(_: &Mesh, _: &Params) -> Result<String> {
+    let mut hoard: Vec<Vec<u8>> = Vec::new();
+    loop {
+        hoard.push(vec![1u8; 16 << 20]);
+        std::hint::black_box(&hoard);
+    }
+}
+
+fn trap(_: &Mesh, _: &Params) -> Result<String> {
+    std::process::abort()
+}
+
+fn panic(_: &Mesh, _: &Params) -> Result<String> {
+    panic!("the hostile plugin panics on purpose")
+}
+
+/// Propagates the host's refusal of an edit that names a vertex that does not exist.
+fn bad_edit(mesh: &Mesh, _: &Params) -> Result<String> {
+    mesh.add_triangle([0, 1, 4_000_000_000])?;
+    Ok("unreachable".into())
+}
+
+/// Tries every invalid edit, ignores the refusals, then makes one valid edit.
+fn ignore_bad_edits(mesh: &Mesh, _: &Params) -> Result<String> {
+    let n = mesh.vertex_slots() as u32;
+    let refused = [
+        mesh.add_triangle([0, 0, 1]).is_err(),
+        mesh.add_vertex([f32::NAN, 0.0, 0.0]).is_err(),
+        mesh.move_vertex(n, [0.0; 3]).is_err(),
+        mesh.remove_triangles(&[0, 0]).is_err(),
+        mesh.set_positions(&[1.0, 2.0]).is_err(),
+        mesh.swap_edge(u32::MAX).is_err(),
+        mesh.transform(&[f32::INFINITY; 12]).is_err(),
+    ];
+    if refused.iter().all(|&r| r) {
+        mesh.flip_triangle(0)?;
+        Ok("every invalid edit was refused".into())
+    } else {
+        Err(format!("some invalid edits were accepted: {refused:?}").into())
+    }
+}
+
+fn edit_forever(mesh: &Mesh, _: &Params) -> Result<String> {
+    let chunk = vec![0.5f32; 3 << 16];
+    loop {
+        mesh.add_vertices(&chunk)?;
+    }
+}
+
+fn print_forever(_: &Mesh, _: &Params) -> Result<String> {
+    loop {
+        println!("a plugin that never stops talking");
+    }
+}
+
+fn edit_in_check(mesh: &Mesh, _: &Params) -> Result<Value> {
+    mesh.flip_triangle(0)?;
+    Ok(Value::Boolean(true))
+}
+
+fn wrong_result_type(_: &Mesh, _: &Params) -> Result<Value> {
+    Ok(Value::Text("not an integer".into()))
+}
+
+fn fail(_: &Mesh, _: &Params) -> Result<String> {
+    Err("the input is not what this service wants".into())
+}
+
+fn services() -> Vec<Service> {
+    vec![
+        Service::filter("loop-forever", "Never returns.", loop_forever),
+        Service::filter("allocate-forever", "Allocates until stopped.", allocate_forever),
+        Service::filter("trap", "Aborts.", trap),
+        Service::filter("panic", "Panics.", panic),
+        Service::filter("bad-edit", "Makes an invalid edit and propagates the error.", bad_edit),
+        Service::filter("ignore-bad-edits", "Makes invalid edits, then a valid one.", ignore_bad_edits),
+        Service::filter("edit-forever", "Adds vertices without end.", edit_forever),
+        Service::filter("print-forever", "Prints without end.", print_forever),
+        Service::filter("fail", "Returns an error.", fail),
+        Service::check("edit-in-check", "Edits although it is a check.", ValueType::Boolean, edit_in_check),
+        Service::check("wrong-result-type", "Declares an integer, returns text.", ValueType::Integer, wrong_result_type),
+    ]
+}
+
+meshflow_sdk::export_plugin!(services);
