@@ -113,7 +113,8 @@ fn non_finite_coordinates_are_rejected_with_their_offset() {
     assert!(message.contains("triangle 1 corner 2 has a non-finite coordinate (NaN)"), "{message}");
     let text = ascii(&TRIANGLES).replacen("vertex 1 1 0", "vertex 1 inf 0", 1);
     let (message, at) = error(text.as_bytes());
-    assert_eq!(at, Some(Position::Line(10)), "{message}");
+    assert_eq!(at, Some(Position::Line(12)), "{message}");
+    assert!(message.contains("triangle 1 corner 1 has a non-finite coordinate (inf)"), "{message}");
 }
 
 #[test]
@@ -125,7 +126,7 @@ fn malformed_ascii_names_the_line() {
     let two_corners = good.replacen("      vertex 0 1 0\n", "", 1);
     let (message, at) = error(two_corners.as_bytes());
     assert_eq!(at, Some(Position::Line(2)), "{message}");
-    assert!(message.contains("facet 0 has 2 corners"), "{message}");
+    assert!(message.contains("face 0 has 2 corners"), "{message}");
     let (message, _) = error(good.replacen("endloop", "endloop\nbanana", 1).as_bytes());
     assert!(message.contains("line 8: unexpected 'banana' in ascii STL"), "{message}");
     let (message, _) = error(good.rsplit_once("  endfacet").unwrap().0.as_bytes());

@@ -68,7 +68,9 @@ fn run(scramble: bool) {
     let v = p.len() / 3;
     println!("--- {} vertices, {} triangles, scrambled ids: {scramble}", v, t.len() / 3);
     let vt = time("VertexTriangles::new", || VertexTriangles::new(v, &t));
-    time("VertexNeighbours (from vt)", || VertexNeighbours::from_vertex_triangles(&vt, &t));
+    let vn =
+        time("VertexNeighbours (from vt)", || VertexNeighbours::from_vertex_triangles(&vt, &t));
+    time("cotangent_weights", || geometry::cotangent_weights(&p, &t, &vn));
     let he = time("HalfEdges::new", || HalfEdges::new(v, &t));
     let loops = time("boundary_loops", || boundary_loops(&t, &he));
     let c = time("TriangleComponents::new", || TriangleComponents::new(v, &t));

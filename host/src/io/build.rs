@@ -73,3 +73,34 @@ pub(crate) fn check_vertex_count(count: u64, at: Position) -> ReadResult<()> {
     }
     Err(Invalid::at(at, format!("{count} vertices do not fit 32-bit vertex ids")))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn polygons_become_fans_around_their_first_corner() {
+        let mut triangles = vec![9, 9, 9];
+        push_fan(&mut triangles, &[4, 5, 6]);
+        push_fan(&mut triangles, &[0, 1, 2, 3, 7]);
+        assert_eq!(triangles, [9, 9, 9, 4, 5, 6, 0, 1, 2, 0, 2, 3, 0, 3, 7]);
+    }
+
+    #[test]
+    fn corners_and_arity_are_checked() {
+        let at = Position::Line(3);
+        assert_eq!(check_corner(0, 4, 5, at).unwrap(), 4);
+        assert!(check_corner(0, 5, 5, at).unwrap_err().reason.contains("only 5 vertices"));
+        assert!(check_corner(0, -1, 5, at).unwrap_err().reason.contains("negative"));
+        assert!(check_arity(2, 3, at).is_ok());
+        assert_eq!(check_arity(2, 2, at).unwrap_err().reason, "face 2 has 2 corners, a face needs at least 3");
+        assert!(check_finite(1, [0.0, f32::NAN, 1.0], at).unwrap_err().reason.contains("NaN"));
+    }
+
+    #[test]
+    fn capacities_from_file_counts_are_capped_by_the_bytes_present() {
+        assert_eq!(capacity(10, 1000, 12), 10);
+        assert_eq!(capacity(4_000_000_000, 20, 12), 1);
+        assert_eq!(capacity(u64::MAX, 0, 0), 0);
+    }
+}

@@ -63,3 +63,38 @@ pub(crate) fn write_xyz(out: &mut dyn Write, p: &[f32]) -> io::Result<()> {
     out.write_all(b" ")?;
     write_f32(out, p[2])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn written_floats_parse_back_to_the_same_bits() {
+        // A spread of bit patterns over every exponent, both signs, subnormals included.
+        let samples = (0..=u32::MAX).step_by(65_521).chain([0, 1, 0x8000_0000, 0x7f7f_ffff, 0x0080_0000]);
+        for bits in samples {
+            let value = f32::from_bits(bits);
+            if !value.is_finite() {
+                continue;
+            }
+            let mut out = Vec::new();
+            write_f32(&mut out, value).unwrap();
+            let back = parse_f32(&out).unwrap();
+            assert_eq!(back.to_bits(), bits, "{value:e} written as {}", String::from_utf8_lossy(&out));
+        }
+    }
+
+    #[test]
+    fn lines_and_tokens_handle_crlf_and_any_whitespace() {
+        let text = b"a b\r\n\tc\x0b d \n\nlast";
+        let lines: Vec<(usize, &[u8])> = lines(text).collect();
+        assert_eq!(lines, [(1, &b"a b"[..]), (2, b"\tc\x0b d "), (3, b""), (4, b"last")]);
+        assert_eq!(tokens(b"  x\t y  ").collect::<Vec<_>>(), [b"x", b"y"]);
+    }
+
+    #[test]
+    fn long_tokens_are_shortened_in_messages() {
+        assert_eq!(shown(b"abc"), "abc");
+        assert_eq!(shown(&[b'7'; 100]).chars().count(), 41);
+    }
+}

@@ -17,6 +17,7 @@
 //!   vertices by [`VertexTriangles`] and still join their neighbours in
 //!   [`TriangleComponents`] through their proper edges.
 //! - Results are deterministic functions of the input: no hashing, no randomness.
+//! - Sizes: up to 715M triangles (half-edge ids below 2^31), far beyond a wasm32 memory.
 //!
 //! # Choosing a structure
 //!
@@ -27,7 +28,7 @@
 //! | twins, edge kinds, edge count          | [`HalfEdges::new`]                 | O(V + T·log d)  |
 //! | holes                                  | [`boundary_loops`]                 | O(boundary)     |
 //! | connected components                   | [`TriangleComponents::new`]        | O(V + T·log d)  |
-//! | manifold / oriented / orientable       | [`manifold`] functions on `HalfEdges` | O(V + T)     |
+//! | manifold / oriented / orientable       | [`manifold`] on a `HalfEdges`      | O(V + T)        |
 //!
 //! (`d` is the vertex degree, about 6 on scans, so the `log d` factors are small constants.)
 
