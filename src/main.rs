@@ -39,6 +39,28 @@ enum Command {
         /// Mesh file (OBJ, PLY, OFF, STL).
         input: PathBuf,
     },
+    /// Make a deterministic test mesh.
+    #[command(subcommand)]
+    Generate(commands::generate::GenerateCommand),
+    /// Apply or inspect corrections (.mfc): the coded edit log of one step.
+    #[command(subcommand)]
+    Correction(commands::correction::CorrectionCommand),
+    /// Pack a mesh into the compact lossless .mfm format.
+    Pack {
+        input: PathBuf,
+        #[arg(short, long)]
+        output: PathBuf,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Unpack a .mfm mesh into a mesh file (format by extension).
+    Unpack {
+        input: PathBuf,
+        #[arg(short, long)]
+        output: PathBuf,
+        #[arg(long)]
+        json: bool,
+    },
     /// Print vertex and triangle counts and the bounding box of a mesh.
     Info {
         input: PathBuf,
@@ -61,8 +83,12 @@ fn main() -> ExitCode {
         Command::Services { plugins, json } => commands::services::run(&plugins, json),
         Command::Apply(args) => commands::apply::run(&args),
         Command::Check(args) => commands::check::run(&args),
+        Command::Generate(command) => commands::generate::run(&command),
         Command::Hash { input } => commands::inspect::hash(&input),
         Command::Info { input, json } => commands::inspect::info(&input, json),
+        Command::Correction(command) => commands::correction::run(&command),
+        Command::Pack { input, output, json } => commands::pack::pack(&input, &output, json),
+        Command::Unpack { input, output, json } => commands::pack::unpack(&input, &output, json),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

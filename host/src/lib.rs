@@ -2,8 +2,11 @@
 //! plugin runtime.
 
 pub mod catalog;
+pub mod correction;
+pub mod generate;
 pub mod io;
 pub mod mesh;
+pub mod pack;
 pub mod runtime;
 pub mod store;
 

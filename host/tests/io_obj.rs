@@ -78,7 +78,10 @@ fn indices_out_of_range_name_the_line_and_the_vertex() {
     let (message, _) = error(&format!("{SQUARE}f 1 -5 3\n"));
     assert!(message.starts_with("mesh.obj: line 5: face 0 uses relative vertex -5"), "{message}");
     let (message, _) = error(&format!("{SQUARE}f 0 1 2\n"));
-    assert!(message.contains("line 5: face 0 uses vertex 0, but OBJ indices start at 1"), "{message}");
+    assert!(
+        message.contains("line 5: face 0 uses vertex 0, but OBJ indices start at 1"),
+        "{message}"
+    );
     let (message, _) = error(&format!("{SQUARE}f 1 2 99999999999\n"));
     assert!(message.contains("line 5: face 0 uses vertex 99999999999"), "{message}");
 }

@@ -35,7 +35,8 @@ fn plain_off_with_comments_polygons_and_face_colours() {
 fn header_variants_and_a_missing_header_load_the_same_mesh() {
     let faces = "4 0 1 2 3\n3 4 1 0\n3 1 1 2\n";
     let plain = "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0.5 0.5 1\n";
-    let coloured = "0 0 0 1 0 0 1\n1 0 0 0 1 0 1\n1 1 0 0 0 1 1\n0 1 0 1 1 1 1\n0.5 0.5 1 0 0 0 1\n";
+    let coloured =
+        "0 0 0 1 0 0 1\n1 0 0 0 1 0 1\n1 1 0 0 0 1 1\n0 1 0 1 1 1 1\n0.5 0.5 1 0 0 0 1\n";
     let normals = "0 0 0 0 0 1\n1 0 0 0 0 1\n1 1 0 0 0 1\n0 1 0 0 0 1\n0.5 0.5 1 0 0 1\n";
     let homogeneous = "0 0 0 1\n1 0 0 1\n1 1 0 1\n0 1 0 1\n0.5 0.5 1 1\n";
     let cases = [
@@ -45,8 +46,12 @@ fn header_variants_and_a_missing_header_load_the_same_mesh() {
         format!("5 3\n{plain}{faces}"),
         format!("COFF\n5 3 0\n{coloured}{faces}"),
         format!("NOFF\n5 3 0\n{normals}{faces}"),
-        format!("CNOFF\n5 3 0\n0 0 0 1 0 0 1 0 0 1\n1 0 0 1 0 0 1 0 0 1\n1 1 0 1 0 0 1 0 0 1\n0 1 0 1 0 0 1 0 0 1\n0.5 0.5 1 1 0 0 1 0 0 1\n{faces}"),
-        format!("STOFF\n5 3 0\n0 0 0 0.1 0.2\n1 0 0 0.1 0.2\n1 1 0 0.1 0.2\n0 1 0 0.1 0.2\n0.5 0.5 1 0.1 0.2\n{faces}"),
+        format!(
+            "CNOFF\n5 3 0\n0 0 0 1 0 0 1 0 0 1\n1 0 0 1 0 0 1 0 0 1\n1 1 0 1 0 0 1 0 0 1\n0 1 0 1 0 0 1 0 0 1\n0.5 0.5 1 1 0 0 1 0 0 1\n{faces}"
+        ),
+        format!(
+            "STOFF\n5 3 0\n0 0 0 0.1 0.2\n1 0 0 0.1 0.2\n1 1 0 0.1 0.2\n0 1 0 0.1 0.2\n0.5 0.5 1 0.1 0.2\n{faces}"
+        ),
         format!("4OFF\n5 3 0\n{homogeneous}{faces}"),
         format!("nOFF\n3\n5 3 0\n{plain}{faces}"),
         format!("nOFF 3 5 3 0\n{plain}{faces}"),

@@ -12,7 +12,11 @@ fn grid(side: u32) -> MeshData {
     let mut positions = Vec::with_capacity((side * side * 3) as usize);
     for j in 0..side {
         for i in 0..side {
-            positions.extend_from_slice(&[i as f32 * 0.01, j as f32 * 0.01, ((i ^ j) % 7) as f32 * 0.001]);
+            positions.extend_from_slice(&[
+                i as f32 * 0.01,
+                j as f32 * 0.01,
+                ((i ^ j) % 7) as f32 * 0.001,
+            ]);
         }
     }
     let mut triangles = Vec::with_capacity(((side - 1) * (side - 1) * 6) as usize);

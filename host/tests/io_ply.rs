@@ -39,7 +39,8 @@ impl Enc {
 /// Builds a PLY file from the declarations after the `format` line and one value list per
 /// record (one line in ascii).
 fn ply(enc: Enc, declarations: &str, records: &[Vec<V>]) -> Vec<u8> {
-    let mut out = format!("ply\nformat {} 1.0\n{declarations}end_header\n", enc.name()).into_bytes();
+    let mut out =
+        format!("ply\nformat {} 1.0\n{declarations}end_header\n", enc.name()).into_bytes();
     for record in records {
         if enc == Enc::Ascii {
             let words: Vec<String> = record
@@ -173,7 +174,17 @@ fn vertices_with_list_properties_and_integer_coordinates_load() {
         property list ushort float texcoord\n";
     let mut records: Vec<Vec<V>> = [[0i16, 0, 0], [2, 0, 0], [2, 2, 0], [0, 2, 0], [1, 1, 2]]
         .iter()
-        .map(|&[x, y, z]| vec![V::I16(x), V::U8(2), V::U8(7), V::U8(8), V::I32(y.into()), V::I8(z as i8), V::U16(9)])
+        .map(|&[x, y, z]| {
+            vec![
+                V::I16(x),
+                V::U8(2),
+                V::U8(7),
+                V::U8(8),
+                V::I32(y.into()),
+                V::I8(z as i8),
+                V::U16(9),
+            ]
+        })
         .collect();
     records.extend(face_records());
     let expected_positions: Vec<f32> = SQUARE_AND_APEX.iter().flatten().map(|c| c * 2.0).collect();
@@ -253,6 +264,33 @@ fn triangle_file(enc: Enc) -> Vec<u8> {
 }
 
 #[test]
+fn every_truncation_of_a_binary_file_with_per_value_layouts_is_an_error() {
+    // Face records with an extra property and a vertex list property take the per-value path.
+    let declarations = "element vertex 3\nproperty float x\nproperty list uchar uchar tags\n\
+        property float y\nproperty float z\nelement face 2\nproperty list uchar uint vertex_indices\n\
+        property uchar flags\n";
+    let mut records: Vec<Vec<V>> = (0..3)
+        .map(|i| vec![V::F32(i as f32), V::U8(1), V::U8(9), V::F32(1.0), V::F32(2.0)])
+        .collect();
+    records.push(vec![V::U8(3), V::U32(0), V::U32(1), V::U32(2), V::U8(0)]);
+    records.push(vec![V::U8(3), V::U32(2), V::U32(1), V::U32(0), V::U8(0)]);
+    for enc in [Enc::Little, Enc::Big] {
+        let bytes = ply(enc, declarations, &records);
+        assert_eq!(load(&bytes).unwrap().triangles, vec![0, 1, 2, 2, 1, 0]);
+        for len in 0..bytes.len() {
+            assert!(load(&bytes[..len]).is_err(), "a file cut to {len} bytes loaded");
+        }
+        let (message, at) = error(&bytes[..bytes.len() - 3]);
+        // Face 1's last corner starts 5 bytes before the end (4 bytes, then the flags byte).
+        assert_eq!(at, Some(Position::Byte(bytes.len() as u64 - 5)), "{message}");
+        assert!(
+            message.contains("face 1: the file is truncated: 4 more bytes needed, 2 left"),
+            "{message}"
+        );
+    }
+}
+
+#[test]
 fn every_truncation_of_a_binary_file_is_an_error_with_a_byte_offset() {
     let bytes = triangle_file(Enc::Little);
     let header = bytes.len() - (4 * 12 + 2 * 13);
@@ -266,10 +304,14 @@ fn every_truncation_of_a_binary_file_is_an_error_with_a_byte_offset() {
             assert!(at.is_some(), "{message}");
         }
     }
-    // Cut inside the faces: the message names the face and the byte where data ran out.
+    // Cut inside the faces: the message names the face and the byte where its corner list
+    // starts, which the file cannot hold.
     let (message, at) = error(&bytes[..header + 48 + 13 + 5]);
-    assert_eq!(at, Some(Position::Byte((header + 66) as u64)), "{message}");
-    let expected = format!("scan.ply: byte {}: face 1: the file is truncated: 4 more bytes needed, 0 left", header + 66);
+    assert_eq!(at, Some(Position::Byte((header + 62) as u64)), "{message}");
+    let expected = format!(
+        "scan.ply: byte {}: face 1: the file is truncated: 12 more bytes needed, 4 left",
+        header + 62
+    );
     assert_eq!(message, expected);
 }
 
@@ -286,10 +328,15 @@ fn header_counts_the_file_cannot_hold_fail_before_allocating() {
     assert!(message.contains("cannot hold"), "{message}");
 
     // The same for faces after valid vertices, and for skipped elements, in ascii too.
-    let bytes = edit_header(&triangle_file(Enc::Little), "element face 2", "element face 3000000000");
+    let bytes =
+        edit_header(&triangle_file(Enc::Little), "element face 2", "element face 3000000000");
     assert!(error(&bytes).0.contains("3000000000 'face' elements"));
     let ascii = String::from_utf8(triangle_file(Enc::Ascii)).unwrap();
-    let hostile = ascii.replacen("element face 2", "element junk 99999999999\nproperty int a\nelement face 2", 1);
+    let hostile = ascii.replacen(
+        "element face 2",
+        "element junk 99999999999\nproperty int a\nelement face 2",
+        1,
+    );
     let (message, at) = error(hostile.as_bytes());
     assert_eq!(at, Some(Position::Line(7)), "{message}");
     // More than 2^32 vertices cannot be numbered by u32 ids at all.
@@ -306,7 +353,10 @@ fn an_index_out_of_range_names_the_face_the_vertex_and_the_byte() {
     bytes[at..at + 4].copy_from_slice(&7i32.to_le_bytes());
     let (message, position) = error(&bytes);
     assert_eq!(position, Some(Position::Byte(at as u64)));
-    assert_eq!(message, format!("scan.ply: byte {at}: face 1 uses vertex 7, but there are only 4 vertices"));
+    assert_eq!(
+        message,
+        format!("scan.ply: byte {at}: face 1 uses vertex 7, but there are only 4 vertices")
+    );
 
     bytes[at..at + 4].copy_from_slice(&(-1i32).to_le_bytes());
     assert!(error(&bytes).0.contains("face 1 uses vertex -1"));
@@ -329,10 +379,12 @@ fn non_finite_coordinates_are_rejected() {
         assert!(message.contains("vertex 2 has a non-finite coordinate"), "{message}");
     }
     // A double too large for f32 is not finite either.
-    let declarations = "element vertex 1\nproperty double x\nproperty double y\nproperty double z\n";
+    let declarations =
+        "element vertex 1\nproperty double x\nproperty double y\nproperty double z\n";
     let bytes = ply(Enc::Little, declarations, &[vec![V::F64(0.0), V::F64(1e300), V::F64(0.0)]]);
     assert!(error(&bytes).0.contains("non-finite"));
-    let ascii = String::from_utf8(triangle_file(Enc::Ascii)).unwrap().replace("1 0.5 -1", "nan 0.5 -1");
+    let ascii =
+        String::from_utf8(triangle_file(Enc::Ascii)).unwrap().replace("1 0.5 -1", "nan 0.5 -1");
     let (message, at) = error(ascii.as_bytes());
     assert_eq!(at, Some(Position::Line(11)), "{message}");
     assert!(message.contains("vertex 1 has a non-finite coordinate (NaN)"), "{message}");
@@ -362,9 +414,15 @@ fn garbage_and_broken_headers_are_rejected() {
         (b"", "does not start with 'ply'"),
         (b"\x00\x01\x02garbage\xff", "does not start with 'ply'"),
         (b"ply\nformat ascii 1.0\nelement vertex 0\n", "no 'end_header'"),
-        (b"ply\nformat ascii 1.0\nproperty float x\nend_header\n", "line 3: property before any element"),
+        (
+            b"ply\nformat ascii 1.0\nproperty float x\nend_header\n",
+            "line 3: property before any element",
+        ),
         (b"ply\nformat klingon 1.0\nend_header\n", "line 2: unknown PLY format 'klingon'"),
-        (b"ply\nelement vertex 1\nproperty quad x\nend_header\n", "line 3: unknown property type 'quad'"),
+        (
+            b"ply\nelement vertex 1\nproperty quad x\nend_header\n",
+            "line 3: unknown property type 'quad'",
+        ),
         (b"ply\nelement vertex 1\nproperty float x\nend_header\n0\n", "no 'format' line"),
     ];
     for (bytes, expected) in cases {

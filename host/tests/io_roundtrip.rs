@@ -31,7 +31,8 @@ fn tricky_values() -> Vec<f32> {
     ];
     let mut state = 0x9e37_79b9_7f4a_7c15u64;
     while values.len() < 3 * 700 {
-        state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        state =
+            state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
         let value = f32::from_bits((state >> 32) as u32);
         if value.is_finite() {
             values.push(value);
@@ -107,7 +108,9 @@ fn binary_little_endian_ply_has_the_documented_layout() {
     let bytes = encode(&mesh, Format::Ply, PlyEncoding::BinaryLittleEndian);
     let text = String::from_utf8_lossy(&bytes);
     assert!(text.starts_with("ply\nformat binary_little_endian 1.0\n"));
-    assert!(text.contains("element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"));
+    assert!(
+        text.contains("element vertex 3\nproperty float x\nproperty float y\nproperty float z\n")
+    );
     assert!(text.contains("element face 1\nproperty list uchar int vertex_indices\nend_header\n"));
     let body = &bytes[bytes.len() - (36 + 13)..];
     assert_eq!(&body[..4], &1.0f32.to_le_bytes());
@@ -198,4 +201,34 @@ fn loading_an_unknown_extension_or_a_missing_file_names_the_file() {
     let err = io::load(Path::new("/nonexistent/dir/mesh.ply")).unwrap_err();
     assert!(matches!(err, io::LoadError::Io { .. }));
     assert!(err.to_string().starts_with("/nonexistent/dir/mesh.ply: cannot read"), "{err}");
+}
+
+#[test]
+fn the_example_bunny_loads_and_converts_through_every_format() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/data/bunny.obj");
+    let bunny = io::load(&path).unwrap();
+    assert_eq!((bunny.vertex_count(), bunny.triangle_count()), (1839, 3674));
+    for (format, encoding) in [
+        (Format::Ply, PlyEncoding::BinaryLittleEndian),
+        (Format::Ply, PlyEncoding::Ascii),
+        (Format::Off, PlyEncoding::default()),
+        (Format::Obj, PlyEncoding::default()),
+    ] {
+        let bytes = encode(&bunny, format, encoding);
+        let loaded = io::load_bytes(&bytes, format, "bunny").unwrap();
+        assert_identical(&loaded, &bunny, &format!("bunny as {format} {encoding:?}"));
+    }
+    // STL drops the vertex numbering but keeps the shape: same triangles by position.
+    let stl = io::load_bytes(
+        &encode(&bunny, Format::Stl, PlyEncoding::default()),
+        Format::Stl,
+        "bunny.stl",
+    )
+    .unwrap();
+    assert_eq!(stl.triangle_count(), bunny.triangle_count());
+    let corner = |m: &MeshData, t: usize| {
+        let v = m.triangles[t] as usize * 3;
+        [m.positions[v], m.positions[v + 1], m.positions[v + 2]]
+    };
+    assert!((0..bunny.triangles.len()).all(|t| corner(&stl, t) == corner(&bunny, t)));
 }

@@ -12,8 +12,10 @@ fn triangle() -> MeshData {
 }
 
 fn entries(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> =
-        std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
     names.sort();
     names
 }
@@ -58,7 +60,10 @@ fn an_invalid_mesh_is_refused_and_an_existing_file_survives() {
         assert!(io::write_to(Vec::new(), &mesh, Format::Ply).is_err());
     }
     let err = io::save(&path, &MeshData::new(vec![0.0; 3], vec![0, 0, 1])).unwrap_err();
-    assert!(err.to_string().contains("triangle 0 uses vertex 1, but there are only 1 vertices"), "{err}");
+    assert!(
+        err.to_string().contains("triangle 0 uses vertex 1, but there are only 1 vertices"),
+        "{err}"
+    );
     assert_eq!(entries(dir.path()), ["mesh.obj"]);
 }
 

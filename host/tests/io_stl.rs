@@ -69,7 +69,10 @@ fn binary_files_whose_header_starts_with_solid_are_read_as_binary() {
 
 #[test]
 fn welding_is_by_bit_pattern_so_signed_zeros_stay_apart() {
-    let t = [[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], [[-0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]];
+    let t = [
+        [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        [[-0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+    ];
     let mesh = load(&binary(b"", &t)).unwrap();
     assert_eq!(mesh.vertex_count(), 4);
     assert_eq!(mesh.triangles, vec![0, 1, 2, 3, 1, 2]);

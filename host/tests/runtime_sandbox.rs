@@ -209,7 +209,8 @@ fn runs_are_deterministic_and_concurrent_runs_agree() {
         let handles: Vec<_> = (0..4)
             .map(|_| {
                 scope.spawn(|| {
-                    let out = runtime.run(&smoothing, "laplacian-smoothing", &octahedron(), &params);
+                    let out =
+                        runtime.run(&smoothing, "laplacian-smoothing", &octahedron(), &params);
                     out.unwrap().mesh.unwrap().content_hash()
                 })
             })
@@ -224,7 +225,8 @@ fn compiled_components_are_cached_on_disk_and_reused() {
     let dir = tempfile::tempdir().unwrap();
     let wasm = PLUGINS[0].wasm;
     let first = Runtime::new(quick_limits(), Some(dir.path())).unwrap().load(wasm).unwrap();
-    let artefacts: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().path()).collect();
+    let artefacts: Vec<_> =
+        std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().path()).collect();
     assert_eq!(artefacts.len(), 1);
     assert!(artefacts[0].to_string_lossy().contains(&first.digest));
     // A later runtime loads from the artefact; a corrupt artefact is compiled again.

@@ -5,8 +5,8 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use meshflow_host::io;
 use meshflow_host::runtime::ServiceKind;
+use meshflow_host::{correction, io};
 
 use super::{millis, parse_params};
 use crate::PluginArgs;
@@ -23,6 +23,9 @@ pub struct ApplyArgs {
     /// A parameter, NAME=VALUE; repeatable.
     #[arg(long = "param", value_name = "NAME=VALUE")]
     params: Vec<String>,
+    /// Also write the step's correction (.mfc), atomically.
+    #[arg(long, value_name = "OUT.mfc")]
+    correction: Option<PathBuf>,
     #[command(flatten)]
     plugins: PluginArgs,
     /// Print a JSON summary.
@@ -49,6 +52,17 @@ pub fn run(args: &ApplyArgs) -> anyhow::Result<()> {
     io::save(&args.output, result).with_context(|| format!("writing {}", args.output.display()))?;
     let save_time = started.elapsed();
 
+    let started = Instant::now();
+    let correction_bytes = match &args.correction {
+        Some(path) => {
+            let bytes = correction::encode(&mesh, &output.log, result)?;
+            super::pack::write_atomically(path, &bytes)?;
+            Some(bytes.len())
+        }
+        None => None,
+    };
+    let correction_time = started.elapsed();
+
     let edits: usize = output.log.iter().map(|op| op.edit_count()).sum();
     if args.json {
         let summary = serde_json::json!({
@@ -62,7 +76,9 @@ pub fn run(args: &ApplyArgs) -> anyhow::Result<()> {
                 "load": millis(load_time),
                 "run": millis(output.duration),
                 "save": millis(save_time),
+                "correction": millis(correction_time),
             },
+            "correction_bytes": correction_bytes,
         });
         println!("{summary}");
     } else {

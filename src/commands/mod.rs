@@ -2,7 +2,10 @@
 
 pub mod apply;
 pub mod check;
+pub mod correction;
+pub mod generate;
 pub mod inspect;
+pub mod pack;
 pub mod services;
 
 use meshflow_host::runtime::Value;

@@ -8,7 +8,7 @@ use super::error::SaveError;
 /// Runs `write` into a temporary file in `path`'s directory and renames it to `path` only
 /// after everything was written and synced. On any error the temporary file is deleted
 /// (when `NamedTempFile` drops), so `path` is either untouched or complete.
-pub(crate) fn write_file(
+pub fn write_file(
     path: &Path,
     write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
 ) -> Result<(), SaveError> {

@@ -93,7 +93,10 @@ mod tests {
         assert!(check_corner(0, 5, 5, at).unwrap_err().reason.contains("only 5 vertices"));
         assert!(check_corner(0, -1, 5, at).unwrap_err().reason.contains("negative"));
         assert!(check_arity(2, 3, at).is_ok());
-        assert_eq!(check_arity(2, 2, at).unwrap_err().reason, "face 2 has 2 corners, a face needs at least 3");
+        assert_eq!(
+            check_arity(2, 2, at).unwrap_err().reason,
+            "face 2 has 2 corners, a face needs at least 3"
+        );
         assert!(check_finite(1, [0.0, f32::NAN, 1.0], at).unwrap_err().reason.contains("NaN"));
     }
 

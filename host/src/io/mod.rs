@@ -23,6 +23,7 @@ use std::path::Path;
 use crate::mesh::MeshData;
 
 pub use error::{LoadError, Position, SaveError};
+pub use atomic::write_file;
 
 /// A mesh file format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -84,7 +85,7 @@ pub enum PlyEncoding {
 /// Loads a mesh, choosing the format by the file extension.
 pub fn load(path: &Path) -> Result<MeshData, LoadError> {
     let name = path.display().to_string();
-    let format = Format::from_path(path).ok_or_else(|| LoadError::UnknownFormat { name })?;
+    let format = Format::from_path(path).ok_or(LoadError::UnknownFormat { name })?;
     load_as(path, format)
 }
 
@@ -171,13 +172,13 @@ fn encode(
 /// The invariants a written file needs to load back: whole vertices and triangles, finite
 /// coordinates, indices in range, ids that fit `u32`.
 fn validate(mesh: &MeshData) -> Result<(), String> {
-    if mesh.positions.len() % 3 != 0 {
+    if !mesh.positions.len().is_multiple_of(3) {
         return Err(format!(
             "{} position values is not a whole number of vertices",
             mesh.positions.len()
         ));
     }
-    if mesh.triangles.len() % 3 != 0 {
+    if !mesh.triangles.len().is_multiple_of(3) {
         return Err(format!(
             "{} corner indices is not a whole number of triangles",
             mesh.triangles.len()

@@ -18,8 +18,8 @@ use crate::mesh::MeshData;
 /// Decodes an OFF file.
 pub(crate) fn read(bytes: &[u8]) -> ReadResult<MeshData> {
     let mut lines = Lines::new(bytes);
-    let (at, first) = lines.next_or_eof("the OFF header")?;
-    let mut counts: Vec<&[u8]> = first;
+    let mut counts = Vec::new();
+    let at = lines.next_or_eof(&mut counts, || "the OFF header".into())?;
     let mut dimension = 3;
     if counts[0].ends_with(b"OFF") {
         let keyword = counts.remove(0);
@@ -28,14 +28,14 @@ pub(crate) fn read(bytes: &[u8]) -> ReadResult<MeshData> {
             return Err(Invalid::at(at, "binary OFF is not supported"));
         }
         if counts.is_empty() {
-            counts = lines.next_or_eof("the vertex and face counts")?.1;
+            lines.next_or_eof(&mut counts, || "the vertex and face counts".into())?;
         }
         if dimension == 0 {
             // nOFF: the dimension comes first, then the counts, possibly on the next line.
             let token = counts.remove(0);
             dimension = parse_count(token, "dimension", at)? as usize;
             if counts.is_empty() {
-                counts = lines.next_or_eof("the vertex and face counts")?.1;
+                lines.next_or_eof(&mut counts, || "the vertex and face counts".into())?;
             }
         }
         if dimension < 3 {
@@ -53,8 +53,9 @@ pub(crate) fn read(bytes: &[u8]) -> ReadResult<MeshData> {
     // The shortest vertex line is "0 0 0\n", the shortest face line "3 0 0 0\n".
     let remaining = lines.remaining();
     let mut positions = Vec::with_capacity(capacity(vertex_count, remaining, 6) * 3);
+    let mut values = Vec::new();
     for vertex in 0..vertex_count as usize {
-        let (at, values) = lines.next_or_eof(&format!("vertex {vertex} of {vertex_count}"))?;
+        let at = lines.next_or_eof(&mut values, || format!("vertex {vertex} of {vertex_count}"))?;
         if values.len() < dimension {
             let reason =
                 format!("vertex {vertex} has {} values, expected {dimension}", values.len());
@@ -72,7 +73,7 @@ pub(crate) fn read(bytes: &[u8]) -> ReadResult<MeshData> {
     let mut triangles = Vec::with_capacity(capacity(face_count, lines.remaining(), 8) * 3);
     let mut corners = Vec::new();
     for face in 0..face_count as usize {
-        let (at, values) = lines.next_or_eof(&format!("face {face} of {face_count}"))?;
+        let at = lines.next_or_eof(&mut values, || format!("face {face} of {face_count}"))?;
         let arity =
             parse_i64(values[0]).map_err(|r| Invalid::at(at, format!("face {face}: {r}")))?;
         check_arity(face, arity, at)?;
@@ -137,8 +138,13 @@ impl<'a> Lines<'a> {
         Self { bytes, pos: 0, number: 0, at: Position::Line(1) }
     }
 
-    /// The next line that has tokens, or an error naming what was expected.
-    fn next_or_eof(&mut self, expected: &str) -> ReadResult<(Position, Vec<&'a [u8]>)> {
+    /// Puts the tokens of the next line that has any into `tokens` and returns its position,
+    /// or an error naming what was `expected` (built only then: this runs once per line).
+    fn next_or_eof(
+        &mut self,
+        tokens: &mut Vec<&'a [u8]>,
+        expected: impl FnOnce() -> String,
+    ) -> ReadResult<Position> {
         while self.pos < self.bytes.len() {
             let rest = &self.bytes[self.pos..];
             let end = rest.iter().position(|&b| b == b'\n').unwrap_or(rest.len());
@@ -150,12 +156,13 @@ impl<'a> Lines<'a> {
                 Some(hash) => &line[..hash],
                 None => line,
             };
-            let tokens: Vec<&[u8]> = text::tokens(content).collect();
+            tokens.clear();
+            tokens.extend(text::tokens(content));
             if !tokens.is_empty() {
-                return Ok((self.at, tokens));
+                return Ok(self.at);
             }
         }
-        Err(Invalid::at(self.at, format!("file ends before {expected}")))
+        Err(Invalid::at(self.at, format!("file ends before {}", expected())))
     }
 
     fn remaining(&self) -> usize {

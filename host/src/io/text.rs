@@ -71,7 +71,8 @@ mod tests {
     #[test]
     fn written_floats_parse_back_to_the_same_bits() {
         // A spread of bit patterns over every exponent, both signs, subnormals included.
-        let samples = (0..=u32::MAX).step_by(65_521).chain([0, 1, 0x8000_0000, 0x7f7f_ffff, 0x0080_0000]);
+        let samples =
+            (0..=u32::MAX).step_by(65_521).chain([0, 1, 0x8000_0000, 0x7f7f_ffff, 0x0080_0000]);
         for bits in samples {
             let value = f32::from_bits(bits);
             if !value.is_finite() {
@@ -80,7 +81,12 @@ mod tests {
             let mut out = Vec::new();
             write_f32(&mut out, value).unwrap();
             let back = parse_f32(&out).unwrap();
-            assert_eq!(back.to_bits(), bits, "{value:e} written as {}", String::from_utf8_lossy(&out));
+            assert_eq!(
+                back.to_bits(),
+                bits,
+                "{value:e} written as {}",
+                String::from_utf8_lossy(&out)
+            );
         }
     }
 

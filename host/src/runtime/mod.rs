@@ -61,8 +61,8 @@ impl Runtime {
     /// A runtime with the given limits; compiled components are cached in `cache_dir`
     /// when one is given.
     pub fn new(limits: Limits, cache_dir: Option<&Path>) -> Result<Self, PluginError> {
-        let engine =
-            Engine::new(&engine_config(&limits)).map_err(|e| PluginError::Compile(e.to_string()))?;
+        let engine = Engine::new(&engine_config(&limits))
+            .map_err(|e| PluginError::Compile(e.to_string()))?;
         let mut linker = Linker::new(&engine);
         wasmtime_wasi::p2::add_to_linker_sync(&mut linker)
             .and_then(|()| bindings::Plugin::add_to_linker::<_, HasSelf<_>>(&mut linker, |s| s))
@@ -190,7 +190,8 @@ impl Runtime {
         if state.edit_budget_exceeded {
             return RunError::EditBudget { service };
         }
-        if [&state.stdout, &state.stderr].iter().any(|p| p.contents().len() >= OUTPUT_CAPTURE_BYTES) {
+        if [&state.stdout, &state.stderr].iter().any(|p| p.contents().len() >= OUTPUT_CAPTURE_BYTES)
+        {
             return RunError::Output { service, limit_kib: OUTPUT_CAPTURE_BYTES >> 10 };
         }
         match error.downcast_ref::<Trap>() {

@@ -82,7 +82,8 @@ impl MeshStore {
         check_finite(matrix, &format!("{op} matrix"))?;
         let images: Vec<[f32; 3]> =
             vertices.iter().map(|&v| apply_affine(matrix, self.point(v))).collect();
-        for (v, p) in vertices.iter().zip(&images) {
+        let bad = vertices.iter().zip(&images).find(|(_, p)| p.iter().any(|c| !c.is_finite()));
+        if let Some((v, p)) = bad {
             check_finite(p, &format!("{op}: image of vertex {v}"))?;
         }
         for (&v, p) in vertices.iter().zip(images) {

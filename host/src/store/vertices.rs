@@ -43,10 +43,12 @@ impl MeshStore {
                 xyz.len()
             )));
         }
-        for (v, p) in xyz.chunks_exact(3).enumerate() {
-            if !self.vertex_removed[v] {
-                check_finite(p, &format!("set-positions, vertex {v}"))?;
-            }
+        let bad = xyz
+            .chunks_exact(3)
+            .enumerate()
+            .find(|&(v, p)| !self.vertex_removed[v] && p.iter().any(|c| !c.is_finite()));
+        if let Some((v, p)) = bad {
+            check_finite(p, &format!("set-positions, vertex {v}"))?;
         }
         for (v, p) in xyz.chunks_exact(3).enumerate() {
             if !self.vertex_removed[v] {

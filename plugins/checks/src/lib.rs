@@ -1,22 +1,144 @@
 //! Checks: services that measure a mesh and return a value. They run read-only.
+//!
+//! Each family of checks is a set of pure functions over the flat arrays in its own module;
+//! the service functions here only pull the arrays they need from the host and call them.
+//! Topology checks pull only the triangles, with the vertex count from the host.
 
-mod counts;
+pub mod angles;
+pub mod counts;
+pub mod normals;
+pub mod topology;
 
-use meshflow_sdk::{Service, ValueType};
+#[cfg(test)]
+mod fixtures;
+
+use meshflow_sdk::{Mesh, Params, Result, Service, Value, ValueType};
+
+fn integer(n: usize) -> Result<Value> {
+    Ok(Value::Integer(n as i64))
+}
+
+fn vertex_count(mesh: &Mesh, _: &Params) -> Result<Value> {
+    integer(mesh.vertex_count())
+}
+
+fn triangle_count(mesh: &Mesh, _: &Params) -> Result<Value> {
+    integer(mesh.triangle_count())
+}
+
+fn edge_count(mesh: &Mesh, _: &Params) -> Result<Value> {
+    integer(counts::edge_count(mesh.vertex_slots(), &mesh.triangles()))
+}
+
+fn component_count(mesh: &Mesh, _: &Params) -> Result<Value> {
+    integer(counts::component_count(mesh.vertex_slots(), &mesh.triangles()))
+}
+
+fn hole_count(mesh: &Mesh, _: &Params) -> Result<Value> {
+    integer(counts::hole_count(mesh.vertex_slots(), &mesh.triangles()))
+}
+
+fn is_manifold(mesh: &Mesh, _: &Params) -> Result<Value> {
+    Ok(Value::Boolean(topology::is_manifold(mesh.vertex_slots(), &mesh.triangles())))
+}
+
+fn is_oriented(mesh: &Mesh, _: &Params) -> Result<Value> {
+    Ok(Value::Boolean(topology::is_oriented(mesh.vertex_slots(), &mesh.triangles())))
+}
+
+fn is_orientable(mesh: &Mesh, _: &Params) -> Result<Value> {
+    Ok(Value::Boolean(topology::is_orientable(mesh.vertex_slots(), &mesh.triangles())))
+}
+
+fn min_angle(mesh: &Mesh, _: &Params) -> Result<Value> {
+    Ok(Value::Real(angles::min_angle(&mesh.positions(), &mesh.triangles())))
+}
+
+fn max_angle(mesh: &Mesh, _: &Params) -> Result<Value> {
+    Ok(Value::Real(angles::max_angle(&mesh.positions(), &mesh.triangles())))
+}
+
+fn normal_instability(mesh: &Mesh, _: &Params) -> Result<Value> {
+    Ok(Value::Real(normals::normal_instability(&mesh.positions(), &mesh.triangles())))
+}
 
 fn services() -> Vec<Service> {
+    use ValueType::{Boolean, Integer, Real};
     vec![
         Service::check(
             "vertex-count",
             "Number of vertices, unreferenced ones included.",
-            ValueType::Integer,
-            counts::vertex_count,
+            Integer,
+            vertex_count,
+        ),
+        Service::check(
+            "edge-count",
+            "Number of distinct undirected edges; an edge shared by several triangles counts \
+             once. Triangles with a repeated vertex have no edges.",
+            Integer,
+            edge_count,
         ),
         Service::check(
             "triangle-count",
-            "Number of triangles.",
-            ValueType::Integer,
-            counts::triangle_count,
+            "Number of triangles, degenerate ones included.",
+            Integer,
+            triangle_count,
+        ),
+        Service::check(
+            "component-count",
+            "Number of connected pieces: triangles sharing an edge belong together; touching \
+             at a single vertex is not enough.",
+            Integer,
+            component_count,
+        ),
+        Service::check(
+            "hole-count",
+            "Number of boundary loops (the outer border of an open surface included); 0 for a \
+             closed surface.",
+            Integer,
+            hole_count,
+        ),
+        Service::check(
+            "is-manifold",
+            "Whether every edge has at most two triangles and the triangles around every \
+             vertex form a single fan (no bow-tie).",
+            Boolean,
+            is_manifold,
+        ),
+        Service::check(
+            "is-oriented",
+            "Whether the two triangles of every interior edge traverse it in opposite \
+             directions.",
+            Boolean,
+            is_oriented,
+        ),
+        Service::check(
+            "is-orientable",
+            "Whether flipping some triangles could make the mesh oriented (false for a \
+             Möbius strip).",
+            Boolean,
+            is_orientable,
+        ),
+        Service::check(
+            "min-angle",
+            "Smallest triangle angle in degrees, over non-degenerate triangles; 0 if there \
+             is none.",
+            Real,
+            min_angle,
+        ),
+        Service::check(
+            "max-angle",
+            "Largest triangle angle in degrees, over non-degenerate triangles; 0 if there is \
+             none.",
+            Real,
+            max_angle,
+        ),
+        Service::check(
+            "normal-instability",
+            "Mean angle in degrees between the normals (as stored) of the two triangles of \
+             each interior manifold edge; 0 if there is none.",
+            Real,
+            normal_instability,
         ),
     ]
 }

@@ -1,5 +1,6 @@
-//! Laplacian smoothing: every free vertex moves to the average of its neighbours.
+//! Laplacian smoothing: every free vertex moves to the weighted average of its neighbours.
 
+use meshflow_sdk::geometry::cotangent_weights;
 use meshflow_sdk::topology::adjacency::VertexNeighbours;
 use meshflow_sdk::topology::boundary::boundary_vertices;
 use meshflow_sdk::topology::halfedge::HalfEdges;
@@ -13,14 +14,29 @@ pub enum Pinning {
     None,
 }
 
-/// `iterations` Jacobi steps of uniform Laplacian smoothing over `positions` (x y z per
-/// vertex). Vertices without neighbours (unreferenced) never move. Sums are taken in f64
-/// over the neighbours in ascending order, so the result is the same on every machine.
-pub fn smooth_uniform(
+/// How much each neighbour pulls.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Weights {
+    /// Every neighbour equally (the umbrella operator): fast, but it also evens out the
+    /// sampling, sliding vertices along the surface.
+    Uniform,
+    /// The cotangent weights of the edges (`(cot α + cot β) / 2`), recomputed from the current
+    /// positions at every iteration: moves vertices mostly along the normal, so the sampling
+    /// is kept. Negative weights (across obtuse angle pairs) are clamped to 0, which keeps
+    /// every new position inside the hull of its neighbours; a vertex whose weights are all
+    /// zero stays.
+    Cotangent,
+}
+
+/// `iterations` Jacobi steps of Laplacian smoothing over `positions` (x y z per vertex).
+/// Vertices without neighbours (unreferenced) never move. Sums are taken in f64 over the
+/// neighbours in ascending order, so the result is the same on every machine.
+pub fn smooth(
     positions: &[f32],
     triangles: &[u32],
     iterations: u32,
     pinning: Pinning,
+    weights: Weights,
 ) -> Vec<f32> {
     let vertex_count = positions.len() / 3;
     let neighbours = VertexNeighbours::new(vertex_count, triangles);
@@ -33,27 +49,51 @@ pub fn smooth_uniform(
     let mut current = positions.to_vec();
     let mut next = positions.to_vec();
     for _ in 0..iterations {
-        for v in 0..vertex_count {
-            let around = neighbours.of(v as u32);
-            if pinned[v] || around.is_empty() {
-                next[3 * v..3 * v + 3].copy_from_slice(&current[3 * v..3 * v + 3]);
-                continue;
-            }
-            let mut sum = [0.0f64; 3];
-            for &n in around {
-                let p = &current[3 * n as usize..3 * n as usize + 3];
-                sum[0] += p[0] as f64;
-                sum[1] += p[1] as f64;
-                sum[2] += p[2] as f64;
-            }
-            let inv = 1.0 / around.len() as f64;
-            for k in 0..3 {
-                next[3 * v + k] = (sum[k] * inv) as f32;
+        match weights {
+            Weights::Uniform => step(&current, &mut next, &neighbours, &pinned, |_| 1.0),
+            Weights::Cotangent => {
+                let cot = cotangent_weights(&current, triangles, &neighbours);
+                step(&current, &mut next, &neighbours, &pinned, |i| cot[i].max(0.0) as f64);
             }
         }
         std::mem::swap(&mut current, &mut next);
     }
     current
+}
+
+/// One Jacobi step from `current` into `next`; `weight(i)` is the weight of entry `i` of
+/// the neighbour CSR.
+fn step(
+    current: &[f32],
+    next: &mut [f32],
+    neighbours: &VertexNeighbours,
+    pinned: &[bool],
+    weight: impl Fn(usize) -> f64,
+) {
+    let (offsets, items) = (neighbours.offsets(), neighbours.neighbours());
+    for v in 0..neighbours.vertex_count() {
+        let own = 3 * v..3 * v + 3;
+        let row = offsets[v] as usize..offsets[v + 1] as usize;
+        let mut sum = [0.0f64; 3];
+        let mut total = 0.0f64;
+        if !pinned[v] {
+            for i in row {
+                let w = weight(i);
+                let p = &current[3 * items[i] as usize..3 * items[i] as usize + 3];
+                sum[0] += w * p[0] as f64;
+                sum[1] += w * p[1] as f64;
+                sum[2] += w * p[2] as f64;
+                total += w;
+            }
+        }
+        if total > 0.0 {
+            for k in 0..3 {
+                next[3 * v + k] = (sum[k] / total) as f32;
+            }
+        } else {
+            next[own.clone()].copy_from_slice(&current[own]);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -82,7 +122,7 @@ mod tests {
     #[test]
     fn the_interior_vertex_moves_to_its_neighbours_average_and_the_boundary_stays() {
         let (positions, triangles) = grid();
-        let smoothed = smooth_uniform(&positions, &triangles, 1, Pinning::Boundary);
+        let smoothed = smooth(&positions, &triangles, 1, Pinning::Boundary, Weights::Uniform);
         assert_eq!(&smoothed[12..15], &[1.0, 1.0, 0.0]);
         for v in (0..9).filter(|&v| v != 4) {
             assert_eq!(&smoothed[3 * v..3 * v + 3], &positions[3 * v..3 * v + 3], "vertex {v}");
@@ -92,7 +132,7 @@ mod tests {
     #[test]
     fn unpinned_boundary_vertices_move_too() {
         let (positions, triangles) = grid();
-        let smoothed = smooth_uniform(&positions, &triangles, 1, Pinning::None);
+        let smoothed = smooth(&positions, &triangles, 1, Pinning::None, Weights::Uniform);
         assert_ne!(&smoothed[0..3], &positions[0..3]);
     }
 
@@ -100,8 +140,73 @@ mod tests {
     fn zero_iterations_change_nothing_and_unreferenced_vertices_never_move() {
         let (mut positions, triangles) = grid();
         positions.extend([7.0, 7.0, 7.0]);
-        assert_eq!(smooth_uniform(&positions, &triangles, 0, Pinning::None), positions);
-        let smoothed = smooth_uniform(&positions, &triangles, 5, Pinning::None);
+        assert_eq!(smooth(&positions, &triangles, 0, Pinning::None, Weights::Cotangent), positions);
+        let smoothed = smooth(&positions, &triangles, 5, Pinning::None, Weights::Cotangent);
         assert_eq!(&smoothed[27..30], &[7.0, 7.0, 7.0]);
+    }
+
+    /// A flat, nearly equilateral triangulation (`n x n` vertices, rows shifted by half a
+    /// step) with a deterministic jitter of the interior vertices in the plane; `lift` gives
+    /// each vertex a height from its (x, y).
+    pub(crate) fn jittered_sheet(n: u32, lift: impl Fn(f32, f32) -> f32) -> (Vec<f32>, Vec<u32>) {
+        let h = 3f32.sqrt() / 2.0;
+        let mut positions = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                let interior = i > 0 && j > 0 && i + 1 < n && j + 1 < n;
+                let jitter = if interior { 0.08 * ((17 * i + 31 * j) as f32).sin() } else { 0.0 };
+                let x = i as f32 + 0.5 * (j % 2) as f32 + jitter;
+                let y = j as f32 * h - jitter;
+                positions.extend([x, y, lift(x, y)]);
+            }
+        }
+        let v = |i: u32, j: u32| j * n + i;
+        let mut triangles = Vec::new();
+        for j in 0..n - 1 {
+            for i in 0..n - 1 {
+                if j % 2 == 0 {
+                    triangles.extend([v(i, j), v(i + 1, j), v(i, j + 1)]);
+                    triangles.extend([v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]);
+                } else {
+                    triangles.extend([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
+                    triangles.extend([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
+                }
+            }
+        }
+        (positions, triangles)
+    }
+
+    /// The largest distance any vertex moved.
+    fn largest_move(a: &[f32], b: &[f32]) -> f32 {
+        a.chunks_exact(3)
+            .zip(b.chunks_exact(3))
+            .map(|(p, q)| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f32>().sqrt())
+            .fold(0.0, f32::max)
+    }
+
+    #[test]
+    fn cotangent_weights_leave_a_flat_sheet_in_place_where_uniform_ones_slide_it() {
+        let (positions, triangles) = jittered_sheet(12, |_, _| 0.0);
+        let cot = smooth(&positions, &triangles, 1, Pinning::Boundary, Weights::Cotangent);
+        let uniform = smooth(&positions, &triangles, 1, Pinning::Boundary, Weights::Uniform);
+        // The cotangent Laplacian of a flat mesh is zero: only rounding moves a vertex.
+        assert!(largest_move(&positions, &cot) < 1e-5, "{}", largest_move(&positions, &cot));
+        assert!(largest_move(&positions, &uniform) > 0.05);
+    }
+
+    #[test]
+    fn cotangent_smoothing_flattens_a_noisy_bump() {
+        let noisy = |x: f32, y: f32| {
+            let bump = (-((x - 6.0).powi(2) + (y - 5.0).powi(2)) / 8.0).exp();
+            bump + 0.05 * ((13.0 * x).sin() * (7.0 * y).cos())
+        };
+        let (positions, triangles) = jittered_sheet(12, noisy);
+        // The largest height difference between a vertex and its neighbours' mean.
+        let roughness = |p: &[f32]| {
+            let flat = smooth(p, &triangles, 1, Pinning::Boundary, Weights::Uniform);
+            p.iter().zip(&flat).skip(2).step_by(3).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max)
+        };
+        let smoothed = smooth(&positions, &triangles, 10, Pinning::Boundary, Weights::Cotangent);
+        assert!(roughness(&smoothed) < 0.5 * roughness(&positions));
     }
 }

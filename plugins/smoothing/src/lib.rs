@@ -1,31 +1,75 @@
-//! Smoothing filters. Algorithms are pure functions over arrays (one per file); the service
-//! functions here only move data between them and the host.
+//! Smoothing and noise filters. Algorithms are pure functions over arrays (one per file);
+//! the service functions here only move data between them and the host.
 
 pub mod laplacian;
+pub mod noise;
+pub mod random;
 
+use meshflow_sdk::geometry::bounding_box;
 use meshflow_sdk::{Mesh, ParamSpec, Params, Result, Service};
 
-use laplacian::Pinning;
+use laplacian::{Pinning, Weights};
 
 fn laplacian_smoothing(mesh: &Mesh, params: &Params) -> Result<String> {
     let iterations = params.integer("iterations")? as u32;
     let pinning = if params.boolean("keep-boundary")? { Pinning::Boundary } else { Pinning::None };
+    let weights = match params.text("weights")? {
+        "cotangent" => Weights::Cotangent,
+        _ => Weights::Uniform,
+    };
     let smoothed =
-        laplacian::smooth_uniform(&mesh.positions(), &mesh.triangles(), iterations, pinning);
+        laplacian::smooth(&mesh.positions(), &mesh.triangles(), iterations, pinning, weights);
     // One move-all edit for the whole step: the correction codes it as displacements.
     mesh.set_positions(&smoothed)?;
-    Ok(format!("{iterations} uniform Laplacian iteration(s) over {} vertices", mesh.vertex_count()))
+    Ok(format!(
+        "{iterations} {} Laplacian iteration(s) over {} vertices",
+        params.text("weights")?,
+        mesh.vertex_count()
+    ))
+}
+
+fn add_noise(mesh: &Mesh, params: &Params) -> Result<String> {
+    let percent = params.real("amount")?;
+    let seed = params.integer("seed")? as u64;
+    let positions = mesh.positions();
+    let diagonal = bounding_box(&positions).map_or(0.0, |b| b.diagonal());
+    let radius = percent / 100.0 * diagonal;
+    mesh.set_positions(&noise::add_noise(&positions, radius, seed))?;
+    Ok(format!(
+        "moved {} vertices by up to {radius:.6} ({percent}% of the bounding-box diagonal), seed {seed}",
+        mesh.vertex_count()
+    ))
 }
 
 fn services() -> Vec<Service> {
     vec![
         Service::filter(
             "laplacian-smoothing",
-            "Moves every vertex to the average of its neighbours, `iterations` times.",
+            "Moves every vertex to the weighted average of its neighbours, `iterations` times.",
             laplacian_smoothing,
         )
         .param(ParamSpec::integer("iterations", 1).range(1.0, 1000.0).doc("Smoothing steps."))
-        .param(ParamSpec::boolean("keep-boundary", true).doc("Keep boundary vertices fixed.")),
+        .param(ParamSpec::boolean("keep-boundary", true).doc("Keep boundary vertices fixed."))
+        .param(ParamSpec::choice("weights", "uniform", &["uniform", "cotangent"]).doc(
+            "uniform: every neighbour alike; cotangent: cotangent edge weights, which keep \
+             the sampling and move vertices along the normal.",
+        )),
+        Service::filter(
+            "add-noise",
+            "Moves every vertex by a random vector, uniform in a ball of radius `amount` % of \
+             the bounding-box diagonal; the same seed gives the same result.",
+            add_noise,
+        )
+        .param(
+            ParamSpec::real("amount", 1.0)
+                .range(0.0, 100.0)
+                .doc("Largest displacement, in % of the bounding-box diagonal."),
+        )
+        .param(
+            ParamSpec::integer("seed", 0)
+                .range(0.0, i64::MAX as f64)
+                .doc("Seed of the random sequence."),
+        ),
     ]
 }
 

@@ -5,8 +5,8 @@ use super::super::build::{
     capacity, check_arity, check_corner, check_finite, check_vertex_count, push_fan,
 };
 use super::super::error::{Invalid, Position, ReadResult};
-use super::header::{self, Element, Encoding, Header, Kind};
-use super::source::{Ascii, BigEndian, Binary, LittleEndian, Source};
+use super::header::{self, Element, Encoding, Header, Kind, Scalar};
+use super::source::{Ascii, BigEndian, Binary, LittleEndian, Source, truncated};
 use crate::mesh::MeshData;
 
 /// Decodes a PLY file of any encoding.
@@ -116,9 +116,12 @@ fn read_vertices<S: Source>(
     // `check_sizes` bounded the count by the file size, so this reservation is safe.
     positions.reserve(element.count as usize * 3);
     if let Some(size) = element.fixed_size()
-        && let Some((block, offset)) = source.fixed_block(element.count, size)?
+        && let Some((data, offset)) = source.unread()
     {
-        return decode_fixed_vertices::<S>(element, axes, size, block, offset, positions);
+        let block = fixed_block(data, offset, element.count, size)?;
+        decode_fixed_vertices::<S>(element, axes, size, block, offset, positions)?;
+        source.consume(block.len());
+        return Ok(());
     }
     let roles: Vec<Option<usize>> =
         (0..element.properties.len()).map(|p| axes.iter().position(|&a| a == p)).collect();
@@ -135,6 +138,12 @@ fn read_vertices<S: Source>(
         positions.extend_from_slice(&p);
     }
     Ok(())
+}
+
+/// The first `count` records of `size` bytes of a binary body, or the truncation error.
+fn fixed_block(data: &[u8], offset: usize, count: u64, size: usize) -> ReadResult<&[u8]> {
+    let len = usize::try_from(count).unwrap_or(usize::MAX).saturating_mul(size);
+    data.get(..len).ok_or_else(|| truncated(offset, len, data.len()))
 }
 
 /// The fast path for binary vertex records of one fixed layout: no per-value calls.
@@ -156,9 +165,9 @@ fn decode_fixed_vertices<S: Source>(
     let [(ox, tx), (oy, ty), (oz, tz)] = axes.map(field);
     for (vertex, record) in block.chunks_exact(size).enumerate() {
         let p = [
-            S::decode(tx, &record[ox..]),
-            S::decode(ty, &record[oy..]),
-            S::decode(tz, &record[oz..]),
+            S::decode_f32(tx, &record[ox..]),
+            S::decode_f32(ty, &record[oy..]),
+            S::decode_f32(tz, &record[oz..]),
         ];
         check_finite(vertex, p, Position::Byte((offset + vertex * size) as u64))?;
         positions.extend_from_slice(&p);
@@ -186,6 +195,20 @@ fn read_faces<S: Source>(
     // Most faces are triangles; the cap keeps a lying count from reserving beyond the file.
     let triangle_bytes = element.min_size(Encoding::BinaryLittleEndian) + 3 * item.size();
     triangles.reserve(capacity(element.count, source.remaining(), triangle_bytes) * 3);
+    if element.properties.len() == 1
+        && let Some((data, offset)) = source.unread()
+    {
+        let len = decode_face_lists::<S>(
+            data,
+            offset,
+            element.count,
+            [count_type, item],
+            vertices,
+            triangles,
+        )?;
+        source.consume(len);
+        return Ok(());
+    }
     let mut corners = Vec::new();
     for face in 0..element.count as usize {
         let in_face = |e: Invalid| e.context(format_args!("face {face}"));
@@ -207,13 +230,48 @@ fn read_faces<S: Source>(
     Ok(())
 }
 
+/// The fast path for binary faces that hold nothing but their corner list (what nearly every
+/// writer produces): decodes straight from the bytes. Returns the bytes used.
+fn decode_face_lists<S: Source>(
+    data: &[u8],
+    offset: usize,
+    count: u64,
+    [count_type, item]: [Scalar; 2],
+    vertices: u64,
+    triangles: &mut Vec<u32>,
+) -> ReadResult<usize> {
+    let (count_size, item_size) = (count_type.size(), item.size());
+    let at = |pos: usize| Position::Byte((offset + pos) as u64);
+    let mut corners = Vec::new();
+    let mut pos = 0;
+    for face in 0..count as usize {
+        let in_face = |e: Invalid| e.context(format_args!("face {face}"));
+        let head = fixed_block(&data[pos..], offset + pos, 1, count_size).map_err(in_face)?;
+        let n = S::decode_int(count_type, head);
+        check_arity(face, n, at(pos))?;
+        let start = pos + count_size;
+        let list =
+            fixed_block(&data[start..], offset + start, n as u64, item_size).map_err(in_face)?;
+        corners.clear();
+        for (k, raw) in list.chunks_exact(item_size).enumerate() {
+            let corner = S::decode_int(item, raw);
+            corners.push(check_corner(face, corner, vertices, at(start + k * item_size))?);
+        }
+        push_fan(triangles, &corners);
+        pos = start + list.len();
+    }
+    Ok(pos)
+}
+
 fn skip_element<S: Source>(source: &mut S, element: &Element) -> ReadResult<()> {
     if element.properties.is_empty() {
         return Ok(());
     }
     if let Some(size) = element.fixed_size()
-        && source.fixed_block(element.count, size)?.is_some()
+        && let Some((data, offset)) = source.unread()
     {
+        let len = fixed_block(data, offset, element.count, size)?.len();
+        source.consume(len);
         return Ok(());
     }
     for record in 0..element.count {

@@ -21,12 +21,20 @@ pub(super) trait Source {
     fn integer(&mut self, ty: Scalar) -> ReadResult<i64>;
     /// Skips one property value (a scalar or a whole list).
     fn skip(&mut self, kind: Kind) -> ReadResult<()>;
-    /// Binary only: takes `count` records of `size` bytes as one slice (with the file offset
-    /// of its start), so fixed-layout elements can be decoded or skipped without per-value
-    /// calls. `None` for ascii.
-    fn fixed_block(&mut self, count: u64, size: usize) -> ReadResult<Option<(&[u8], usize)>>;
-    /// Decodes a scalar from the start of `bytes` (binary sources only).
-    fn decode(ty: Scalar, bytes: &[u8]) -> f32;
+    /// Binary only: the unread bytes and the file offset of their start, so the common
+    /// layouts can be decoded in bulk instead of value by value. `None` for ascii.
+    fn unread(&self) -> Option<(&[u8], usize)>;
+    /// Marks `len` bytes of [`Source::unread`] as read.
+    fn consume(&mut self, len: usize);
+    /// Binary only: decodes a scalar at the start of `bytes` as an `f32`.
+    fn decode_f32(ty: Scalar, bytes: &[u8]) -> f32;
+    /// Binary only: decodes an integer scalar at the start of `bytes`.
+    fn decode_int(ty: Scalar, bytes: &[u8]) -> i64;
+}
+
+/// The error for a binary body that ends before `needed` bytes at file offset `at`.
+pub(super) fn truncated(at: usize, needed: usize, left: usize) -> Invalid {
+    Invalid::byte(at, format!("the file is truncated: {needed} more bytes needed, {left} left"))
 }
 
 /// Byte order of a binary body.
@@ -82,28 +90,11 @@ impl<'a, O: Order> Binary<'a, O> {
     fn take(&mut self, len: usize) -> ReadResult<&'a [u8]> {
         let remaining = self.bytes.len() - self.pos;
         if len > remaining {
-            let reason =
-                format!("the file is truncated: {len} more bytes needed, {remaining} left");
-            return Err(Invalid::byte(self.base + self.pos, reason));
+            return Err(truncated(self.base + self.pos, len, remaining));
         }
         self.last = self.pos;
         self.pos += len;
         Ok(&self.bytes[self.last..self.pos])
-    }
-
-    #[inline]
-    fn integer_of(ty: Scalar, b: &[u8]) -> i64 {
-        match ty {
-            Scalar::I8 => i64::from(b[0] as i8),
-            Scalar::U8 => i64::from(b[0]),
-            Scalar::I16 => i64::from(O::u16(array(b)) as i16),
-            Scalar::U16 => i64::from(O::u16(array(b))),
-            Scalar::I32 => i64::from(O::u32(array(b)) as i32),
-            Scalar::U32 => i64::from(O::u32(array(b))),
-            // Headers with float lists are rejected before reading; truncate if one slips by.
-            Scalar::F32 => f32::from_bits(O::u32(array(b))) as i64,
-            Scalar::F64 => f64::from_bits(O::u64(array(b))) as i64,
-        }
     }
 }
 
@@ -123,12 +114,12 @@ impl<O: Order> Source for Binary<'_, O> {
 
     #[inline]
     fn coordinate(&mut self, ty: Scalar) -> ReadResult<f32> {
-        Ok(Self::decode(ty, self.take(ty.size())?))
+        Ok(Self::decode_f32(ty, self.take(ty.size())?))
     }
 
     #[inline]
     fn integer(&mut self, ty: Scalar) -> ReadResult<i64> {
-        Ok(Self::integer_of(ty, self.take(ty.size())?))
+        Ok(Self::decode_int(ty, self.take(ty.size())?))
     }
 
     fn skip(&mut self, kind: Kind) -> ReadResult<()> {
@@ -144,18 +135,36 @@ impl<O: Order> Source for Binary<'_, O> {
         }
     }
 
-    fn fixed_block(&mut self, count: u64, size: usize) -> ReadResult<Option<(&[u8], usize)>> {
-        let len = usize::try_from(count).unwrap_or(usize::MAX).saturating_mul(size);
-        let block = self.take(len)?;
-        Ok(Some((block, self.base + self.last)))
+    fn unread(&self) -> Option<(&[u8], usize)> {
+        Some((&self.bytes[self.pos..], self.base + self.pos))
+    }
+
+    fn consume(&mut self, len: usize) {
+        self.last = self.pos;
+        self.pos += len;
     }
 
     #[inline]
-    fn decode(ty: Scalar, b: &[u8]) -> f32 {
+    fn decode_f32(ty: Scalar, b: &[u8]) -> f32 {
         match ty {
             Scalar::F32 => f32::from_bits(O::u32(array(b))),
             Scalar::F64 => f64::from_bits(O::u64(array(b))) as f32,
-            _ => Self::integer_of(ty, b) as f32,
+            _ => Self::decode_int(ty, b) as f32,
+        }
+    }
+
+    #[inline]
+    fn decode_int(ty: Scalar, b: &[u8]) -> i64 {
+        match ty {
+            Scalar::I8 => i64::from(b[0] as i8),
+            Scalar::U8 => i64::from(b[0]),
+            Scalar::I16 => i64::from(O::u16(array(b)) as i16),
+            Scalar::U16 => i64::from(O::u16(array(b))),
+            Scalar::I32 => i64::from(O::u32(array(b)) as i32),
+            Scalar::U32 => i64::from(O::u32(array(b))),
+            // Headers with float lists are rejected before reading; truncate if one slips by.
+            Scalar::F32 => f32::from_bits(O::u32(array(b))) as i64,
+            Scalar::F64 => f64::from_bits(O::u64(array(b))) as i64,
         }
     }
 }
@@ -226,11 +235,19 @@ impl Source for Ascii<'_> {
         }
     }
 
-    fn fixed_block(&mut self, _count: u64, _size: usize) -> ReadResult<Option<(&[u8], usize)>> {
-        Ok(None)
+    fn unread(&self) -> Option<(&[u8], usize)> {
+        None
     }
 
-    fn decode(_ty: Scalar, _bytes: &[u8]) -> f32 {
-        unreachable!("ascii bodies have no fixed blocks")
+    fn consume(&mut self, _len: usize) {
+        unreachable!("ascii bodies are read token by token")
+    }
+
+    fn decode_f32(_ty: Scalar, _bytes: &[u8]) -> f32 {
+        unreachable!("ascii bodies are read token by token")
+    }
+
+    fn decode_int(_ty: Scalar, _bytes: &[u8]) -> i64 {
+        unreachable!("ascii bodies are read token by token")
     }
 }

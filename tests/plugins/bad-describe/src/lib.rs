@@ -8,10 +8,7 @@ fn nothing(_: &Mesh, _: &Params) -> Result<String> {
 }
 
 fn services() -> Vec<Service> {
-    vec![
-        Service::filter("twin", "First.", nothing),
-        Service::filter("twin", "Second.", nothing),
-    ]
+    vec![Service::filter("twin", "First.", nothing), Service::filter("twin", "Second.", nothing)]
 }
 
 meshflow_sdk::export_plugin!(services);

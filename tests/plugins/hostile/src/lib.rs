@@ -86,12 +86,26 @@ fn services() -> Vec<Service> {
         Service::filter("trap", "Aborts.", trap),
         Service::filter("panic", "Panics.", panic),
         Service::filter("bad-edit", "Makes an invalid edit and propagates the error.", bad_edit),
-        Service::filter("ignore-bad-edits", "Makes invalid edits, then a valid one.", ignore_bad_edits),
+        Service::filter(
+            "ignore-bad-edits",
+            "Makes invalid edits, then a valid one.",
+            ignore_bad_edits,
+        ),
         Service::filter("edit-forever", "Adds vertices without end.", edit_forever),
         Service::filter("print-forever", "Prints without end.", print_forever),
         Service::filter("fail", "Returns an error.", fail),
-        Service::check("edit-in-check", "Edits although it is a check.", ValueType::Boolean, edit_in_check),
-        Service::check("wrong-result-type", "Declares an integer, returns text.", ValueType::Integer, wrong_result_type),
+        Service::check(
+            "edit-in-check",
+            "Edits although it is a check.",
+            ValueType::Boolean,
+            edit_in_check,
+        ),
+        Service::check(
+            "wrong-result-type",
+            "Declares an integer, returns text.",
+            ValueType::Integer,
+            wrong_result_type,
+        ),
     ]
 }
 

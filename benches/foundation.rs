@@ -1,0 +1,131 @@
+//! Foundation benchmarks (issue 2), printed as a table. Run with
+//! `cargo bench --bench foundation` (release). Each figure is the best of a few runs;
+//! ratios are measured side by side in this one run, as the machine is noisy.
+//!
+//! - binary PLY load of a 1M-vertex / 2M-triangle scan (MeshLab via pymeshlab alongside,
+//!   when `python3 -c "import pymeshlab"` works),
+//! - compaction and content hash after a step that removed elements,
+//! - one Laplacian step through the sandboxed plugin against the same code native,
+//! - loading a component from the on-disk artefact cache.
+
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use meshflow_builtin_plugins::PLUGINS;
+use meshflow_host::generate::{ScanSpec, scan};
+use meshflow_host::runtime::{Limits, Runtime, Value};
+use meshflow_host::store::{MeshStore, Op};
+use meshflow_host::{MeshData, io};
+use meshflow_plugin_smoothing::laplacian::{Pinning, smooth_uniform};
+
+const RUNS: usize = 5;
+
+fn best<T>(runs: usize, mut f: impl FnMut() -> T) -> (Duration, T) {
+    let mut fastest = Duration::MAX;
+    let mut last = None;
+    for _ in 0..runs {
+        let started = Instant::now();
+        let value = f();
+        fastest = fastest.min(started.elapsed());
+        last = Some(value);
+    }
+    (fastest, last.expect("at least one run"))
+}
+
+fn row(what: &str, time: Duration, note: &str) {
+    println!("| {what:<52} | {:>10.2} | {note} |", time.as_secs_f64() * 1e3);
+}
+
+fn main() {
+    let spec = ScanSpec { vertices: 1_000_000, components: 150, holes: 400, noise: 0.1, seed: 1 };
+    let mesh = scan(&spec);
+    println!(
+        "mesh: generated scan, {} vertices, {} triangles\n",
+        mesh.vertex_count(),
+        mesh.triangle_count()
+    );
+    println!("| {:<52} | {:>10} | note |", "what", "ms");
+    println!("|{:-<54}|{:->12}|------|", "", "");
+
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let ply = dir.path().join("scan.ply");
+    io::save(&ply, &mesh).expect("saving the scan");
+    let (load, loaded) = best(RUNS, || io::load(&ply).expect("loading the scan"));
+    assert_eq!(loaded, mesh);
+    match meshlab_load_time(&ply) {
+        Some(meshlab) => row(
+            "binary PLY load (meshflow)",
+            load,
+            &format!("MeshLab {:.0} ms here: ratio {:.2}", ms(meshlab), ratio(load, meshlab)),
+        ),
+        None => row("binary PLY load (meshflow)", load, "goal ≤ 400 ms (MeshLab: 1060 ms)"),
+    }
+
+    let every_tenth: Vec<u32> = (0..mesh.triangle_count() as u32).step_by(10).collect();
+    let compaction = (0..RUNS)
+        .map(|_| {
+            let mut store = MeshStore::new(mesh.clone());
+            store.apply(Op::RemoveTriangles { ids: every_tenth.clone() }).unwrap();
+            let started = Instant::now();
+            let (result, _) = store.finish();
+            std::hint::black_box(result.content_hash());
+            started.elapsed()
+        })
+        .min()
+        .expect("at least one run");
+    row("compaction + BLAKE3 hash after removing 10 % triangles", compaction, "");
+    let (hash_only, _) = best(RUNS, || mesh.content_hash());
+    row("BLAKE3 content hash alone", hash_only, "");
+
+    laplacian_rows(&mesh);
+    cache_rows(dir.path());
+}
+
+fn laplacian_rows(mesh: &MeshData) {
+    let (native, expected) =
+        best(RUNS, || smooth_uniform(&mesh.positions, &mesh.triangles, 1, Pinning::Boundary));
+    let runtime = Runtime::new(Limits::default(), None).expect("a runtime");
+    let wasm = PLUGINS.iter().find(|p| p.name == "smoothing").expect("smoothing").wasm;
+    let plugin = runtime.load(wasm).expect("the smoothing plugin");
+    let params = [("iterations".to_owned(), Value::Integer(1))];
+    let (sandboxed, output) = best(RUNS, || {
+        runtime.run(&plugin, "laplacian-smoothing", mesh, &params).expect("a Laplacian step")
+    });
+    assert_eq!(output.mesh.expect("a filter returns a mesh").positions, expected);
+    row("Laplacian step, native (same code, plain function)", native, "");
+    row(
+        "Laplacian step, plugin in the sandbox (whole run)",
+        sandboxed,
+        &format!("ratio to native {:.2} (goal ≤ 1.3)", ratio(sandboxed, native)),
+    );
+}
+
+fn cache_rows(cache_dir: &Path) {
+    let wasm = PLUGINS[0].wasm;
+    let cold = Runtime::new(Limits::default(), Some(cache_dir)).expect("a runtime");
+    let (compile, _) = best(1, || cold.load(wasm).expect("compiling"));
+    row("component load, compiling (cold cache)", compile, "");
+    let warm = Runtime::new(Limits::default(), Some(cache_dir)).expect("a runtime");
+    let (cached, _) = best(RUNS, || warm.load(wasm).expect("loading from the cache"));
+    row("component load from the artefact cache (+ describe)", cached, "goal ≤ 1 ms");
+}
+
+/// MeshLab's load time for the same file, if pymeshlab is installed.
+fn meshlab_load_time(path: &Path) -> Option<Duration> {
+    let script = format!(
+        "import time, pymeshlab\nbest = 1e9\nfor _ in range({RUNS}):\n    ms = pymeshlab.MeshSet()\n    t = time.perf_counter()\n    ms.load_new_mesh({:?})\n    best = min(best, time.perf_counter() - t)\nprint(best)",
+        path.display().to_string()
+    );
+    let out = Command::new("python3").args(["-c", &script]).output().ok()?;
+    let seconds: f64 = String::from_utf8(out.stdout).ok()?.trim().parse().ok()?;
+    Some(Duration::from_secs_f64(seconds))
+}
+
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+fn ratio(a: Duration, b: Duration) -> f64 {
+    a.as_secs_f64() / b.as_secs_f64()
+}

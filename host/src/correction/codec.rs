@@ -1,0 +1,76 @@
+//! What encoder and decoder share: the four output sections and every adaptive model, each
+//! starting from the same state on both sides.
+
+use super::coding::corners::CornerCoder;
+use super::coding::integer::int_model;
+use super::coding::model::AdaptiveModel;
+use super::coding::residual::ResidualCoder;
+use super::lists::{ElementCoder, IdListCoder};
+use crate::store::OpKind;
+
+/// The kind alphabet: the 16 op kinds, then "no further op".
+pub(super) const END: usize = 16;
+
+/// One coder per section, in `SECTIONS` order.
+pub(super) struct Sections<T> {
+    /// Op kinds, counts, single-element ids, flags.
+    pub(super) ops: T,
+    /// Id lists of bulk ops.
+    pub(super) ids: T,
+    /// Corners of added triangles.
+    pub(super) connectivity: T,
+    /// Coordinates, transforms.
+    pub(super) geometry: T,
+}
+
+pub(super) struct Models {
+    pub(super) kind: AdaptiveModel,
+    pub(super) count: AdaptiveModel,
+    pub(super) has_point: AdaptiveModel,
+    pub(super) extend_vertex: AdaptiveModel,
+    /// A `set-positions` vertex's [`motion`] symbol, in the context of the previous vertex's.
+    pub(super) motion: [AdaptiveModel; 3],
+    pub(super) elements: ElementCoder,
+    pub(super) lists: IdListCoder,
+    pub(super) corners: CornerCoder,
+    pub(super) new_points: ResidualCoder,
+    pub(super) moves: ResidualCoder,
+    pub(super) smoothing: ResidualCoder,
+    pub(super) split_points: ResidualCoder,
+    pub(super) last_extend_vertex: u32,
+}
+
+impl Models {
+    pub(super) fn new() -> Self {
+        Self {
+            kind: AdaptiveModel::new(END + 1),
+            count: int_model(),
+            has_point: AdaptiveModel::new(2),
+            extend_vertex: int_model(),
+            motion: std::array::from_fn(|_| AdaptiveModel::new(3)),
+            elements: ElementCoder::new(),
+            lists: IdListCoder::new(),
+            corners: CornerCoder::new(),
+            new_points: ResidualCoder::new(),
+            moves: ResidualCoder::new(),
+            smoothing: ResidualCoder::new(),
+            split_points: ResidualCoder::new(),
+            last_extend_vertex: 0,
+        }
+    }
+}
+
+pub(super) fn kind_symbol(kind: OpKind) -> usize {
+    super::header::kind_index(kind)
+}
+
+/// How a vertex fared under `set-positions`: one symbol covers the common cases, so an
+/// exactly predicted smoothing step costs one cheap symbol per vertex, not four.
+pub(super) mod motion {
+    /// The vertex kept its position.
+    pub(crate) const STILL: usize = 0;
+    /// The vertex is exactly where the smoothing prediction puts it.
+    pub(crate) const PREDICTED: usize = 1;
+    /// A residual from the prediction follows.
+    pub(crate) const RESIDUAL: usize = 2;
+}

@@ -1,0 +1,71 @@
+//! Corrections (`.mfc`): the edit log of one step, entropy coded, replayed bit-exactly on
+//! another host.
+//!
+//! A correction names the mesh it applies to and the mesh it produces (content hashes), and
+//! holds the ops of the step. Both [`encode`] and [`apply`] replay the ops through a
+//! [`MeshStore`](crate::store::MeshStore), so every prediction is made from the same state
+//! on both sides and only residuals are coded:
+//! - ids as deltas; ascending id lists as runs of consecutive ids;
+//! - new vertices as exact f32 residuals from the mean of their neighbours in the triangles
+//!   added with them, split points from the centroid or midpoint they replace;
+//! - moves as residuals from the old position; `set-positions` per vertex as "still",
+//!   "exactly predicted" or a residual, the prediction being one step of uniform Laplacian
+//!   smoothing with a fitted factor.
+//!
+//! Residuals are differences of order-preserving integer images of the f32 bits, so the
+//! codec is lossless. The header is readable without the base mesh ([`decode`]), for
+//! `meshflow correction inspect`. The file layout is described in `header.rs`.
+//!
+//! ```
+//! use meshflow_host::{MeshData, correction, store::{MeshStore, Op}};
+//! let base = MeshData::new(vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], vec![0, 1, 2]);
+//! let mut store = MeshStore::new(base.clone());
+//! store.apply(Op::SplitTriangle { triangle: 0, at: None }).unwrap();
+//! let (result, log) = store.finish();
+//! let bytes = correction::encode(&base, &log, &result).unwrap();
+//! assert_eq!(correction::apply(&base, &bytes).unwrap(), result);
+//! ```
+
+mod codec;
+pub(crate) mod coding;
+mod decode;
+mod encode;
+mod error;
+mod header;
+mod lists;
+mod predict;
+
+pub use encode::encode;
+pub use error::CorrectionError;
+pub use header::{Correction, KindCount, SECTIONS, VERSION};
+
+use crate::MeshData;
+use crate::store::Op;
+
+/// Reads and checks a correction's header (magic, version, checksum, section sizes),
+/// without the base mesh.
+pub fn decode(bytes: &[u8]) -> Result<Correction, CorrectionError> {
+    header::read(bytes).map(|(header, _)| header)
+}
+
+/// Applies a correction to `base`: checks the base hash, replays the ops, checks the result
+/// hash. The result is bit-identical to the producer's.
+pub fn apply(base: &MeshData, bytes: &[u8]) -> Result<MeshData, CorrectionError> {
+    replay(base, bytes).map(|(mesh, _)| mesh)
+}
+
+/// Like [`apply`], also returning the replayed edit log (equal to the producer's log).
+pub fn replay(base: &MeshData, bytes: &[u8]) -> Result<(MeshData, Vec<Op>), CorrectionError> {
+    let (header, sections) = header::read(bytes)?;
+    let counts = [base.vertex_count() as u64, base.triangle_count() as u64];
+    let found = base.content_hash();
+    if counts != header.base_counts || found != header.base {
+        return Err(CorrectionError::BaseMismatch { expected: header.base, found });
+    }
+    let (mesh, log) = decode::replay(&header, sections, base.clone())?;
+    let found = mesh.content_hash();
+    if found != header.result {
+        return Err(CorrectionError::ResultMismatch { expected: header.result, found });
+    }
+    Ok((mesh, log))
+}

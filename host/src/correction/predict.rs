@@ -1,0 +1,176 @@
+//! Predictions both sides compute from the mesh state before an op, so that only the
+//! difference between prediction and truth is coded.
+
+use crate::store::{MeshStore, REMOVED};
+
+/// `(a + b + c) / 3` of a live triangle, `None` for an invalid id (the store will refuse it).
+pub(crate) fn centroid(store: &MeshStore, triangle: u32) -> Option<[f32; 3]> {
+    let [a, b, c] = store.triangle(triangle).ok()?;
+    let (a, b, c) = (point(store, a), point(store, b), point(store, c));
+    Some(std::array::from_fn(|k| (a[k] + b[k] + c[k]) / 3.0))
+}
+
+/// The midpoint of a half-edge of a live triangle.
+pub(crate) fn midpoint(store: &MeshStore, edge: u32) -> Option<[f32; 3]> {
+    let corners = store.triangle(edge / 3).ok()?;
+    let k = (edge % 3) as usize;
+    let (a, b) = (point(store, corners[k]), point(store, corners[(k + 1) % 3]));
+    Some(std::array::from_fn(|i| (a[i] + b[i]) * 0.5))
+}
+
+/// A vertex slot's position (removed slots keep their last one); the origin out of range.
+pub(crate) fn point(store: &MeshStore, v: u32) -> [f32; 3] {
+    let i = 3 * v as usize;
+    match store.positions().get(i..i + 3) {
+        Some(p) => [p[0], p[1], p[2]],
+        None => [0.0; 3],
+    }
+}
+
+/// The mean of some points, summed in f64 in the given order.
+pub(crate) fn mean(points: impl Iterator<Item = [f32; 3]>) -> Option<[f32; 3]> {
+    let (mut sum, mut n) = ([0.0f64; 3], 0u32);
+    for p in points {
+        for k in 0..3 {
+            sum[k] += f64::from(p[k]);
+        }
+        n += 1;
+    }
+    (n > 0).then(|| sum.map(|s| (s / f64::from(n)) as f32))
+}
+
+/// Distinct neighbours of every vertex slot over the live triangles, ascending: the
+/// neighbourhood a smoothing filter averages over.
+pub(crate) struct Neighbours {
+    start: Vec<u32>,
+    len: Vec<u32>,
+    ids: Vec<u32>,
+}
+
+impl Neighbours {
+    pub(crate) fn of_store(store: &MeshStore) -> Self {
+        let slots = store.vertex_slots() as usize;
+        let live = store.triangles().chunks_exact(3).filter(|t| t[0] != REMOVED);
+        let mut start = vec![0u32; slots + 1];
+        for t in live.clone() {
+            for &v in t {
+                start[v as usize + 1] += 2;
+            }
+        }
+        for i in 0..slots {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut ids = vec![0u32; start[slots] as usize];
+        for t in live {
+            for k in 0..3 {
+                let v = t[k] as usize;
+                let at = fill[v] as usize;
+                ids[at] = t[(k + 1) % 3];
+                ids[at + 1] = t[(k + 2) % 3];
+                fill[v] += 2;
+            }
+        }
+        let mut len = vec![0u32; slots];
+        for v in 0..slots {
+            let list = &mut ids[start[v] as usize..start[v + 1] as usize];
+            list.sort_unstable();
+            let mut unique = 0;
+            for i in 0..list.len() {
+                // A degenerate triangle may name the vertex itself: not a neighbour.
+                if list[i] as usize != v && (unique == 0 || list[i] != list[unique - 1]) {
+                    list[unique] = list[i];
+                    unique += 1;
+                }
+            }
+            len[v] = unique as u32;
+        }
+        Self { start, len, ids }
+    }
+
+    pub(crate) fn of(&self, v: u32) -> &[u32] {
+        let s = self.start[v as usize] as usize;
+        &self.ids[s..s + self.len[v as usize] as usize]
+    }
+}
+
+/// `λ·mean + (1−λ)·p` per axis in f64: one step of uniform Laplacian smoothing with
+/// factor λ. For λ = 1 it is exactly the neighbour mean, as a smoothing filter computes it.
+pub(crate) fn smoothed(p: [f32; 3], mean: [f64; 3], lambda: f32) -> [f32; 3] {
+    let l = f64::from(lambda);
+    std::array::from_fn(|k| (mean[k] * l + f64::from(p[k]) * (1.0 - l)) as f32)
+}
+
+/// The f64 mean of a vertex's neighbours, `None` without neighbours.
+pub(crate) fn neighbour_mean(positions: &[f32], around: &[u32]) -> Option<[f64; 3]> {
+    if around.is_empty() {
+        return None;
+    }
+    let mut sum = [0.0f64; 3];
+    for &n in around {
+        let p = &positions[3 * n as usize..3 * n as usize + 3];
+        for k in 0..3 {
+            sum[k] += f64::from(p[k]);
+        }
+    }
+    // Divided, not multiplied by a reciprocal: the bits `laplacian-smoothing` produces.
+    let n = around.len() as f64;
+    Some(sum.map(|s| s / n))
+}
+
+/// For each of `count` new vertices (ids `first..first + count`), the other corners of the
+/// triangles of `abc` that use it: added triangles tell where added vertices lie.
+pub(crate) struct NewVertexNeighbours {
+    first: u32,
+    start: Vec<u32>,
+    ids: Vec<u32>,
+}
+
+impl NewVertexNeighbours {
+    pub(crate) fn new(first: u32, count: usize, abc: &[u32]) -> Self {
+        let new_index = |v: u32| v.checked_sub(first).map(|i| i as usize).filter(|&i| i < count);
+        let mut start = vec![0u32; count + 1];
+        for t in abc.chunks_exact(3) {
+            for &v in t {
+                if let Some(i) = new_index(v) {
+                    start[i + 1] += 2;
+                }
+            }
+        }
+        for i in 0..count {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut ids = vec![0u32; start[count] as usize];
+        for t in abc.chunks_exact(3) {
+            for k in 0..3 {
+                if let Some(i) = new_index(t[k]) {
+                    let at = fill[i] as usize;
+                    ids[at] = t[(k + 1) % 3];
+                    ids[at + 1] = t[(k + 2) % 3];
+                    fill[i] += 2;
+                }
+            }
+        }
+        Self { first, start, ids }
+    }
+
+    /// The predicted position of new vertex `j`: the mean of its neighbours known so far
+    /// (old vertices, and new ones before it in `placed`), else the previous new vertex,
+    /// else the last old vertex.
+    pub(crate) fn predict(&self, store: &MeshStore, placed: &[f32], j: usize) -> [f32; 3] {
+        let around = &self.ids[self.start[j] as usize..self.start[j + 1] as usize];
+        let known = around.iter().filter_map(|&n| match n.checked_sub(self.first) {
+            None => Some(point(store, n)),
+            Some(i) if (i as usize) < j => {
+                let i = 3 * i as usize;
+                Some([placed[i], placed[i + 1], placed[i + 2]])
+            }
+            Some(_) => None,
+        });
+        mean(known).unwrap_or_else(|| match j {
+            0 => point(store, self.first.wrapping_sub(1)),
+            _ => [placed[3 * j - 3], placed[3 * j - 2], placed[3 * j - 1]],
+        })
+    }
+}

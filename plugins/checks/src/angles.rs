@@ -1,0 +1,161 @@
+//! The smallest and largest interior angle over the non-degenerate triangles.
+//!
+//! A triangle is degenerate when it has a repeated vertex id or exactly zero area (see
+//! [`geometry::is_degenerate`]); its angles (0° and 180°) say nothing about the shape of the
+//! surface, so it is skipped, as are triangles with out-of-range ids. **A mesh without any
+//! non-degenerate triangle has no angles to measure: both checks then read 0.**
+//!
+//! Speed: no per-corner trigonometry. In a triangle with (unnormalised) normal `n`, the angle
+//! at a corner has cotangent `dot / |n|` (`dot` of the two edge vectors leaving the corner),
+//! and the cotangent decreases strictly over `(0°, 180°)`. So the smallest angle of the mesh
+//! belongs to the largest such ratio and the largest angle to the smallest; one pass finds
+//! those two triangles, and only their angles are then computed exactly.
+
+use meshflow_sdk::geometry::{self, Vec3, dot, norm, normal_of, sub};
+use meshflow_sdk::topology::is_proper_triangle;
+
+/// The smallest angle in degrees over the non-degenerate triangles, 0 if there is none. O(T).
+pub fn min_angle(positions: &[f32], triangles: &[u32]) -> f64 {
+    extreme_corners(positions, triangles).map_or(0.0, |e| angle(positions, triangles, e.min))
+}
+
+/// The largest angle in degrees over the non-degenerate triangles, 0 if there is none. O(T).
+pub fn max_angle(positions: &[f32], triangles: &[u32]) -> f64 {
+    extreme_corners(positions, triangles).map_or(0.0, |e| angle(positions, triangles, e.max))
+}
+
+/// A corner: triangle id and corner (0, 1, 2).
+type Corner = (u32, usize);
+
+/// Where the smallest and the largest angle of the mesh are.
+struct ExtremeCorners {
+    min: Corner,
+    max: Corner,
+}
+
+/// Finds the corners with the smallest and the largest angle over the non-degenerate
+/// triangles (the first one on ties), or `None` if there is no such triangle.
+fn extreme_corners(positions: &[f32], triangles: &[u32]) -> Option<ExtremeCorners> {
+    let vertex_count = positions.len() / 3;
+    // Largest and smallest cotangent seen so far, with their corners.
+    let mut sharpest: Option<(f64, Corner)> = None;
+    let mut widest: Option<(f64, Corner)> = None;
+    for t in 0..triangles.len() as u32 / 3 {
+        if !is_proper_triangle(triangles, vertex_count, t) {
+            continue;
+        }
+        let p = geometry::triangle_points(positions, triangles, t);
+        let area2 = norm(normal_of(&p));
+        // Zero area is degenerate; non-finite coordinates give no comparable angles.
+        if area2 == 0.0 || !area2.is_finite() {
+            continue;
+        }
+        // cot = dot / area2 with area2 > 0: compare dots against cot × area2 instead of
+        // dividing three times per triangle.
+        let dots = corner_dots(&p);
+        let (hi, lo) = (argmax(&dots), argmin(&dots));
+        if sharpest.is_none_or(|(c, _)| dots[hi] > c * area2) {
+            sharpest = Some((dots[hi] / area2, (t, hi)));
+        }
+        if widest.is_none_or(|(c, _)| dots[lo] < c * area2) {
+            widest = Some((dots[lo] / area2, (t, lo)));
+        }
+    }
+    Some(ExtremeCorners { min: sharpest?.1, max: widest?.1 })
+}
+
+/// The dot products of the two edge vectors leaving each corner of a triangle.
+fn corner_dots(p: &[Vec3; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|k| dot(sub(p[(k + 1) % 3], p[k]), sub(p[(k + 2) % 3], p[k])))
+}
+
+fn argmax(x: &[f64; 3]) -> usize {
+    if x[0] >= x[1] && x[0] >= x[2] {
+        0
+    } else if x[1] >= x[2] {
+        1
+    } else {
+        2
+    }
+}
+
+fn argmin(x: &[f64; 3]) -> usize {
+    if x[0] <= x[1] && x[0] <= x[2] {
+        0
+    } else if x[1] <= x[2] {
+        1
+    } else {
+        2
+    }
+}
+
+/// The angle at a corner in degrees, computed as the SDK computes every angle.
+fn angle(positions: &[f32], triangles: &[u32], (t, k): Corner) -> f64 {
+    geometry::corner_angles_degrees(positions, triangles, t)[k]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fixtures::*;
+
+    fn extremes(mesh: &Fixture) -> (f64, f64) {
+        (min_angle(&mesh.positions, &mesh.triangles), max_angle(&mesh.positions, &mesh.triangles))
+    }
+
+    fn assert_close(actual: (f64, f64), expected: (f64, f64)) {
+        let ok = (actual.0 - expected.0).abs() < 1e-9 && (actual.1 - expected.1).abs() < 1e-9;
+        assert!(ok, "got {actual:?}, expected {expected:?}");
+    }
+
+    #[test]
+    fn right_isosceles_triangles_span_45_to_90() {
+        for mesh in [cube(), open_cube(), flipped_cube(), two_sheets(), bow_tie()] {
+            assert_close(extremes(&mesh), (45.0, 90.0));
+        }
+    }
+
+    #[test]
+    fn a_regular_tetrahedron_has_only_60_degrees() {
+        assert_close(extremes(&tetrahedron()), (60.0, 60.0));
+    }
+
+    #[test]
+    fn mobius_strip_matches_a_direct_scan_of_all_corners() {
+        let mesh = mobius_strip(7);
+        let all: Vec<f64> = (0..mesh.triangles.len() as u32 / 3)
+            .flat_map(|t| geometry::corner_angles_degrees(&mesh.positions, &mesh.triangles, t))
+            .collect();
+        let expected = all.iter().fold((180.0f64, 0.0f64), |(lo, hi), &a| (lo.min(a), hi.max(a)));
+        assert_close(extremes(&mesh), expected);
+        assert!(expected.0 > 10.0 && expected.1 < 170.0, "a sane strip: {expected:?}");
+    }
+
+    #[test]
+    fn degenerate_triangles_are_skipped() {
+        // A collinear triangle (0° and 180°) and a repeated-id one next to the tetrahedron.
+        let mut mesh = tetrahedron();
+        mesh.positions.extend([2., 2., 2., 3., 3., 3.]);
+        mesh.triangles.extend([0, 4, 5, 1, 1, 2]);
+        assert_close(extremes(&mesh), (60.0, 60.0));
+    }
+
+    #[test]
+    fn without_a_non_degenerate_triangle_both_read_zero() {
+        assert_eq!(extremes(&degenerate_only()), (0.0, 0.0));
+        assert_eq!(extremes(&Fixture { positions: vec![], triangles: vec![] }), (0.0, 0.0));
+        let positions = vec![f32::NAN, 0., 0., 1., 0., 0., 0., 1., 0.];
+        assert_eq!(extremes(&Fixture { positions, triangles: vec![0, 1, 2] }), (0.0, 0.0));
+    }
+
+    #[test]
+    fn a_needle_is_found_in_any_corner() {
+        // The same thin triangle with its sharp corner rotated through positions 0, 1, 2.
+        let positions = vec![0., 0., 0., 10., 0., 0., 10., 1., 0.];
+        let sharp = 1f64.atan2(10.0).to_degrees();
+        for triangles in [vec![0, 1, 2], vec![2, 0, 1], vec![1, 2, 0]] {
+            let mesh = Fixture { positions: positions.clone(), triangles };
+            assert_close(extremes(&mesh), (sharp, 90.0));
+        }
+    }
+}

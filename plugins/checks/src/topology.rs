@@ -1,0 +1,76 @@
+//! Manifoldness and orientation, as yes/no answers.
+//!
+//! Only proper triangles (three distinct in-range vertex ids) take part: a triangle with a
+//! repeated or out-of-range id neither breaks nor establishes manifoldness or orientation.
+//! Zero-area triangles with distinct ids are proper and count like any other.
+
+use meshflow_sdk::topology::{HalfEdges, manifold};
+
+/// Whether the mesh is edge-manifold (no edge has three or more triangles) and
+/// vertex-manifold (the triangles around every vertex form a single fan, so no bow-tie).
+/// O(V + T).
+pub fn is_manifold(vertex_count: usize, triangles: &[u32]) -> bool {
+    let half_edges = HalfEdges::new(vertex_count, triangles);
+    manifold::is_manifold(vertex_count, triangles, &half_edges)
+}
+
+/// Whether every interior (two-triangle) edge is traversed in opposite directions by its two
+/// triangles. Boundary and non-manifold edges impose nothing. O(V + T).
+pub fn is_oriented(vertex_count: usize, triangles: &[u32]) -> bool {
+    manifold::is_oriented(&HalfEdges::new(vertex_count, triangles))
+}
+
+/// Whether flipping some triangles would make the mesh oriented (false for a Möbius strip).
+/// O(V + T).
+pub fn is_orientable(vertex_count: usize, triangles: &[u32]) -> bool {
+    manifold::is_orientable(&HalfEdges::new(vertex_count, triangles))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fixtures::*;
+
+    /// `(manifold, oriented, orientable)` of a fixture.
+    fn answers(mesh: &Fixture) -> (bool, bool, bool) {
+        let (v, t) = (mesh.vertex_count(), &mesh.triangles);
+        (is_manifold(v, t), is_oriented(v, t), is_orientable(v, t))
+    }
+
+    #[test]
+    fn closed_and_open_surfaces_are_manifold_and_oriented() {
+        assert_eq!(answers(&cube()), (true, true, true));
+        assert_eq!(answers(&tetrahedron()), (true, true, true));
+        assert_eq!(answers(&open_cube()), (true, true, true));
+    }
+
+    #[test]
+    fn one_flipped_triangle_is_not_oriented_but_orientable() {
+        assert_eq!(answers(&flipped_cube()), (true, false, true));
+    }
+
+    #[test]
+    fn a_mobius_strip_is_manifold_but_not_orientable() {
+        assert_eq!(answers(&mobius_strip(6)), (true, false, false));
+    }
+
+    #[test]
+    fn sheets_sharing_an_edge_are_not_manifold() {
+        // The shared edge has four triangles; no edge has exactly two, so nothing to orient.
+        assert_eq!(answers(&two_sheets()), (false, true, true));
+    }
+
+    #[test]
+    fn a_bow_tie_vertex_is_not_manifold() {
+        assert_eq!(answers(&bow_tie()), (false, true, true));
+    }
+
+    #[test]
+    fn degenerate_triangles_do_not_matter() {
+        assert_eq!(answers(&degenerate_only()), (true, true, true));
+        // A repeated-id triangle glued onto the tetrahedron changes nothing.
+        let mut mesh = tetrahedron();
+        mesh.triangles.extend([0, 0, 1, 2, 3, 2]);
+        assert_eq!(answers(&mesh), (true, true, true));
+    }
+}

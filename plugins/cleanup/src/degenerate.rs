@@ -1,0 +1,367 @@
+//! Repairing degenerate triangles as MeshFix does: caps are split away, needles collapsed,
+//! what cannot be repaired is removed, and so are duplicates and repeated-vertex triangles.
+//!
+//! A triangle is degenerate when its area is zero in `f64` (exactly collinear or coincident
+//! corners), or, with `epsilon > 0`, when its height onto its longest edge is at most
+//! `epsilon` times that edge ([`is_degenerate_within`]). It is a **needle** when its shortest
+//! edge is at most [`NEEDLE_RATIO`] times its longest (two corners (nearly) coincide): that
+//! edge is collapsed. Otherwise it is a **cap** (an angle of ~180° at the apex, opposite the
+//! long edge): the long edge is split at the apex's projection, which splits the triangle
+//! beyond it too, and the new vertex is merged into the apex, so the cap vanishes and its
+//! neighbour is cut in two at the apex. A repair is only made where it keeps the mesh as
+//! manifold as it was (the link condition); if neither repair applies the triangle is
+//! removed. Repairs cascade (a collapse can flatten a neighbour), so the triangles around
+//! every repaired spot are examined again, within a bound on the number of repairs.
+
+use std::collections::VecDeque;
+
+use meshflow_sdk::geometry::{add, dot, is_degenerate, is_degenerate_within, point, scale, sub};
+
+use crate::mirror::MirrorMesh;
+
+/// A degenerate triangle whose shortest edge is at most this fraction of its longest is a
+/// needle, else a cap. Small enough that a cap is never collapsed across a visible distance.
+pub const NEEDLE_RATIO: f64 = 1e-3;
+/// Repairs allowed per degenerate triangle found at the start (cascades included) before
+/// the rest are removed instead; plus a fixed allowance for small inputs.
+const REPAIRS_PER_DEGENERATE: usize = 8;
+const REPAIRS_MIN: usize = 64;
+
+/// What the repair did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RepairReport {
+    /// Triangles using a vertex twice, removed.
+    pub improper: usize,
+    /// Triangles with the same vertex set as a triangle of smaller id, removed.
+    pub duplicates: usize,
+    /// Degenerate triangles found after those removals.
+    pub degenerate: usize,
+    /// Caps removed by a split of their long edge.
+    pub caps: usize,
+    /// Needles removed by an edge collapse.
+    pub needles: usize,
+    /// Degenerate triangles no repair applied to, removed.
+    pub removed: usize,
+}
+
+impl std::fmt::Display for RepairReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "removed {} repeated-vertex and {} duplicate triangle(s); {} degenerate triangle(s): \
+             split {} cap(s), collapsed {} needle(s), removed {} unrepairable triangle(s)",
+            self.improper, self.duplicates, self.degenerate, self.caps, self.needles, self.removed
+        )
+    }
+}
+
+/// Repairs the degenerate triangles of a compact mesh (as a run receives it). Returns the
+/// edited mirror, whose edits replay the repair on the host, and what was done. Afterwards
+/// no live triangle is degenerate (by the same `epsilon`), repeats a vertex or duplicates
+/// another.
+pub fn repair_degenerate(
+    positions: Vec<f32>,
+    triangles: Vec<u32>,
+    epsilon: f64,
+) -> (MirrorMesh, RepairReport) {
+    let mut mesh = MirrorMesh::new(positions, triangles);
+    let mut report = RepairReport::default();
+    let doomed = improper_and_duplicates(&mesh, &mut report);
+    mesh.remove_triangles(&doomed);
+
+    let is_flat = |mesh: &MirrorMesh, t: u32| {
+        mesh.is_triangle_live(t) && {
+            let (positions, triangles) = (mesh.positions(), mesh.triangles());
+            // The exact test needs no edge lengths: a third of the time on a large scan.
+            if epsilon == 0.0 {
+                is_degenerate(positions, triangles, t)
+            } else {
+                is_degenerate_within(positions, triangles, t, epsilon)
+            }
+        }
+    };
+    let mut queue: VecDeque<u32> =
+        (0..mesh.triangle_slots()).filter(|&t| is_flat(&mesh, t)).collect();
+    report.degenerate = queue.len();
+    let mut budget = REPAIRS_PER_DEGENERATE * queue.len() + REPAIRS_MIN;
+    while let Some(t) = queue.pop_front() {
+        if !is_flat(&mesh, t) {
+            continue;
+        }
+        let repaired = if budget == 0 { None } else { repair_one(&mut mesh, t) };
+        budget = budget.saturating_sub(1);
+        match repaired {
+            Some((kind, spot)) => {
+                match kind {
+                    Kind::Cap => report.caps += 1,
+                    Kind::Needle => report.needles += 1,
+                }
+                queue.extend(mesh.around(spot));
+            }
+            None => {
+                mesh.remove_triangles(&[t]);
+                report.removed += 1;
+            }
+        }
+    }
+    (mesh, report)
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Cap,
+    Needle,
+}
+
+/// Triangles that repeat a vertex, and triangles whose vertex set an earlier triangle has
+/// (either orientation), ascending. O(T · d).
+fn improper_and_duplicates(mesh: &MirrorMesh, report: &mut RepairReport) -> Vec<u32> {
+    let mut doomed = Vec::new();
+    for t in 0..mesh.triangle_slots() {
+        let c = mesh.corners(t);
+        if c[0] == c[1] || c[1] == c[2] || c[0] == c[2] {
+            report.improper += 1;
+            doomed.push(t);
+            continue;
+        }
+        // An earlier triangle around c[0] with the two other corners has the same set (it is
+        // proper: removed improper triangles cannot match).
+        let earlier = mesh.around(c[0]).iter().take_while(|&&s| s < t);
+        let same_set = |s: u32| {
+            let cs = mesh.corners(s);
+            cs.contains(&c[1])
+                && cs.contains(&c[2])
+                && cs[0] != cs[1]
+                && cs[1] != cs[2]
+                && cs[0] != cs[2]
+        };
+        if earlier.into_iter().any(|&s| same_set(s)) {
+            report.duplicates += 1;
+            doomed.push(t);
+        }
+    }
+    doomed
+}
+
+/// Repairs one degenerate triangle: the repair its shape calls for, else the other one.
+/// Returns the kind applied and the vertex around which the mesh changed.
+fn repair_one(mesh: &mut MirrorMesh, t: u32) -> Option<(Kind, u32)> {
+    let c = mesh.corners(t);
+    let p = c.map(|v| point(mesh.positions(), v));
+    let length2 = [0, 1, 2].map(|k| {
+        let d = sub(p[(k + 1) % 3], p[k]);
+        dot(d, d)
+    });
+    let shortest = (0..3).min_by(|&i, &j| length2[i].total_cmp(&length2[j])).expect("3 edges");
+    let longest = (0..3).max_by(|&i, &j| length2[i].total_cmp(&length2[j])).expect("3 edges");
+    let is_needle = length2[shortest] <= NEEDLE_RATIO * NEEDLE_RATIO * length2[longest];
+    let needle = |mesh: &mut MirrorMesh| collapse_needle(mesh, 3 * t + shortest as u32);
+    let cap = |mesh: &mut MirrorMesh| split_cap(mesh, t, longest as u32);
+    if is_needle {
+        needle(mesh).map(|v| (Kind::Needle, v)).or_else(|| cap(mesh).map(|v| (Kind::Cap, v)))
+    } else {
+        cap(mesh).map(|v| (Kind::Cap, v)).or_else(|| needle(mesh).map(|v| (Kind::Needle, v)))
+    }
+}
+
+/// Collapses the (short) edge of half-edge `h`, keeping a boundary end where only one end is
+/// on the boundary so the border keeps its shape. Returns the kept vertex.
+fn collapse_needle(mesh: &mut MirrorMesh, h: u32) -> Option<u32> {
+    let t = h / 3;
+    let c = mesh.corners(t);
+    let (p, q) = (c[(h % 3) as usize], c[(h % 3 + 1) as usize % 3]);
+    if !can_collapse(mesh, p, q) {
+        return None;
+    }
+    let order = if mesh.is_border_vertex(q) && !mesh.is_border_vertex(p) {
+        [(q, p), (p, q)]
+    } else {
+        [(p, q), (q, p)]
+    };
+    // The store merges a half-edge's end into its start: find one running keep -> gone (an
+    // inconsistently oriented pair of triangles may only have one direction).
+    order.into_iter().find_map(|(keep, gone)| {
+        let edge = mesh.triangles_on_edge(keep, gone).into_iter().find_map(|u| {
+            let cu = mesh.corners(u);
+            (0..3).find(|&j| cu[j] == keep && cu[(j + 1) % 3] == gone).map(|j| 3 * u + j as u32)
+        })?;
+        mesh.collapse_edge(edge);
+        Some(keep)
+    })
+}
+
+/// Whether merging `gone` into `keep` (either way round: the test is symmetric) keeps the neighbourhood manifold: the edge has one or
+/// two triangles, the two vertices share no neighbour but the apexes of those triangles (the
+/// link condition), and an interior edge does not join two boundary vertices (which would
+/// pinch the boundary).
+fn can_collapse(mesh: &MirrorMesh, keep: u32, gone: u32) -> bool {
+    let on_edge = mesh.triangles_on_edge(keep, gone);
+    if on_edge.is_empty() || on_edge.len() > 2 {
+        return false;
+    }
+    let mut apexes: Vec<u32> =
+        on_edge.iter().flat_map(|&u| mesh.corners(u)).filter(|&v| v != keep && v != gone).collect();
+    apexes.sort_unstable();
+    let (around_keep, around_gone) = (mesh.neighbours(keep), mesh.neighbours(gone));
+    let common: Vec<u32> =
+        around_keep.into_iter().filter(|v| around_gone.binary_search(v).is_ok()).collect();
+    if common != apexes {
+        return false;
+    }
+    on_edge.len() == 1 || !(mesh.is_border_vertex(keep) && mesh.is_border_vertex(gone))
+}
+
+/// Splits the long edge (corner `k` of `t`) at the apex's projection and merges the new
+/// vertex into the apex. Returns the apex.
+fn split_cap(mesh: &mut MirrorMesh, t: u32, k: u32) -> Option<u32> {
+    let c = mesh.corners(t);
+    let (a, b, apex) = (c[k as usize], c[(k as usize + 1) % 3], c[(k as usize + 2) % 3]);
+    let on_edge = mesh.triangles_on_edge(a, b);
+    if on_edge.len() > 2 {
+        return None;
+    }
+    // After the merge the apex is joined to the far corner of the triangle beyond the edge:
+    // that must not be an edge already (the link condition of the merge).
+    let around_apex = mesh.neighbours(apex);
+    for &u in on_edge.iter().filter(|&&u| u != t) {
+        let far = mesh.corners(u).into_iter().find(|&v| v != a && v != b).expect("proper");
+        if far == apex || around_apex.binary_search(&far).is_ok() {
+            return None;
+        }
+    }
+    // On a boundary edge the new vertex is a boundary vertex: merging it into a boundary
+    // apex would pinch the boundary.
+    if on_edge.len() == 1 && mesh.is_border_vertex(apex) {
+        return None;
+    }
+    let [pa, pb, pc] = [a, b, apex].map(|v| point(mesh.positions(), v));
+    let ab = sub(pb, pa);
+    let length2 = dot(ab, ab);
+    if length2 == 0.0 {
+        return None;
+    }
+    let s = (dot(sub(pc, pa), ab) / length2).clamp(0.0, 1.0);
+    let at = add(pa, scale(ab, s)).map(|x| x as f32);
+    let (_, halves) = mesh.split_edge_at(3 * t + k, at);
+    let (_, half) = *halves.iter().find(|(old, _)| *old == t).expect("t lies on its own edge");
+    // The appended half is (new vertex, b, apex): its corner 2 runs apex -> new vertex.
+    mesh.collapse_edge(3 * half + 2);
+    Some(apex)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mirror::tests::assert_store_agrees;
+    use meshflow_host::MeshData;
+    use meshflow_sdk::topology::{HalfEdges, boundary_loops, is_manifold};
+
+    /// The live triangles of the mirror (vertex ids unchanged: enough for topology checks).
+    fn live(mesh: &MirrorMesh) -> Vec<u32> {
+        mesh.triangles().chunks_exact(3).filter(|c| c[0] != u32::MAX).flatten().copied().collect()
+    }
+
+    fn loop_count(vertex_count: usize, triangles: &[u32]) -> usize {
+        boundary_loops(triangles, &HalfEdges::new(vertex_count, triangles)).len()
+    }
+
+    /// Repairs, then checks that nothing degenerate is left and that the host's store
+    /// replays the edits to the same slots.
+    fn repair(mesh: &MeshData, epsilon: f64) -> (Vec<f32>, Vec<u32>, RepairReport) {
+        let (mirror, report) =
+            repair_degenerate(mesh.positions.clone(), mesh.triangles.clone(), epsilon);
+        let (positions, triangles) = (mirror.positions().to_vec(), live(&mirror));
+        for t in 0..(triangles.len() / 3) as u32 {
+            assert!(!is_degenerate_within(&positions, &triangles, t, epsilon), "{t} is flat");
+        }
+        assert_store_agrees(mesh, mirror);
+        (positions, triangles, report)
+    }
+
+    /// A 4x4 grid of unit squares: vertex `5y + x` at (x, y); square `v` (its lower left
+    /// corner) is split into (v, v+1, v+6) and (v, v+6, v+5).
+    fn grid() -> MeshData {
+        let mut positions = Vec::new();
+        for y in 0..5 {
+            for x in 0..5 {
+                positions.extend([x as f32, y as f32, 0.0]);
+            }
+        }
+        let mut triangles = Vec::new();
+        for y in 0..4 {
+            for x in 0..4 {
+                let v = y * 5 + x;
+                triangles.extend([v, v + 1, v + 6, v, v + 6, v + 5]);
+            }
+        }
+        MeshData::new(positions, triangles)
+    }
+
+    fn place(mesh: &mut MeshData, v: usize, x: f32, y: f32) {
+        mesh.positions[3 * v..3 * v + 2].copy_from_slice(&[x, y]);
+    }
+
+    /// The grid with two caps (one on the border), two needles sharing an edge, a reversed
+    /// duplicate and a repeated-vertex triangle; no triangle is inverted by the moves.
+    fn damaged_grid() -> MeshData {
+        let mut mesh = grid();
+        place(&mut mesh, 6, 0.5, 0.0); // (0, 1, 6): cap on the border edge 0-1
+        place(&mut mesh, 17, 1.0, 2.5); // (11, 17, 16): cap on the interior edge 11-16
+        place(&mut mesh, 13, 3.0, 1.0); // onto vertex 8: needles (7, 8, 13), (8, 14, 13)
+        mesh.triangles.extend([18, 13, 12, 3, 3, 9]);
+        mesh
+    }
+
+    #[test]
+    fn caps_are_split_needles_collapsed_and_the_border_kept() {
+        let mesh = damaged_grid();
+        let (positions, triangles, report) = repair(&mesh, 0.0);
+        let expected = RepairReport {
+            improper: 1,
+            duplicates: 1,
+            degenerate: 4,
+            caps: 2,
+            needles: 1,
+            removed: 0,
+        };
+        assert_eq!(report, expected);
+        let vertex_count = positions.len() / 3;
+        assert_eq!(loop_count(vertex_count, &triangles), 1);
+        assert!(is_manifold(vertex_count, &triangles, &HalfEdges::new(vertex_count, &triangles)));
+        // 32 triangles: the two needles go, the caps are traded for halves of their
+        // neighbours except on the border, where the cap just goes.
+        assert_eq!(triangles.len() / 3, 32 - 2 - 1);
+    }
+
+    #[test]
+    fn nearly_flat_triangles_count_only_with_a_tolerance() {
+        let mut mesh = grid();
+        place(&mut mesh, 17, 1.0001, 2.5);
+        assert_eq!(repair(&mesh, 0.0).2, RepairReport::default());
+        let report = repair(&mesh, 1e-3).2;
+        assert_eq!((report.degenerate, report.caps), (1, 1));
+    }
+
+    #[test]
+    fn a_cap_whose_repair_would_fold_the_surface_is_removed() {
+        // Cap (a, b, c) with c between a and b; beyond a-b lies (b, a, d), and c-d is
+        // already an edge, so neither splitting a-b nor collapsing a short edge applies.
+        let mesh = MeshData::new(
+            vec![0., 0., 0., 2., 0., 0., 1., 0., 0., 1., -1., 0., 2., -1., 0.],
+            vec![0, 1, 2, 1, 0, 3, 2, 3, 4],
+        );
+        let (_, triangles, report) = repair(&mesh, 0.0);
+        assert_eq!((report.degenerate, report.removed), (1, 1));
+        assert_eq!(triangles, [1, 0, 3, 2, 3, 4]);
+    }
+
+    #[test]
+    fn coincident_corners_and_empty_meshes_do_not_panic() {
+        // All three corners at one point, alone: collapsed away.
+        let point = MeshData::new(vec![1.0; 9], vec![0, 1, 2]);
+        let (_, triangles, report) = repair(&point, 0.0);
+        assert!(triangles.is_empty());
+        assert_eq!(report.needles + report.removed, 1);
+        assert_eq!(repair(&MeshData::default(), 0.0).2, RepairReport::default());
+    }
+}

@@ -1,0 +1,172 @@
+//! The `meshflow` command line, end to end: real files, real plugins, real exit codes.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn meshflow(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_meshflow"))
+        .args(args)
+        // Share compiled components between tests, as a user's cache would.
+        .env("MESHFLOW_CACHE_DIR", Path::new(env!("CARGO_TARGET_TMPDIR")).join("components"))
+        .output()
+        .expect("running meshflow")
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = meshflow(args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "meshflow {args:?} failed: {stderr}");
+    String::from_utf8(out.stdout).expect("utf-8 output")
+}
+
+fn failure(args: &[&str]) -> String {
+    let out = meshflow(args);
+    assert!(!out.status.success(), "meshflow {args:?} should fail");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn bunny() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data/bunny.obj").display().to_string()
+}
+
+fn json(text: &str) -> serde_json::Value {
+    serde_json::from_str(text).unwrap_or_else(|e| panic!("not JSON ({e}): {text}"))
+}
+
+#[test]
+fn apply_smooths_the_bunny_and_reports_hashes_that_match_the_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("smooth.ply").display().to_string();
+    let summary = json(&ok(&[
+        "apply",
+        "laplacian-smoothing",
+        &bunny(),
+        "-o",
+        &out,
+        "--param",
+        "iterations=2",
+        "--json",
+    ]));
+    assert_eq!(summary["service"], "laplacian-smoothing");
+    assert_eq!(summary["vertices"], 1839);
+    assert_eq!(summary["triangles"], 3674);
+    // One move-all edit of every vertex.
+    assert_eq!(summary["edits"], 1839);
+    for timing in ["load", "run", "save"] {
+        assert!(summary["timings_ms"][timing].as_f64().unwrap() >= 0.0);
+    }
+    assert_eq!(summary["input_hash"].as_str().unwrap(), ok(&["hash", &bunny()]).trim());
+    assert_eq!(summary["output_hash"].as_str().unwrap(), ok(&["hash", &out]).trim());
+    assert_ne!(summary["input_hash"], summary["output_hash"]);
+    // The same step again gives the same bytes.
+    let again = dir.path().join("again.ply").display().to_string();
+    ok(&["apply", "laplacian-smoothing", &bunny(), "-o", &again, "--param", "iterations=2"]);
+    assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&again).unwrap());
+}
+
+#[test]
+fn check_and_info_report_the_bunny() {
+    assert_eq!(ok(&["check", "vertex-count", &bunny()]).trim(), "1839");
+    let value = json(&ok(&["check", "triangle-count", &bunny(), "--json"]));
+    assert_eq!(value["value"], 3674);
+    let info = json(&ok(&["info", &bunny(), "--json"]));
+    assert_eq!(info["vertices"], 1839);
+    assert_eq!(info["bbox"]["min"].as_array().unwrap().len(), 3);
+}
+
+#[test]
+fn a_malformed_mesh_is_a_clear_error_and_leaves_no_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.obj");
+    std::fs::write(&bad, "v 0 0 0\nv 1 0 0\nv 0 1 oops\nf 1 2 3\n").unwrap();
+    let out = dir.path().join("out.ply");
+    let stderr = failure(&[
+        "apply",
+        "laplacian-smoothing",
+        bad.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(stderr.contains("bad.obj") && stderr.contains("line 3"), "{stderr}");
+    assert!(!out.exists());
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "a temporary file was left");
+}
+
+#[test]
+fn unknown_services_and_wrong_kinds_say_what_to_do() {
+    let stderr = failure(&["check", "vertex-cuont", &bunny()]);
+    assert!(stderr.contains("unknown service `vertex-cuont`"), "{stderr}");
+    assert!(stderr.contains("vertex-count") && stderr.contains("laplacian-smoothing"), "{stderr}");
+    let stderr = failure(&["apply", "vertex-count", &bunny(), "-o", "/tmp/never.ply"]);
+    assert!(stderr.contains("is a check, not a filter"), "{stderr}");
+    let stderr =
+        failure(&["apply", "laplacian-smoothing", &bunny(), "-o", "x.ply", "--param", "x"]);
+    assert!(stderr.contains("expected NAME=VALUE"), "{stderr}");
+}
+
+#[test]
+fn services_lists_every_service_with_its_parameters() {
+    let services = json(&ok(&["services", "--json"]));
+    let smoothing = services
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["name"] == "laplacian-smoothing")
+        .expect("laplacian-smoothing is listed");
+    assert_eq!(smoothing["kind"], "filter");
+    assert_eq!(smoothing["params"][0]["name"], "iterations");
+    assert_eq!(smoothing["params"][0]["default"], 1);
+}
+
+#[test]
+fn generate_scan_is_deterministic_by_seed() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).display().to_string();
+    let args = |out: &str, seed: &str| {
+        ok(&[
+            "generate",
+            "scan",
+            "--vertices",
+            "3000",
+            "--holes",
+            "3",
+            "--components",
+            "2",
+            "--seed",
+            seed,
+            "-o",
+            out,
+        ]);
+    };
+    args(&path("a.ply"), "5");
+    args(&path("b.ply"), "5");
+    args(&path("c.ply"), "6");
+    let hash = |name: &str| ok(&["hash", &path(name)]);
+    assert_eq!(hash("a.ply"), hash("b.ply"));
+    assert_ne!(hash("a.ply"), hash("c.ply"));
+}
+
+/// The README's walkthrough: the example plugin, built only on the SDK, runs in the CLI.
+#[test]
+fn the_example_plugin_builds_and_runs() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let target_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("plugin-template");
+    let status = Command::new(env!("CARGO"))
+        .current_dir(root.join("examples/plugin-template"))
+        .args(["build", "--release", "--target", "wasm32-wasip2", "--target-dir"])
+        .arg(&target_dir)
+        .status()
+        .expect("running cargo");
+    assert!(status.success(), "building the example plugin failed");
+    let wasm: PathBuf = target_dir.join("wasm32-wasip2/release/surface_tools.wasm");
+    let plugin = wasm.to_str().unwrap();
+
+    let dir = tempfile::tempdir().unwrap();
+    let big = dir.path().join("big.ply").display().to_string();
+    let area = |mesh: &str| -> f64 {
+        ok(&["check", "surface-area", mesh, "--plugin", plugin]).trim().parse().unwrap()
+    };
+    ok(&["apply", "scale", &bunny(), "-o", &big, "--param", "factor=3", "--plugin", plugin]);
+    let ratio = area(&big) / area(&bunny());
+    assert!((ratio - 9.0).abs() < 1e-3, "area grew by {ratio}, not 9");
+}
