@@ -10,9 +10,13 @@
 //! result's packed (.mfm) and binary PLY + zstd-19 bytes, and encode / apply / pack /
 //! unpack times (best of a few runs).
 
+mod common;
+
 use std::collections::HashMap;
 use std::path::Path;
-use std::time::{Duration, Instant};
+use std::time::Duration;
+
+use common::{best, ms};
 
 use meshflow_host::generate::{ScanSpec, scan};
 use meshflow_host::store::{MeshStore, Op};
@@ -20,18 +24,6 @@ use meshflow_host::{MeshData, correction, io, pack};
 use meshflow_plugin_smoothing::laplacian::{Pinning, Weights, smooth};
 
 const RUNS: usize = 3;
-
-fn best<T>(mut f: impl FnMut() -> T) -> (Duration, T) {
-    let mut fastest = Duration::MAX;
-    let mut last = None;
-    for _ in 0..RUNS {
-        let started = Instant::now();
-        let value = f();
-        fastest = fastest.min(started.elapsed());
-        last = Some(value);
-    }
-    (fastest, last.expect("RUNS > 0"))
-}
 
 fn ply_zstd19(mesh: &MeshData) -> usize {
     let mut ply = Vec::new();
@@ -174,11 +166,12 @@ fn steps(name: &'static str, input: MeshData, rows: &mut Vec<Row>) {
         let mut store = MeshStore::new(mesh.clone());
         edit(&mut store, &mesh);
         let (result, log) = store.finish();
-        let (encode, bytes) = best(|| correction::encode(&mesh, &log, &result).expect("encodes"));
-        let (apply, applied) = best(|| correction::apply(&mesh, &bytes).expect("applies"));
+        let (encode, bytes) =
+            best(RUNS, || correction::encode(&mesh, &log, &result).expect("encodes"));
+        let (apply, applied) = best(RUNS, || correction::apply(&mesh, &bytes).expect("applies"));
         assert_eq!(applied.content_hash(), result.content_hash());
-        let (pack_time, packed) = best(|| pack::encode(&result).expect("packs"));
-        let (unpack, unpacked) = best(|| pack::decode(&packed).expect("unpacks"));
+        let (pack_time, packed) = best(RUNS, || pack::encode(&result).expect("packs"));
+        let (unpack, unpacked) = best(RUNS, || pack::decode(&packed).expect("unpacks"));
         assert_eq!(unpacked.content_hash(), result.content_hash());
         let edits = log.iter().map(|op| op.edit_count()).sum();
         let extra = match step {
@@ -211,10 +204,6 @@ fn steps(name: &'static str, input: MeshData, rows: &mut Vec<Row>) {
     }
 }
 
-fn ms(d: Duration) -> String {
-    format!("{:.1}", d.as_secs_f64() * 1e3)
-}
-
 fn main() {
     let mut rows = Vec::new();
     let bunny = io::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data/bunny.obj"))
@@ -240,7 +229,7 @@ fn main() {
     );
     for r in rows {
         println!(
-            "{:<8} {:<6} {:>9} {:>10} {:<34} {:>10} {:>10} {:>6.3} {:>9} {:>9} {:>9} {:>9}",
+            "{:<8} {:<6} {:>9} {:>10} {:<34} {:>10} {:>10} {:>6.3} {:>9.1} {:>9.1} {:>9.1} {:>9.1}",
             r.mesh,
             r.step,
             r.edits,

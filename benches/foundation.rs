@@ -4,16 +4,20 @@
 //!
 //! - binary PLY load of a 1M-vertex / 2M-triangle scan (MeshLab via pymeshlab alongside,
 //!   when `python3 -c "import pymeshlab"` works),
+//! - save and load of that scan in every format and encoding, with file sizes,
 //! - compaction and content hash after a step that removed elements,
 //! - one Laplacian step through the sandboxed plugin against the same code native,
 //! - loading a component from the on-disk artefact cache.
 
+mod common;
+
 use std::path::Path;
-use std::process::Command;
 use std::time::{Duration, Instant};
 
+use common::{SCAN_1M, best, meshlab_time, ms, ratio};
 use meshflow_builtin_plugins::PLUGINS;
-use meshflow_host::generate::{ScanSpec, scan};
+use meshflow_host::generate::scan;
+use meshflow_host::io::{Format, PlyEncoding};
 use meshflow_host::runtime::{Limits, Runtime, Value};
 use meshflow_host::store::{MeshStore, Op};
 use meshflow_host::{MeshData, io};
@@ -21,25 +25,12 @@ use meshflow_plugin_smoothing::laplacian::{Pinning, smooth_uniform};
 
 const RUNS: usize = 5;
 
-fn best<T>(runs: usize, mut f: impl FnMut() -> T) -> (Duration, T) {
-    let mut fastest = Duration::MAX;
-    let mut last = None;
-    for _ in 0..runs {
-        let started = Instant::now();
-        let value = f();
-        fastest = fastest.min(started.elapsed());
-        last = Some(value);
-    }
-    (fastest, last.expect("at least one run"))
-}
-
 fn row(what: &str, time: Duration, note: &str) {
     println!("| {what:<52} | {:>10.2} | {note} |", time.as_secs_f64() * 1e3);
 }
 
 fn main() {
-    let spec = ScanSpec { vertices: 1_000_000, components: 150, holes: 400, noise: 0.1, seed: 1 };
-    let mesh = scan(&spec);
+    let mesh = scan(&SCAN_1M);
     println!(
         "mesh: generated scan, {} vertices, {} triangles\n",
         mesh.vertex_count(),
@@ -53,7 +44,7 @@ fn main() {
     io::save(&ply, &mesh).expect("saving the scan");
     let (load, loaded) = best(RUNS, || io::load(&ply).expect("loading the scan"));
     assert_eq!(loaded, mesh);
-    match meshlab_load_time(&ply) {
+    match meshlab_time(&ply, "", "ms.load_new_mesh(MESH)", RUNS) {
         Some(meshlab) => row(
             "binary PLY load (meshflow)",
             load,
@@ -78,6 +69,7 @@ fn main() {
     let (hash_only, _) = best(RUNS, || mesh.content_hash());
     row("BLAKE3 content hash alone", hash_only, "");
 
+    io_rows(&mesh, dir.path());
     laplacian_rows(&mesh);
     cache_rows(dir.path());
 }
@@ -111,21 +103,28 @@ fn cache_rows(cache_dir: &Path) {
     row("component load from the artefact cache (+ describe)", cached, "goal ≤ 1 ms");
 }
 
-/// MeshLab's load time for the same file, if pymeshlab is installed.
-fn meshlab_load_time(path: &Path) -> Option<Duration> {
-    let script = format!(
-        "import time, pymeshlab\nbest = 1e9\nfor _ in range({RUNS}):\n    ms = pymeshlab.MeshSet()\n    t = time.perf_counter()\n    ms.load_new_mesh({:?})\n    best = min(best, time.perf_counter() - t)\nprint(best)",
-        path.display().to_string()
-    );
-    let out = Command::new("python3").args(["-c", &script]).output().ok()?;
-    let seconds: f64 = String::from_utf8(out.stdout).ok()?.trim().parse().ok()?;
-    Some(Duration::from_secs_f64(seconds))
-}
-
-fn ms(d: Duration) -> f64 {
-    d.as_secs_f64() * 1e3
-}
-
-fn ratio(a: Duration, b: Duration) -> f64 {
-    a.as_secs_f64() / b.as_secs_f64()
+/// Save and load of the scan in every format and encoding. STL keeps no shared vertices,
+/// so only its triangle count must survive; the others give back the same content.
+fn io_rows(mesh: &MeshData, dir: &Path) {
+    for (name, format, encoding, runs) in [
+        ("scan_le.ply", Format::Ply, PlyEncoding::BinaryLittleEndian, RUNS),
+        ("scan_be.ply", Format::Ply, PlyEncoding::BinaryBigEndian, RUNS),
+        ("scan.stl", Format::Stl, PlyEncoding::default(), RUNS),
+        ("scan.obj", Format::Obj, PlyEncoding::default(), 2),
+        ("scan.off", Format::Off, PlyEncoding::default(), 2),
+        ("scan_ascii.ply", Format::Ply, PlyEncoding::Ascii, 2),
+    ] {
+        let path = dir.join(name);
+        let (save, ()) =
+            best(runs, || io::save_as(&path, mesh, format, encoding).expect("saving the scan"));
+        let (load, loaded) = best(runs, || io::load(&path).expect("loading the scan"));
+        if format == Format::Stl {
+            assert_eq!(loaded.triangle_count(), mesh.triangle_count());
+        } else {
+            assert_eq!(loaded.content_hash(), mesh.content_hash(), "{name}");
+        }
+        let megabytes = std::fs::metadata(&path).expect("the saved file").len() as f64 / 1e6;
+        row(&format!("save {name}"), save, &format!("{megabytes:.1} MB"));
+        row(&format!("load {name}"), load, "");
+    }
 }

@@ -2,7 +2,9 @@
 //! workflows of them over hosts.
 
 mod commands;
+mod embedded;
 mod plugins;
+mod remote;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -50,6 +52,10 @@ enum Command {
         input: PathBuf,
         #[arg(short, long)]
         output: PathBuf,
+        /// Snap the mesh to a grid of at most 2^BITS cells per axis over its bounding box
+        /// (1-24) before packing.
+        #[arg(long, value_name = "BITS")]
+        quantize: Option<u32>,
         #[arg(long)]
         json: bool,
     },
@@ -67,6 +73,19 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Serve the host HTTP API: sessions, services, plugin upload, blobs.
+    Host(commands::host::HostArgs),
+    /// Manage the plugins of a running host.
+    #[command(subcommand)]
+    Plugin(commands::plugin::PluginCommand),
+    /// Serve the engine HTTP API and web UI: workflows over hosts.
+    Engine(commands::engine::EngineArgs),
+    /// Start an engine and N hosts on loopback in one process (the embedded default).
+    Up(commands::up::UpArgs),
+    /// Run a workflow on a mesh through an embedded engine and hosts.
+    Run(commands::run::RunArgs),
+    /// Submit a workflow to a running engine.
+    Submit(commands::submit::SubmitArgs),
 }
 
 /// Plugins to load besides the built-in ones.
@@ -87,8 +106,16 @@ fn main() -> ExitCode {
         Command::Hash { input } => commands::inspect::hash(&input),
         Command::Info { input, json } => commands::inspect::info(&input, json),
         Command::Correction(command) => commands::correction::run(&command),
-        Command::Pack { input, output, json } => commands::pack::pack(&input, &output, json),
+        Command::Pack { input, output, quantize, json } => {
+            commands::pack::pack(&input, &output, quantize, json)
+        }
         Command::Unpack { input, output, json } => commands::pack::unpack(&input, &output, json),
+        Command::Host(args) => commands::host::run(args),
+        Command::Plugin(command) => commands::plugin::run(command),
+        Command::Engine(args) => commands::engine::run(args),
+        Command::Up(args) => commands::up::run(args),
+        Command::Run(args) => commands::run::run(args),
+        Command::Submit(args) => commands::submit::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -29,8 +29,13 @@ pub fn load(args: &PluginArgs) -> anyhow::Result<(Runtime, Catalog)> {
     Ok((runtime, catalog))
 }
 
+/// The built-in plugins' component bytes, for a host server to load.
+pub fn builtin_components() -> Vec<&'static [u8]> {
+    meshflow_builtin_plugins::PLUGINS.iter().map(|builtin| builtin.wasm).collect()
+}
+
 /// `$MESHFLOW_CACHE_DIR`, else the user's cache directory; none if neither is known.
-fn cache_dir() -> Option<PathBuf> {
+pub fn cache_dir() -> Option<PathBuf> {
     if let Some(dir) = std::env::var_os("MESHFLOW_CACHE_DIR") {
         return Some(dir.into());
     }

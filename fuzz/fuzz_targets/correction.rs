@@ -27,8 +27,9 @@ fuzz_target!(|data: &[u8]| {
     let _ = correction::apply(&base, data);
     if let Some((&reseal, rest)) = data.split_first() {
         if reseal & 1 == 1 {
-            // magic, version 1, checksum (filled below), base hash, then the fuzzed rest.
-            let mut bytes = b"MFC\x1a\x01\x00".to_vec();
+            // magic, version, checksum (filled below), base hash, then the fuzzed rest.
+            let mut bytes = b"MFC\x1a".to_vec();
+            bytes.extend(correction::VERSION.to_le_bytes());
             bytes.extend([0; 16]);
             bytes.extend(base.content_hash().0);
             bytes.extend(rest);

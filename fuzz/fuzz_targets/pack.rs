@@ -9,7 +9,8 @@ fuzz_target!(|data: &[u8]| {
     let _ = pack::decode(data);
     if let Some((&reseal, rest)) = data.split_first() {
         if reseal & 1 == 1 {
-            let mut bytes = b"MFM\x1a\x01\x00".to_vec();
+            let mut bytes = b"MFM\x1a".to_vec();
+            bytes.extend(pack::VERSION.to_le_bytes());
             bytes.extend([0; 16]);
             bytes.extend(rest);
             let sum = blake3::hash(&bytes[22..]);

@@ -3,36 +3,11 @@
 
 mod correction_common;
 
-use correction_common::{Rng, grid, random_edits, random_op};
+use correction_common::{Rng, assert_round_trip, grid, random_edits, random_op, smooth};
 use meshflow_host::MeshData;
 use meshflow_host::correction;
 use meshflow_host::store::{MeshStore, Op, OpKind};
 use proptest::prelude::*;
-
-/// Encodes the step, applies it to the base, and checks hash, bytes and the replayed log.
-fn assert_round_trip(base: &MeshData, result: &MeshData, log: &[Op]) -> Vec<u8> {
-    let bytes = correction::encode(base, log, result).expect("a store's own log encodes");
-    let (replayed, replayed_log) = correction::replay(base, &bytes).expect("applies");
-    assert_eq!(replayed.content_hash(), result.content_hash());
-    assert_eq!(bits(&replayed.positions), bits(&result.positions));
-    assert_eq!(replayed.triangles, result.triangles);
-    assert_eq!(ops_bits(&replayed_log), ops_bits(log));
-    let header = correction::decode(&bytes).unwrap();
-    assert_eq!(header.base, base.content_hash());
-    assert_eq!(header.result, result.content_hash());
-    assert_eq!(header.op_count(), log.len() as u64);
-    assert_eq!(header.total_bytes(), bytes.len());
-    bytes
-}
-
-fn bits(values: &[f32]) -> Vec<u32> {
-    values.iter().map(|v| v.to_bits()).collect()
-}
-
-/// The log with floats as bit patterns, so `-0.0 != 0.0` and equality is exact.
-fn ops_bits(log: &[Op]) -> String {
-    format!("{:?}", log.iter().map(|op| format!("{op:?}")).collect::<Vec<_>>())
-}
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(96))]
@@ -143,43 +118,4 @@ fn smoothing_steps_cost_few_bits_per_vertex() {
         let bits = 8.0 * bytes.len() as f64 / base.vertex_count() as f64;
         assert!(bits < max_bits, "lambda {lambda}: {bits:.2} bits per vertex");
     }
-}
-
-/// Uniform Laplacian smoothing with factor `lambda`, interior vertices only, in f64 over
-/// sorted distinct neighbours.
-fn smooth(mesh: &MeshData, lambda: f64) -> Vec<f32> {
-    let n = mesh.vertex_count();
-    let mut neighbours = vec![Vec::new(); n];
-    let mut edge_uses = std::collections::HashMap::new();
-    for t in mesh.triangles.chunks_exact(3) {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            neighbours[a as usize].extend([b, t[(k + 2) % 3]]);
-            *edge_uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
-        }
-    }
-    let mut boundary = vec![false; n];
-    for ((a, b), uses) in edge_uses {
-        if uses == 1 {
-            boundary[a as usize] = true;
-            boundary[b as usize] = true;
-        }
-    }
-    let mut out = mesh.positions.clone();
-    for v in 0..n {
-        let list = &mut neighbours[v];
-        list.sort_unstable();
-        list.dedup();
-        if boundary[v] || list.is_empty() {
-            continue;
-        }
-        for k in 0..3 {
-            let sum: f64 =
-                list.iter().map(|&u| f64::from(mesh.positions[3 * u as usize + k])).sum();
-            let mean = sum * (1.0 / list.len() as f64);
-            let p = f64::from(mesh.positions[3 * v + k]);
-            out[3 * v + k] = (mean * lambda + p * (1.0 - lambda)) as f32;
-        }
-    }
-    out
 }

@@ -6,7 +6,7 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use clap::Args;
 use meshflow_host::runtime::ServiceKind;
-use meshflow_host::{correction, io};
+use meshflow_host::{correction, io, quantize};
 
 use super::{millis, parse_params};
 use crate::PluginArgs;
@@ -26,6 +26,10 @@ pub struct ApplyArgs {
     /// Also write the step's correction (.mfc), atomically.
     #[arg(long, value_name = "OUT.mfc")]
     correction: Option<PathBuf>,
+    /// Snap the input to a grid of at most 2^BITS cells per axis over its bounding box
+    /// (1-24), and the result back onto that grid after the filter.
+    #[arg(long, value_name = "BITS")]
+    quantize: Option<u32>,
     #[command(flatten)]
     plugins: PluginArgs,
     /// Print a JSON summary.
@@ -42,11 +46,19 @@ pub fn run(args: &ApplyArgs) -> anyhow::Result<()> {
     }
 
     let started = Instant::now();
-    let mesh = io::load(&args.input)?;
+    let mut mesh = io::load(&args.input)?;
+    let grid = args.quantize.map(|bits| quantize::quantize(&mut mesh, bits)).transpose()?;
     let load_time = started.elapsed();
 
     let output = runtime.run(plugin, &args.service, &mesh, &params)?;
-    let result = output.mesh.as_ref().expect("a filter returns a mesh");
+    let result = output.mesh.expect("a filter returns a mesh");
+    // The plugin computes freely; the step's result goes back onto the grid here.
+    let (result, log) = match &grid {
+        Some(grid) => quantize::snap_step(grid, &mesh, result, output.log)
+            .context("snapping the result to the grid")?,
+        None => (result, output.log),
+    };
+    let result = &result;
 
     let started = Instant::now();
     io::save(&args.output, result).with_context(|| format!("writing {}", args.output.display()))?;
@@ -55,7 +67,7 @@ pub fn run(args: &ApplyArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     let correction_bytes = match &args.correction {
         Some(path) => {
-            let bytes = correction::encode(&mesh, &output.log, result)?;
+            let bytes = correction::encode(&mesh, &log, result)?;
             super::pack::write_atomically(path, &bytes)?;
             Some(bytes.len())
         }
@@ -63,7 +75,7 @@ pub fn run(args: &ApplyArgs) -> anyhow::Result<()> {
     };
     let correction_time = started.elapsed();
 
-    let edits: usize = output.log.iter().map(|op| op.edit_count()).sum();
+    let edits: usize = log.iter().map(|op| op.edit_count()).sum();
     if args.json {
         let summary = serde_json::json!({
             "service": args.service,
@@ -79,6 +91,7 @@ pub fn run(args: &ApplyArgs) -> anyhow::Result<()> {
                 "correction": millis(correction_time),
             },
             "correction_bytes": correction_bytes,
+            "quantize_bits": args.quantize,
         });
         println!("{summary}");
     } else {

@@ -3,10 +3,16 @@
 pub mod apply;
 pub mod check;
 pub mod correction;
+pub mod engine;
 pub mod generate;
+pub mod host;
 pub mod inspect;
 pub mod pack;
+pub mod plugin;
+pub mod run;
 pub mod services;
+pub mod submit;
+pub mod up;
 
 use meshflow_host::runtime::Value;
 
@@ -22,17 +28,5 @@ pub fn parse_params(pairs: &[String]) -> anyhow::Result<Vec<(String, Value)>> {
         .collect()
 }
 
-/// Milliseconds, rounded to microseconds, for timings in JSON output.
-pub fn millis(d: std::time::Duration) -> f64 {
-    (d.as_secs_f64() * 1e6).round() / 1e3
-}
-
-/// A value as JSON.
-pub fn value_json(value: &Value) -> serde_json::Value {
-    match value {
-        Value::Boolean(b) => (*b).into(),
-        Value::Integer(i) => (*i).into(),
-        Value::Real(r) => (*r).into(),
-        Value::Text(t) => t.clone().into(),
-    }
-}
+/// Timings in JSON output and values as JSON, as the host API gives them.
+pub use meshflow_host::api::{millis, value_json};

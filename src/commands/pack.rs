@@ -5,15 +5,25 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::Context;
-use meshflow_host::{MeshData, io, pack};
+use meshflow_host::{MeshData, io, pack, quantize};
 
 use super::millis;
 
 /// The extension of packed meshes.
 const PACKED: &str = "mfm";
 
-pub fn pack(input: &Path, output: &Path, json: bool) -> anyhow::Result<()> {
-    let mesh = load_mesh(input)?;
+/// Packs `input`; with `quantize`, first snaps it to a grid of at most `2^bits` cells per
+/// axis over its bounding box (the packed mesh then codes grid steps).
+pub fn pack(
+    input: &Path,
+    output: &Path,
+    quantize: Option<u32>,
+    json: bool,
+) -> anyhow::Result<()> {
+    let mut mesh = load_mesh(input)?;
+    if let Some(bits) = quantize {
+        quantize::quantize(&mut mesh, bits)?;
+    }
     let started = Instant::now();
     let bytes = pack::encode(&mesh)?;
     let encode_time = started.elapsed();

@@ -1,6 +1,6 @@
 //! `meshflow services`: what can be run, and how.
 
-use meshflow_host::runtime::{ServiceKind, describe_params};
+use meshflow_host::runtime::{ServiceInfo, ServiceKind, describe_params};
 
 use super::value_json;
 use crate::PluginArgs;
@@ -34,12 +34,17 @@ pub fn run(args: &PluginArgs, json: bool) -> anyhow::Result<()> {
         return Ok(());
     }
     for (s, plugin) in catalog.services() {
-        println!("{} ({}, plugin {}): {}", s.name, kind_name(s.kind), &plugin.digest[..12], s.doc);
-        for line in describe_params(s).lines().skip(1) {
-            println!("{line}");
-        }
+        print(s, &plugin.digest);
     }
     Ok(())
+}
+
+/// One service and its parameters, as `meshflow services` lists them.
+pub fn print(s: &ServiceInfo, digest: &str) {
+    println!("{} ({}, plugin {}): {}", s.name, kind_name(s.kind), &digest[..12.min(digest.len())], s.doc);
+    for line in describe_params(s).lines().skip(1) {
+        println!("{line}");
+    }
 }
 
 fn kind_name(kind: ServiceKind) -> &'static str {

@@ -6,6 +6,7 @@ use super::coding::integer::int_model;
 use super::coding::model::AdaptiveModel;
 use super::coding::residual::ResidualCoder;
 use super::lists::{ElementCoder, IdListCoder};
+use crate::quantize::Grid;
 use crate::store::OpKind;
 
 /// The kind alphabet: the 16 op kinds, then "no further op".
@@ -38,10 +39,13 @@ pub(super) struct Models {
     pub(super) smoothing: ResidualCoder,
     pub(super) split_points: ResidualCoder,
     pub(super) last_extend_vertex: u32,
+    /// The grid the mesh is on, if coordinates are coded as grid steps.
+    pub(super) grid: Option<Grid>,
 }
 
 impl Models {
-    pub(super) fn new() -> Self {
+    /// Fresh models; coordinates are coded as grid steps when the mesh is on `grid`.
+    pub(super) fn new(grid: Option<Grid>) -> Self {
         Self {
             kind: AdaptiveModel::new(END + 1),
             count: int_model(),
@@ -51,11 +55,12 @@ impl Models {
             elements: ElementCoder::new(),
             lists: IdListCoder::new(),
             corners: CornerCoder::new(),
-            new_points: ResidualCoder::new(),
-            moves: ResidualCoder::new(),
-            smoothing: ResidualCoder::new(),
-            split_points: ResidualCoder::new(),
+            new_points: ResidualCoder::new(grid),
+            moves: ResidualCoder::new(grid),
+            smoothing: ResidualCoder::new(grid),
+            split_points: ResidualCoder::new(grid),
             last_extend_vertex: 0,
+            grid,
         }
     }
 }

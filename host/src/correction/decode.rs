@@ -7,7 +7,7 @@ use super::CorrectionError;
 use super::codec::{END, Models, Sections, motion};
 use super::coding::stream::{CorruptStream, SymbolReader};
 use super::header::{Correction, KindCount, kind_index};
-use super::predict::{self, Neighbours, NewVertexNeighbours, neighbour_mean, smoothed};
+use super::predict::{self, NewVertexNeighbours, Smoothing};
 
 /// Decoded element counts may exceed the file size by at most this factor: the adaptive
 /// models never give a symbol a probability above `1 - 2^-16`, so no honest correction
@@ -37,7 +37,7 @@ pub(super) fn replay(
     let corrupt = |_| CorrectionError::Corrupt { op: 0 };
     let mut decoder = Decoder {
         store: MeshStore::new(base),
-        models: Models::new(),
+        models: Models::new(header.grid),
         input: Sections {
             ops: SymbolReader::new(sections[0]).map_err(corrupt)?,
             ids: SymbolReader::new(sections[1]).map_err(corrupt)?,
@@ -234,7 +234,7 @@ impl Decoder {
         self.take(OpKind::SetPositions, u64::from(self.store.vertex_slots()))?;
         let store = &self.store;
         let current = store.positions();
-        let neighbours = Neighbours::of_store(store);
+        let smoothing = Smoothing::new(store, self.models.grid);
         let (m, input) = (&mut self.models, &mut self.input);
         let lambda = input.geometry.f32_bits()?;
         let mut xyz = current.to_vec();
@@ -250,8 +250,7 @@ impl Decoder {
             }
             let i = 3 * v as usize;
             let p = [current[i], current[i + 1], current[i + 2]];
-            let predicted = neighbour_mean(current, neighbours.of(v))
-                .map_or(p, |mean| smoothed(p, mean, lambda));
+            let predicted = smoothing.predict(p, smoothing.mean(current, v), lambda);
             let q = match state {
                 motion::PREDICTED => predicted,
                 _ => m.smoothing.read(&mut input.geometry, predicted)?,

@@ -2,27 +2,59 @@
 //! before it.
 
 use crate::MeshData;
+use crate::mesh::as_le_bytes_f32;
 use crate::store::{MeshStore, Op};
 
 use super::CorrectionError;
 use super::codec::{END, Models, Sections, kind_symbol, motion};
 use super::coding::stream::SymbolWriter;
 use super::header::{self, Correction, KindCount, kind_index};
-use super::predict::{self, Neighbours, NewVertexNeighbours, neighbour_mean, smoothed};
+use super::predict::{self, NewVertexNeighbours, Smoothing};
+use crate::quantize::Grid;
 
 /// Encodes the edit log `log` that turned `base` into `result` (as the store's
 /// [`finish`](MeshStore::finish) returned them). The log is replayed to make the
 /// predictions; a log that does not apply to `base`, or does not give `result`, is refused.
 pub fn encode(base: &MeshData, log: &[Op], result: &MeshData) -> Result<Vec<u8>, CorrectionError> {
+    // Hashing both meshes is a pass over each: done on a second thread meanwhile.
+    let (hashes, sections) = std::thread::scope(|s| {
+        let hashes = s.spawn(|| (base.content_hash(), result.content_hash()));
+        let sections = encode_sections(base, log, result);
+        (hashes.join().expect("hashing does not panic"), sections)
+    });
+    let (grid, sections) = sections?;
     let mut kinds = [KindCount::default(); 16];
     for op in log {
         let count = &mut kinds[kind_index(op.kind())];
         count.ops += 1;
         count.edits += op.edit_count() as u64;
     }
+    let header = Correction {
+        version: header::VERSION,
+        base: hashes.0,
+        result: hashes.1,
+        base_counts: [base.vertex_count() as u64, base.triangle_count() as u64],
+        result_counts: [result.vertex_count() as u64, result.triangle_count() as u64],
+        grid,
+        kinds,
+        header_bytes: 0,
+        section_bytes: [0; 4],
+    };
+    Ok(header::write(&header, &sections))
+}
+
+/// Codes the log's ops into the four sections, replaying them; checks the replay ends at
+/// `result` (byte for byte, which is what equal hashes mean).
+fn encode_sections(
+    base: &MeshData,
+    log: &[Op],
+    result: &MeshData,
+) -> Result<(Option<Grid>, [Vec<u8>; 4]), CorrectionError> {
+    // Detected, not declared: any mesh whose coordinates all sit on a coarse grid gains.
+    let grid = Grid::detect([&base.positions[..], &result.positions[..]]);
     let mut encoder = Encoder {
         store: MeshStore::new(base.clone()),
-        models: Models::new(),
+        models: Models::new(grid),
         out: Sections {
             ops: SymbolWriter::new(),
             ids: SymbolWriter::new(),
@@ -36,25 +68,12 @@ pub fn encode(base: &MeshData, log: &[Op], result: &MeshData) -> Result<Vec<u8>,
         i += encoder.op(i, &log[i], log.get(i + 1))?;
     }
     let (replayed, _) = encoder.store.finish();
-    let (expected, found) = (result.content_hash(), replayed.content_hash());
-    if expected != found {
+    if !same_bytes(&replayed, result) {
+        let (expected, found) = (result.content_hash(), replayed.content_hash());
         return Err(CorrectionError::ResultMismatch { expected, found });
     }
-    let header = Correction {
-        version: header::VERSION,
-        base: base.content_hash(),
-        result: expected,
-        base_counts: [base.vertex_count() as u64, base.triangle_count() as u64],
-        result_counts: [result.vertex_count() as u64, result.triangle_count() as u64],
-        kinds,
-        header_bytes: 0,
-        section_bytes: [0; 4],
-    };
     let Sections { ops, ids, connectivity, geometry } = encoder.out;
-    Ok(header::write(
-        &header,
-        &[ops.finish(), ids.finish(), connectivity.finish(), geometry.finish()],
-    ))
+    Ok((grid, [ops.finish(), ids.finish(), connectivity.finish(), geometry.finish()]))
 }
 
 struct Encoder {
@@ -189,29 +208,21 @@ impl Encoder {
         if xyz.len() != current.len() {
             return; // the store refuses it in `apply`
         }
-        let neighbours = Neighbours::of_store(store);
-        let live = |v: u32| store.is_vertex_live(v);
-        let means: Vec<Option<[f64; 3]>> = (0..store.vertex_slots())
-            .map(|v| if live(v) { neighbour_mean(current, neighbours.of(v)) } else { None })
-            .collect();
-        let lambda = fit_lambda(current, xyz, &means);
+        let smoothing = Smoothing::new(store, self.models.grid);
+        let moved = Moved { store, current, new: xyz, smoothing: &smoothing };
+        let lambda = moved.best_lambda();
         let (m, out) = (&mut self.models, &mut self.out);
         out.geometry.f32_bits(lambda);
         let mut previous = motion::STILL;
-        for v in 0..store.vertex_slots() {
-            if !live(v) {
-                continue;
-            }
-            let i = 3 * v as usize;
-            let p = [current[i], current[i + 1], current[i + 2]];
-            let q = [xyz[i], xyz[i + 1], xyz[i + 2]];
-            let predicted = means[v as usize].map_or(p, |mean| smoothed(p, mean, lambda));
-            let state = if same_bits(q, p) {
-                motion::STILL
-            } else if same_bits(q, predicted) {
-                motion::PREDICTED
+        for v in (0..store.vertex_slots()).filter(|&v| store.is_vertex_live(v)) {
+            let (p, q) = (at(current, v), at(xyz, v));
+            let (state, predicted) = if same_bits(q, p) {
+                (motion::STILL, p)
             } else {
-                motion::RESIDUAL
+                let predicted = smoothing.predict(p, smoothing.mean(current, v), lambda);
+                let state =
+                    if same_bits(q, predicted) { motion::PREDICTED } else { motion::RESIDUAL };
+                (state, predicted)
             };
             out.geometry.symbol(&mut m.motion[previous], state);
             previous = state;
@@ -222,25 +233,62 @@ impl Encoder {
     }
 }
 
+/// Bit-identical meshes (so `-0.0 != 0.0`, as in the content hash).
+fn same_bytes(a: &MeshData, b: &MeshData) -> bool {
+    a.triangles == b.triangles && as_le_bytes_f32(&a.positions) == as_le_bytes_f32(&b.positions)
+}
+
+fn at(positions: &[f32], v: u32) -> [f32; 3] {
+    let i = 3 * v as usize;
+    [positions[i], positions[i + 1], positions[i + 2]]
+}
+
 fn same_bits(a: [f32; 3], b: [f32; 3]) -> bool {
     a.map(f32::to_bits) == b.map(f32::to_bits)
 }
 
-/// The least-squares smoothing factor λ of `new ≈ p + λ (mean − p)` over the vertices that
-/// moved; snapped to exactly 1 (plain neighbour averaging) when within rounding of it.
-fn fit_lambda(current: &[f32], new: &[f32], means: &[Option<[f64; 3]>]) -> f32 {
-    let (mut num, mut den) = (0.0f64, 0.0f64);
-    for (v, mean) in means.iter().enumerate() {
-        let Some(mean) = mean else { continue };
-        for k in 0..3 {
-            let p = f64::from(current[3 * v + k]);
-            let (d, l) = (f64::from(new[3 * v + k]) - p, mean[k] - p);
-            if d != 0.0 {
+/// The live vertices a `set-positions` moves, with what predicts them.
+struct Moved<'a> {
+    store: &'a MeshStore,
+    current: &'a [f32],
+    new: &'a [f32],
+    smoothing: &'a Smoothing,
+}
+
+impl Moved<'_> {
+    /// `(old, new, neighbour mean)` of each live vertex that moved and has neighbours.
+    fn each(&self) -> impl Iterator<Item = ([f32; 3], [f32; 3], [f64; 3])> + '_ {
+        (0..self.store.vertex_slots()).filter_map(|v| {
+            let (p, q) = (at(self.current, v), at(self.new, v));
+            if !self.store.is_vertex_live(v) || same_bits(p, q) {
+                return None;
+            }
+            Some((p, q, self.smoothing.mean(self.current, v)?))
+        })
+    }
+
+    /// The smoothing factor to code: the least-squares fit of `new ≈ p + λ (mean − p)`, or
+    /// exactly 1 (plain neighbour averaging) when that is within rounding of the fit or
+    /// predicts more vertices exactly (on a grid, snapping skews the fit).
+    fn best_lambda(&self) -> f32 {
+        let (mut num, mut den) = (0.0f64, 0.0f64);
+        for (p, q, mean) in self.each() {
+            for k in 0..3 {
+                let (d, l) = (f64::from(q[k]) - f64::from(p[k]), mean[k] - f64::from(p[k]));
                 num += d * l;
                 den += l * l;
             }
         }
+        let fitted = (num / den) as f32;
+        if !fitted.is_finite() || (fitted - 1.0).abs() < 1e-4 {
+            return 1.0;
+        }
+        let hits = |lambda: f32| {
+            let exact = |&(p, q, mean): &([f32; 3], [f32; 3], [f64; 3])| {
+                same_bits(q, self.smoothing.predict(p, Some(mean), lambda))
+            };
+            self.each().filter(exact).count()
+        };
+        if hits(1.0) > hits(fitted) { 1.0 } else { fitted }
     }
-    let lambda = (num / den) as f32;
-    if !lambda.is_finite() || (lambda - 1.0).abs() < 1e-4 { 1.0 } else { lambda }
 }

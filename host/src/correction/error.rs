@@ -32,6 +32,7 @@ impl From<FramingError> for CorrectionError {
         match e {
             FramingError::Truncated => CorrectionError::Truncated,
             FramingError::BadVarint => CorrectionError::Malformed("overlong varint".into()),
+            FramingError::BadGrid => CorrectionError::Malformed("invalid grid".into()),
         }
     }
 }

@@ -4,19 +4,21 @@
 //! magic "MFC\x1a" | version u16 LE | checksum [16] (BLAKE3 of every byte after it)
 //! base hash [32] | result hash [32]
 //! varints: base vertices, base triangles, result vertices, result triangles,
+//!          grid flag (0, or 1 and then the zigzagged step exponent of each axis),
 //!          ops and edits for each of the 16 op kinds (OpKind::ALL order),
 //!          byte length of each section (SECTIONS order)
 //! sections, back to back, ending exactly at the end of the file
 //! ```
 
 use crate::ContentHash;
+use crate::quantize::Grid;
 use crate::store::OpKind;
 
 use super::CorrectionError;
-use super::coding::bytes::{ByteReader, put_varint};
+use super::coding::bytes::{ByteReader, put_grid, put_varint};
 
 pub(crate) const MAGIC: [u8; 4] = *b"MFC\x1a";
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
 const CHECKSUM_LEN: usize = 16;
 
 /// The entropy-coded streams of a correction, in file order.
@@ -39,6 +41,8 @@ pub struct Correction {
     pub base_counts: [u64; 2],
     /// `[vertices, triangles]` of the result mesh.
     pub result_counts: [u64; 2],
+    /// The grid base and result lie on, when coordinates are coded as grid steps.
+    pub grid: Option<Grid>,
     /// Per op kind, in `OpKind::ALL` order.
     pub kinds: [KindCount; 16],
     /// Bytes of the uncompressed header.
@@ -76,6 +80,7 @@ pub(crate) fn write(header: &Correction, sections: &[Vec<u8>; 4]) -> Vec<u8> {
     for n in header.base_counts.iter().chain(&header.result_counts) {
         put_varint(&mut out, *n);
     }
+    put_grid(&mut out, header.grid);
     for k in &header.kinds {
         put_varint(&mut out, k.ops);
         put_varint(&mut out, k.edits);
@@ -114,6 +119,7 @@ pub(crate) fn read(bytes: &[u8]) -> Result<(Correction, [&[u8]; 4]), CorrectionE
             return Err(CorrectionError::Malformed(format!("element count {c} exceeds u32 ids")));
         }
     }
+    let grid = r.grid()?;
     let mut kinds = [KindCount::default(); 16];
     for k in &mut kinds {
         *k = KindCount { ops: r.varint()?, edits: r.varint()? };
@@ -139,9 +145,11 @@ pub(crate) fn read(bytes: &[u8]) -> Result<(Correction, [&[u8]; 4]), CorrectionE
         result,
         base_counts: [counts[0], counts[1]],
         result_counts: [counts[2], counts[3]],
+        grid,
         kinds,
         header_bytes,
         section_bytes,
     };
     Ok((header, sections))
 }
+

@@ -58,11 +58,20 @@ pub fn apply(base: &MeshData, bytes: &[u8]) -> Result<MeshData, CorrectionError>
 pub fn replay(base: &MeshData, bytes: &[u8]) -> Result<(MeshData, Vec<Op>), CorrectionError> {
     let (header, sections) = header::read(bytes)?;
     let counts = [base.vertex_count() as u64, base.triangle_count() as u64];
-    let found = base.content_hash();
-    if counts != header.base_counts || found != header.base {
+    if counts != header.base_counts {
+        return Err(CorrectionError::BaseMismatch { expected: header.base, found: base.content_hash() });
+    }
+    // The base hash (a pass over the whole mesh) is checked on a second thread while the
+    // ops replay; on a mismatch the replay is discarded.
+    let (found, replayed) = std::thread::scope(|s| {
+        let hash = s.spawn(|| base.content_hash());
+        let replayed = decode::replay(&header, sections, base.clone());
+        (hash.join().expect("hashing does not panic"), replayed)
+    });
+    if found != header.base {
         return Err(CorrectionError::BaseMismatch { expected: header.base, found });
     }
-    let (mesh, log) = decode::replay(&header, sections, base.clone())?;
+    let (mesh, log) = replayed?;
     let found = mesh.content_hash();
     if found != header.result {
         return Err(CorrectionError::ResultMismatch { expected: header.result, found });

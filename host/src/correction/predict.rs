@@ -1,6 +1,7 @@
 //! Predictions both sides compute from the mesh state before an op, so that only the
 //! difference between prediction and truth is coded.
 
+use crate::quantize::Grid;
 use crate::store::{MeshStore, REMOVED};
 
 /// `(a + b + c) / 3` of a live triangle, `None` for an invalid id (the store will refuse it).
@@ -41,14 +42,18 @@ pub(crate) fn mean(points: impl Iterator<Item = [f32; 3]>) -> Option<[f32; 3]> {
 
 /// Distinct neighbours of every vertex slot over the live triangles, ascending: the
 /// neighbourhood a smoothing filter averages over.
-pub(crate) struct Neighbours {
+struct Neighbours {
     start: Vec<u32>,
     len: Vec<u32>,
     ids: Vec<u32>,
 }
 
 impl Neighbours {
-    pub(crate) fn of_store(store: &MeshStore) -> Self {
+    /// Built without sorting: the raw lists (the other two corners of every triangle at a
+    /// vertex) are symmetric, so walking them by ascending vertex `u` and appending `u` to
+    /// the list of each of its neighbours `v` fills every list in ascending order, with the
+    /// repeats of one neighbour adjacent, where they are dropped.
+    fn of_store(store: &MeshStore) -> Self {
         let slots = store.vertex_slots() as usize;
         let live = store.triangles().chunks_exact(3).filter(|t| t[0] != REMOVED);
         let mut start = vec![0u32; slots + 1];
@@ -60,62 +65,82 @@ impl Neighbours {
         for i in 0..slots {
             start[i + 1] += start[i];
         }
-        let mut fill = start.clone();
-        let mut ids = vec![0u32; start[slots] as usize];
+        let mut fill = start[..slots].to_vec();
+        let mut raw = vec![0u32; start[slots] as usize];
         for t in live {
             for k in 0..3 {
-                let v = t[k] as usize;
-                let at = fill[v] as usize;
-                ids[at] = t[(k + 1) % 3];
-                ids[at + 1] = t[(k + 2) % 3];
-                fill[v] += 2;
+                let at = &mut fill[t[k] as usize];
+                raw[*at as usize] = t[(k + 1) % 3];
+                raw[*at as usize + 1] = t[(k + 2) % 3];
+                *at += 2;
             }
         }
+        // Symmetry: as many raw entries name `v` as `v` has, so `start` fits both.
         let mut len = vec![0u32; slots];
-        for v in 0..slots {
-            let list = &mut ids[start[v] as usize..start[v + 1] as usize];
-            list.sort_unstable();
-            let mut unique = 0;
-            for i in 0..list.len() {
+        let mut ids = vec![0u32; raw.len()];
+        for u in 0..slots {
+            let u32_id = u as u32;
+            for &v in &raw[start[u] as usize..start[u + 1] as usize] {
+                let (v, s) = (v as usize, start[v as usize] as usize);
+                let n = len[v] as usize;
                 // A degenerate triangle may name the vertex itself: not a neighbour.
-                if list[i] as usize != v && (unique == 0 || list[i] != list[unique - 1]) {
-                    list[unique] = list[i];
-                    unique += 1;
+                if v != u && (n == 0 || ids[s + n - 1] != u32_id) {
+                    ids[s + n] = u32_id;
+                    len[v] += 1;
                 }
             }
-            len[v] = unique as u32;
         }
         Self { start, len, ids }
     }
 
-    pub(crate) fn of(&self, v: u32) -> &[u32] {
+    fn of(&self, v: u32) -> &[u32] {
         let s = self.start[v as usize] as usize;
         &self.ids[s..s + self.len[v as usize] as usize]
     }
 }
 
-/// `λ·mean + (1−λ)·p` per axis in f64: one step of uniform Laplacian smoothing with
-/// factor λ. For λ = 1 it is exactly the neighbour mean, as a smoothing filter computes it.
-pub(crate) fn smoothed(p: [f32; 3], mean: [f64; 3], lambda: f32) -> [f32; 3] {
-    let l = f64::from(lambda);
-    std::array::from_fn(|k| (mean[k] * l + f64::from(p[k]) * (1.0 - l)) as f32)
+/// One step of uniform Laplacian smoothing as both sides predict `set-positions`: a live
+/// vertex with neighbours goes to `λ·mean + (1−λ)·p` per axis in f64 (for λ = 1 exactly the
+/// neighbour mean, the bits `laplacian-smoothing` produces), snapped to the grid if any;
+/// other vertices are predicted to stay.
+pub(crate) struct Smoothing {
+    neighbours: Neighbours,
+    grid: Option<Grid>,
 }
 
-/// The f64 mean of a vertex's neighbours, `None` without neighbours.
-pub(crate) fn neighbour_mean(positions: &[f32], around: &[u32]) -> Option<[f64; 3]> {
-    if around.is_empty() {
-        return None;
+impl Smoothing {
+    pub(crate) fn new(store: &MeshStore, grid: Option<Grid>) -> Self {
+        Self { neighbours: Neighbours::of_store(store), grid }
     }
-    let mut sum = [0.0f64; 3];
-    for &n in around {
-        let p = &positions[3 * n as usize..3 * n as usize + 3];
-        for k in 0..3 {
-            sum[k] += f64::from(p[k]);
+
+    /// The f64 mean of `v`'s neighbours in `positions`, `None` without neighbours.
+    pub(crate) fn mean(&self, positions: &[f32], v: u32) -> Option<[f64; 3]> {
+        let around = self.neighbours.of(v);
+        if around.is_empty() {
+            return None;
+        }
+        let mut sum = [0.0f64; 3];
+        for &n in around {
+            let p = &positions[3 * n as usize..3 * n as usize + 3];
+            for k in 0..3 {
+                sum[k] += f64::from(p[k]);
+            }
+        }
+        // Divided, not multiplied by a reciprocal: the bits `laplacian-smoothing` produces.
+        let n = around.len() as f64;
+        Some(sum.map(|s| s / n))
+    }
+
+    /// The predicted new position of `v`, at `p` now, with neighbour mean `mean`.
+    pub(crate) fn predict(&self, p: [f32; 3], mean: Option<[f64; 3]>, lambda: f32) -> [f32; 3] {
+        let Some(mean) = mean else { return p };
+        let l = f64::from(lambda);
+        let q: [f32; 3] = std::array::from_fn(|k| (mean[k] * l + f64::from(p[k]) * (1.0 - l)) as f32);
+        match &self.grid {
+            None => q,
+            Some(grid) => std::array::from_fn(|k| grid.snap(k, q[k])),
         }
     }
-    // Divided, not multiplied by a reciprocal: the bits `laplacian-smoothing` produces.
-    let n = around.len() as f64;
-    Some(sum.map(|s| s / n))
 }
 
 /// For each of `count` new vertices (ids `first..first + count`), the other corners of the

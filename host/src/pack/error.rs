@@ -28,6 +28,7 @@ impl From<FramingError> for PackError {
         match e {
             FramingError::Truncated => PackError::Truncated,
             FramingError::BadVarint => PackError::Malformed("overlong varint".into()),
+            FramingError::BadGrid => PackError::Malformed("invalid grid".into()),
         }
     }
 }

@@ -3,14 +3,17 @@
 //! ```text
 //! magic "MFM\x1a" | version u16 LE | checksum [16] (BLAKE3 of every byte after it)
 //! content hash [32] of the mesh, checked after decoding
-//! varints: vertex count, triangle count, connectivity bytes, geometry bytes
+//! varints: vertex count, triangle count, grid flag (0, or 1 and then the zigzagged step
+//!          exponent of each axis), connectivity bytes, geometry bytes
 //! connectivity section | geometry section (range coded, ending exactly at the end)
 //! ```
 //!
 //! Connectivity: triangles in order, each corner coded against a cache of recently used
 //! vertices, or as "the next unseen vertex", or as a delta ([`CornerCoder`]). Geometry:
 //! vertices in id order, each an exact f32 residual from a parallelogram prediction over
-//! already decoded neighbours. The format keeps vertex and triangle order, so unpacking
+//! already decoded neighbours, or on a mesh whose coordinates all lie on a coarse grid
+//! ([`Grid::detect`], e.g. after `--quantize`), in grid steps from the snapped prediction.
+//! The format keeps vertex and triangle order, so unpacking
 //! gives back the same bytes, and the content hash is verified.
 //!
 //! ```
@@ -24,16 +27,17 @@ mod predict;
 
 pub use error::PackError;
 
-use crate::correction::coding::bytes::{ByteReader, put_varint};
+use crate::correction::coding::bytes::{ByteReader, put_grid, put_varint};
 use crate::correction::coding::corners::CornerCoder;
 use crate::correction::coding::residual::ResidualCoder;
 use crate::correction::coding::stream::{SymbolReader, SymbolWriter};
+use crate::quantize::Grid;
 use crate::{ContentHash, MeshData};
 use predict::{VertexTriangles, predict};
 
 const MAGIC: [u8; 4] = *b"MFM\x1a";
 /// The format version this build writes and reads.
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
 const CHECKSUM_LEN: usize = 16;
 const CHECKSUM_AT: usize = 6;
 /// Declared counts may exceed the file size by at most this factor (the adaptive models'
@@ -52,8 +56,9 @@ pub fn encode(mesh: &MeshData) -> Result<Vec<u8>, PackError> {
         corners.write(&mut connectivity, [t[0], t[1], t[2]]);
     }
     let around = VertexTriangles::new(vertex_count, &mesh.triangles);
+    let grid = Grid::detect([&mesh.positions[..]]);
     let mut geometry = SymbolWriter::new();
-    let mut residuals = ResidualCoder::new();
+    let mut residuals = ResidualCoder::new(grid);
     for (v, p) in mesh.positions.chunks_exact(3).enumerate() {
         let predicted = predict(v as u32, &mesh.positions, &mesh.triangles, &around);
         residuals.write(&mut geometry, [p[0], p[1], p[2]], predicted);
@@ -64,9 +69,11 @@ pub fn encode(mesh: &MeshData) -> Result<Vec<u8>, PackError> {
     out.extend_from_slice(&VERSION.to_le_bytes());
     out.extend_from_slice(&[0; CHECKSUM_LEN]);
     out.extend_from_slice(&mesh.content_hash().0);
-    for n in [vertex_count, mesh.triangle_count(), connectivity.len(), geometry.len()] {
-        put_varint(&mut out, n as u64);
-    }
+    put_varint(&mut out, vertex_count as u64);
+    put_varint(&mut out, mesh.triangle_count() as u64);
+    put_grid(&mut out, grid);
+    put_varint(&mut out, connectivity.len() as u64);
+    put_varint(&mut out, geometry.len() as u64);
     out.extend_from_slice(&connectivity);
     out.extend_from_slice(&geometry);
     let checksum = blake3::hash(&out[CHECKSUM_AT + CHECKSUM_LEN..]);
@@ -98,6 +105,7 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, PackError> {
             bytes.len()
         )));
     }
+    let grid = r.grid()?;
     let section = |r: &mut ByteReader<'_>| -> Result<usize, PackError> {
         usize::try_from(r.varint()?).map_err(|_| PackError::Truncated)
     };
@@ -123,7 +131,7 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, PackError> {
     let bad_geometry = |_| PackError::Corrupt("geometry");
     let around = VertexTriangles::new(vertex_count as usize, &triangles);
     let mut input = SymbolReader::new(geometry).map_err(bad_geometry)?;
-    let mut residuals = ResidualCoder::new();
+    let mut residuals = ResidualCoder::new(grid);
     let mut positions = Vec::new();
     for v in 0..vertex_count as u32 {
         let predicted = predict(v, &positions, &triangles, &around);

@@ -1,10 +1,10 @@
-//! Shared by the correction and pack tests: a small PRNG, scan-like test meshes, and random
-//! edit sequences of every op kind.
+//! Shared by the correction and pack tests: a small PRNG, scan-like test meshes, random
+//! edit sequences of every op kind, a smoothing step, and the round-trip check.
 
 #![allow(dead_code)] // each test binary uses part of it
 
-use meshflow_host::MeshData;
 use meshflow_host::store::{MeshStore, Op, OpKind};
+use meshflow_host::{MeshData, correction};
 
 /// SplitMix64: deterministic, seedable, good enough for test data.
 pub struct Rng(pub u64);
@@ -196,4 +196,69 @@ pub fn random_edits(store: &mut MeshStore, rng: &mut Rng, steps: usize) {
             let _ = store.apply(op);
         }
     }
+}
+
+/// Encodes the step, applies it to the base, and checks hash, bytes and the replayed log.
+pub fn assert_round_trip(base: &MeshData, result: &MeshData, log: &[Op]) -> Vec<u8> {
+    let bytes = correction::encode(base, log, result).expect("a store's own log encodes");
+    let (replayed, replayed_log) = correction::replay(base, &bytes).expect("applies");
+    assert_eq!(replayed.content_hash(), result.content_hash());
+    assert_eq!(bits(&replayed.positions), bits(&result.positions));
+    assert_eq!(replayed.triangles, result.triangles);
+    assert_eq!(ops_bits(&replayed_log), ops_bits(log));
+    let header = correction::decode(&bytes).unwrap();
+    assert_eq!(header.base, base.content_hash());
+    assert_eq!(header.result, result.content_hash());
+    assert_eq!(header.op_count(), log.len() as u64);
+    assert_eq!(header.total_bytes(), bytes.len());
+    bytes
+}
+
+fn bits(values: &[f32]) -> Vec<u32> {
+    values.iter().map(|v| v.to_bits()).collect()
+}
+
+/// The log with floats as bit patterns, so `-0.0 != 0.0` and equality is exact.
+fn ops_bits(log: &[Op]) -> String {
+    format!("{:?}", log.iter().map(|op| format!("{op:?}")).collect::<Vec<_>>())
+}
+
+/// Uniform Laplacian smoothing with factor `lambda`, interior vertices only, in f64 over
+/// sorted distinct neighbours.
+pub fn smooth(mesh: &MeshData, lambda: f64) -> Vec<f32> {
+    let n = mesh.vertex_count();
+    let mut neighbours = vec![Vec::new(); n];
+    let mut edge_uses = std::collections::HashMap::new();
+    for t in mesh.triangles.chunks_exact(3) {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            neighbours[a as usize].extend([b, t[(k + 2) % 3]]);
+            *edge_uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        }
+    }
+    let mut boundary = vec![false; n];
+    for ((a, b), uses) in edge_uses {
+        if uses == 1 {
+            boundary[a as usize] = true;
+            boundary[b as usize] = true;
+        }
+    }
+    let mut out = mesh.positions.clone();
+    for v in 0..n {
+        let list = &mut neighbours[v];
+        list.sort_unstable();
+        list.dedup();
+        if boundary[v] || list.is_empty() {
+            continue;
+        }
+        for k in 0..3 {
+            let sum: f64 =
+                list.iter().map(|&u| f64::from(mesh.positions[3 * u as usize + k])).sum();
+            // Divided, as `laplacian-smoothing` does.
+            let mean = sum / list.len() as f64;
+            let p = f64::from(mesh.positions[3 * v + k]);
+            out[3 * v + k] = (mean * lambda + p * (1.0 - lambda)) as f32;
+        }
+    }
+    out
 }

@@ -5,19 +5,31 @@
 //! they are counted as the SDK's [`topology`](meshflow_sdk::topology) module documents,
 //! never rejected.
 
-use meshflow_sdk::topology::{HalfEdges, TriangleComponents, boundary_loops};
+use meshflow_sdk::topology::{HalfEdges, boundary_loops};
+
+use crate::edges::{EdgeBuckets, Members};
+use crate::forest::ParityForest;
 
 /// The number of distinct undirected edges `{a, b}` of the proper triangles (three distinct
 /// in-range vertex ids); an edge shared by any number of triangles counts once. O(V + T).
 pub fn edge_count(vertex_count: usize, triangles: &[u32]) -> usize {
-    HalfEdges::new(vertex_count, triangles).edge_count()
+    let mut edges = 0;
+    EdgeBuckets::new(vertex_count, triangles).for_each_edge(|_, _| edges += 1);
+    edges
 }
 
 /// The number of edge-connected components of triangles: triangles sharing an edge (manifold
 /// or not, whatever their orientations) are connected; triangles touching only at a vertex
 /// are not. Unreferenced vertices form no component. O(V + T).
 pub fn component_count(vertex_count: usize, triangles: &[u32]) -> usize {
-    TriangleComponents::new(vertex_count, triangles).count()
+    let mut forest = ParityForest::new(triangles.len() / 3);
+    EdgeBuckets::of(vertex_count, triangles, Members::AnyEdge).for_each_edge(|_, sides| {
+        for pair in sides.windows(2) {
+            // Orientation does not matter here, only being joined.
+            forest.union(pair[0].triangle(), pair[1].triangle(), 0);
+        }
+    });
+    forest.roots()
 }
 
 /// The number of boundary loops (holes, the outer border of an open surface included); a

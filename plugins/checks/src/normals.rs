@@ -1,7 +1,8 @@
 //! Normal instability: how much the surface turns from triangle to triangle.
 
-use meshflow_sdk::geometry::{Vec3, angle_between, normalize, triangle_normal};
-use meshflow_sdk::topology::{HalfEdges, NONE};
+use meshflow_sdk::geometry::{angle_between, dot, triangle_normal};
+
+use crate::edges::EdgeBuckets;
 
 /// The mean angle in degrees between the normals of the two triangles of each interior
 /// manifold edge (an edge with exactly two triangles), or 0 if there is no such edge.
@@ -9,39 +10,26 @@ use meshflow_sdk::topology::{HalfEdges, NONE};
 /// Normals are taken as the triangles are stored, so the check sees orientation defects: a
 /// flipped triangle contributes about 180° on its edges to consistently oriented neighbours,
 /// and the seam of a non-orientable strip does too. Edges next to a zero-area triangle are
-/// skipped (it has no normal). Unit normals and the sum are `f64`, summed in half-edge
-/// order, so the result is deterministic. O(V + T).
+/// skipped (it has no normal). The angle is measured between the unnormalised normals
+/// (`atan2` is scale-free), recomputed per edge rather than stored: cheaper than 24 bytes per
+/// triangle of fresh memory. The sum is `f64` in ascending edge order, so the result is
+/// deterministic. O(V + T).
 pub fn normal_instability(positions: &[f32], triangles: &[u32]) -> f64 {
-    let half_edges = HalfEdges::new(positions.len() / 3, triangles);
-    let normals = unit_normals(positions, triangles, &half_edges);
+    let normal = |t: u32| {
+        let n = triangle_normal(positions, triangles, t);
+        // Zero area, or a non-finite corner: no direction.
+        (n != [0.0; 3] && dot(n, n).is_finite()).then_some(n)
+    };
     let (mut sum, mut edges) = (0.0f64, 0u64);
-    for (h, &twin) in half_edges.opposites().iter().enumerate() {
-        // Each interior edge once, from its smaller half-edge.
-        if twin == NONE || twin < h as u32 {
-            continue;
+    EdgeBuckets::new(positions.len() / 3, triangles).for_each_edge(|_, sides| {
+        if let [x, y] = sides
+            && let (Some(n0), Some(n1)) = (normal(x.triangle()), normal(y.triangle()))
+        {
+            sum += angle_between(n0, n1);
+            edges += 1;
         }
-        let (n0, n1) = (normals[h / 3], normals[twin as usize / 3]);
-        if n0 == [0.0; 3] || n1 == [0.0; 3] {
-            continue;
-        }
-        sum += angle_between(n0, n1);
-        edges += 1;
-    }
+    });
     if edges == 0 { 0.0 } else { (sum / edges as f64).to_degrees() }
-}
-
-/// The unit normal of every triangle with an interior edge (computed once, not once per
-/// edge), zero for the others and for zero-area triangles.
-fn unit_normals(positions: &[f32], triangles: &[u32], half_edges: &HalfEdges) -> Vec<Vec3> {
-    let interior = |t: usize| (3 * t..3 * t + 3).any(|h| half_edges.opposites()[h] != NONE);
-    (0..triangles.len() / 3)
-        .map(|t| {
-            if !interior(t) {
-                return [0.0; 3];
-            }
-            normalize(triangle_normal(positions, triangles, t as u32)).unwrap_or([0.0; 3])
-        })
-        .collect()
 }
 
 #[cfg(test)]

@@ -6,6 +6,9 @@
 
 use meshflow_sdk::topology::{HalfEdges, manifold};
 
+use crate::edges::EdgeBuckets;
+use crate::forest::ParityForest;
+
 /// Whether the mesh is edge-manifold (no edge has three or more triangles) and
 /// vertex-manifold (the triangles around every vertex form a single fan, so no bow-tie).
 /// O(V + T).
@@ -17,13 +20,31 @@ pub fn is_manifold(vertex_count: usize, triangles: &[u32]) -> bool {
 /// Whether every interior (two-triangle) edge is traversed in opposite directions by its two
 /// triangles. Boundary and non-manifold edges impose nothing. O(V + T).
 pub fn is_oriented(vertex_count: usize, triangles: &[u32]) -> bool {
-    manifold::is_oriented(&HalfEdges::new(vertex_count, triangles))
+    let edges = EdgeBuckets::new(vertex_count, triangles);
+    let mut oriented = true;
+    edges.for_each_edge(|a, sides| {
+        if let [x, y] = sides {
+            oriented &= edges.runs_up(a, *x) != edges.runs_up(a, *y);
+        }
+    });
+    oriented
 }
 
 /// Whether flipping some triangles would make the mesh oriented (false for a Möbius strip).
 /// O(V + T).
 pub fn is_orientable(vertex_count: usize, triangles: &[u32]) -> bool {
-    manifold::is_orientable(&HalfEdges::new(vertex_count, triangles))
+    let edges = EdgeBuckets::new(vertex_count, triangles);
+    // Two triangles running along their edge the same way must end up flipped relative to
+    // each other (parity 1); a cycle of constraints with odd parity cannot be met.
+    let mut forest = ParityForest::new(triangles.len() / 3);
+    let mut orientable = true;
+    edges.for_each_edge(|a, sides| {
+        if orientable && let [x, y] = sides {
+            let relation = (edges.runs_up(a, *x) == edges.runs_up(a, *y)) as u8;
+            orientable = forest.union(x.triangle(), y.triangle(), relation);
+        }
+    });
+    orientable
 }
 
 #[cfg(test)]

@@ -1,10 +1,14 @@
 //! Plain byte-level framing: fixed-width integers and LEB128 varints, read with bounds checks.
 
-/// The data ended early, or a varint was longer than its type.
+use super::integer::{unzigzag, zigzag};
+use crate::quantize::Grid;
+
+/// The data ended early, a varint was longer than its type, or a grid was invalid.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum FramingError {
     Truncated,
     BadVarint,
+    BadGrid,
 }
 
 pub(crate) fn put_varint(out: &mut Vec<u8>, mut value: u64) {
@@ -13,6 +17,14 @@ pub(crate) fn put_varint(out: &mut Vec<u8>, mut value: u64) {
         value >>= 7;
     }
     out.push(value as u8);
+}
+
+/// An optional grid: a flag varint, then the zigzagged step exponent of each axis.
+pub(crate) fn put_grid(out: &mut Vec<u8>, grid: Option<Grid>) {
+    put_varint(out, u64::from(grid.is_some()));
+    for e in grid.iter().flat_map(Grid::exponents) {
+        put_varint(out, u64::from(zigzag(e)));
+    }
 }
 
 /// A cursor over untrusted bytes: every read checks what is left first.
@@ -62,6 +74,20 @@ impl<'a> ByteReader<'a> {
         }
         Err(FramingError::BadVarint)
     }
+
+    /// What [`put_grid`] wrote.
+    pub(crate) fn grid(&mut self) -> Result<Option<Grid>, FramingError> {
+        match self.varint()? {
+            0 => return Ok(None),
+            1 => {}
+            _ => return Err(FramingError::BadGrid),
+        }
+        let mut exponents = [0i32; 3];
+        for e in &mut exponents {
+            *e = unzigzag(u32::try_from(self.varint()?).map_err(|_| FramingError::BadGrid)?);
+        }
+        Grid::from_exponents(exponents).map(Some).ok_or(FramingError::BadGrid)
+    }
 }
 
 #[cfg(test)]
@@ -84,5 +110,16 @@ mod tests {
         let mut r = ByteReader::new(&[1, 2, 3]);
         assert_eq!(r.u16(), Ok(0x0201));
         assert_eq!(r.take(2), Err(FramingError::Truncated));
+    }
+
+    #[test]
+    fn grids_round_trip_and_refuse_bad_flags_and_steps() {
+        for grid in [None, Grid::from_exponents([-149, 0, 127])] {
+            let mut out = Vec::new();
+            put_grid(&mut out, grid);
+            assert_eq!(ByteReader::new(&out).grid(), Ok(grid));
+        }
+        assert_eq!(ByteReader::new(&[2]).grid(), Err(FramingError::BadGrid));
+        assert_eq!(ByteReader::new(&[1, 0, 0, 0xfe, 1]).grid(), Err(FramingError::BadGrid));
     }
 }

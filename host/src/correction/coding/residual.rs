@@ -1,30 +1,51 @@
 //! Points coded as exact f32 residuals from a prediction, with context-adaptive models.
 //!
+//! On a [`Grid`] a residual counts grid steps from the prediction snapped to the grid, so a
+//! mesh quantised to `b` bits pays for `b`-bit indices, not for 24-bit mantissas. A value
+//! the grid index cannot reproduce exactly (off the grid, or too far) is escaped and
+//! written as its raw bits, so coding stays lossless whatever it is given.
+//!
 //! Each axis has its own models, selected by the magnitude class of the residual coded just
 //! before it, since the three residuals of a point (and of consecutive points) are
 //! correlated in size: a vertex that moved far on x likely moved far on y.
 
 use super::float::{residual, restore};
-use super::integer::{int_model, split, zigzag};
+use super::integer::{int_model, split, unzigzag, zigzag};
 use super::model::AdaptiveModel;
 use super::stream::{CorruptStream, SymbolReader, SymbolWriter};
+use crate::quantize::Grid;
 
 const CLASSES: usize = 4;
+/// The grid residual `i32::MIN` (zigzag `u32::MAX`) is never coded: it announces raw bits.
+const ESCAPE: u32 = u32::MAX;
 
 pub(crate) struct ResidualCoder {
     models: Vec<AdaptiveModel>,
     class: usize,
+    grid: Option<Grid>,
 }
 
 impl ResidualCoder {
-    pub(crate) fn new() -> Self {
-        Self { models: (0..3 * CLASSES).map(|_| int_model()).collect(), class: 0 }
+    pub(crate) fn new(grid: Option<Grid>) -> Self {
+        Self { models: (0..3 * CLASSES).map(|_| int_model()).collect(), class: 0, grid }
     }
 
     pub(crate) fn write(&mut self, w: &mut SymbolWriter, actual: [f32; 3], predicted: [f32; 3]) {
         for k in 0..3 {
-            let z = zigzag(residual(actual[k], predicted[k]));
-            w.uint(&mut self.models[k * CLASSES + self.class], z);
+            let model = &mut self.models[k * CLASSES + self.class];
+            let z = match &self.grid {
+                None => zigzag(residual(actual[k], predicted[k])),
+                Some(grid) => match grid_residual(grid, k, actual[k], predicted[k]) {
+                    Some(r) => zigzag(r),
+                    None => {
+                        w.uint(model, ESCAPE);
+                        w.f32_bits(actual[k]);
+                        self.class = class_of(ESCAPE);
+                        continue;
+                    }
+                },
+            };
+            w.uint(model, z);
             self.class = class_of(z);
         }
     }
@@ -38,10 +59,29 @@ impl ResidualCoder {
         for k in 0..3 {
             let z = r.uint(&mut self.models[k * CLASSES + self.class])?;
             self.class = class_of(z);
-            point[k] = restore(predicted[k], super::integer::unzigzag(z));
+            point[k] = match (&self.grid, z) {
+                (None, _) => restore(predicted[k], unzigzag(z)),
+                (Some(_), ESCAPE) => r.f32_bits()?,
+                (Some(grid), _) => from_grid(grid, k, predicted[k], unzigzag(z)),
+            };
         }
         Ok(point)
     }
+}
+
+/// Grid steps from `predicted` (snapped) to `actual`, when decoding them gives back
+/// `actual`'s exact bits.
+fn grid_residual(grid: &Grid, axis: usize, actual: f32, predicted: f32) -> Option<i32> {
+    let step = grid.step(axis);
+    let r = f64::from(actual) / step - f64::from(grid.snap(axis, predicted)) / step;
+    let r = (r.fract() == 0.0 && r.abs() < f64::from(i32::MAX)).then_some(r as i32)?;
+    (from_grid(grid, axis, predicted, r).to_bits() == actual.to_bits()).then_some(r)
+}
+
+fn from_grid(grid: &Grid, axis: usize, predicted: f32, r: i32) -> f32 {
+    let step = grid.step(axis);
+    let index = f64::from(grid.snap(axis, predicted)) / step + f64::from(r);
+    (index * step) as f32 + 0.0
 }
 
 fn class_of(z: u32) -> usize {
@@ -50,5 +90,36 @@ fn class_of(z: u32) -> usize {
         1..6 => 1,
         6..26 => 2,
         _ => 3,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_points_cost_their_steps_and_anything_else_is_escaped_exactly() {
+        let grid = Grid::from_exponents([-10, -10, -4]);
+        let mut points: Vec<[f32; 3]> =
+            (0..500).map(|i| [i as f32 / 1024.0, -(i as f32) / 512.0, (i % 7) as f32 / 16.0]).collect();
+        points.extend([[0.1, -0.0, 1e30], [f32::MAX, f32::MIN, 3.0e-40]]);
+        let predicted = |i: usize| if i == 0 { [0.0; 3] } else { points[i - 1] };
+        for grid in [None, grid] {
+            let mut w = SymbolWriter::new();
+            let mut coder = ResidualCoder::new(grid);
+            for (i, &p) in points.iter().enumerate() {
+                coder.write(&mut w, p, predicted(i));
+            }
+            let bytes = w.finish();
+            let mut r = SymbolReader::new(&bytes).unwrap();
+            let mut coder = ResidualCoder::new(grid);
+            for (i, &p) in points.iter().enumerate() {
+                let q = coder.read(&mut r, predicted(i)).unwrap();
+                assert_eq!(q.map(f32::to_bits), p.map(f32::to_bits), "point {i}");
+            }
+            if grid.is_some() {
+                assert!(bytes.len() < 500, "{} bytes for 500 steady grid steps", bytes.len());
+            }
+        }
     }
 }

@@ -1,0 +1,117 @@
+//! Engine benchmarks (issue 5), printed as a table. Run with `cargo bench --bench engine`.
+//!
+//! Two hosts and an engine on loopback, real HTTP. Host A offers the smoothing family, host B
+//! the cleanup family, so a workflow alternating LS(1) and RDT forwards every result from
+//! one host to the other. On the 1M-vertex scan it reports, from the run's own record:
+//! - the engine's overhead per step: from a host's reply to the next trigger, waiting for
+//!   transfers excluded (goal ≤ 5 ms);
+//! - downloading and applying each LS correction on the other host (goal ≤ 0.2 s);
+//! - the same with `transfer: full`, side by side.
+
+mod common;
+
+use meshflow_builtin_plugins::PLUGINS;
+use meshflow_host::generate::scan;
+use meshflow_host::server::{HostConfig, start};
+use serde_json::{Value, json};
+use tokio::net::TcpListener;
+
+const ROUNDS: usize = 4;
+
+fn family(name: &str) -> Vec<&'static [u8]> {
+    PLUGINS.iter().filter(|p| p.name == name).map(|p| p.wasm).collect()
+}
+
+#[tokio::main]
+async fn main() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let mesh = scan(&common::SCAN_1M);
+    let input = dir.path().join("scan.mfm");
+    std::fs::write(&input, meshflow_host::pack::encode(&mesh)?)?;
+    println!(
+        "mesh: generated scan, {} vertices, {} triangles\n",
+        mesh.vertex_count(),
+        mesh.triangle_count()
+    );
+
+    let mut hosts = Vec::new();
+    for (i, builtins) in [family("smoothing"), family("cleanup")].into_iter().enumerate() {
+        let config =
+            HostConfig { builtins, ..HostConfig::new(dir.path().join(format!("host-{i}"))) };
+        hosts.push(start(config, TcpListener::bind("127.0.0.1:0").await?).await?);
+    }
+    let urls: Vec<String> = hosts.iter().map(|h| h.url.clone()).collect();
+    let engine = meshflow_engine::start(
+        dir.path().join("engine"),
+        None,
+        &urls,
+        TcpListener::bind("127.0.0.1:0").await?,
+    )
+    .await?;
+    let input_url = engine
+        .engine
+        .put_input("scan.mfm", &std::fs::read(&input)?)
+        .await
+        .map_err(anyhow::Error::msg)?;
+
+    let steps: Vec<Value> = (0..ROUNDS)
+        .flat_map(|_| {
+            [
+                json!({"run": "laplacian-smoothing", "params": {"iterations": 1}}),
+                json!({"run": "remove-degenerate-triangles"}),
+            ]
+        })
+        .collect();
+    println!(
+        "| transfer | step | service | compute ms | engine overhead ms | sent as | KB | download ms | apply ms |"
+    );
+    println!("|---|---|---|---:|---:|---|---:|---:|---:|");
+    let mut totals = Vec::new();
+    for transfer in ["auto", "full"] {
+        let workflow = meshflow_engine::workflow::Workflow::from_json(
+            &json!({"steps": steps, "transfer": transfer}),
+        )?;
+        let run = engine.engine.submit(workflow, Some(input_url.clone()))?;
+        while !run.is_finished() {
+            tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+        }
+        let record = serde_json::to_value(run.record())?;
+        anyhow::ensure!(record["status"] == "completed", "the run failed: {}", record["error"]);
+        for step in record["steps"].as_array().into_iter().flatten() {
+            for t in step["transfers"].as_array().into_iter().flatten() {
+                println!(
+                    "| {transfer} | {} | {} | {:.0} | {:.2} | {} | {:.1} | {:.0} | {:.0} |",
+                    step["index"],
+                    step["service"].as_str().unwrap_or(""),
+                    step["compute_ms"].as_f64().unwrap_or(0.0),
+                    step["overhead_ms"].as_f64().unwrap_or(0.0),
+                    t["via"].as_str().unwrap_or(""),
+                    t["bytes"].as_f64().unwrap_or(0.0) / 1024.0,
+                    t["download_ms"].as_f64().unwrap_or(0.0),
+                    t["apply_ms"].as_f64().unwrap_or(0.0),
+                );
+            }
+        }
+        let overheads: Vec<f64> = record["steps"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .skip(1)
+            .filter_map(|s| s["overhead_ms"].as_f64())
+            .collect();
+        let worst = overheads.iter().cloned().fold(0.0, f64::max);
+        let mean = overheads.iter().sum::<f64>() / overheads.len().max(1) as f64;
+        totals.push(format!(
+            "{transfer}: total {:.2} s; engine overhead per step mean {mean:.2} ms, worst {worst:.2} ms (goal ≤ 5 ms)",
+            record["total_ms"].as_f64().unwrap_or(0.0) / 1e3
+        ));
+    }
+    println!();
+    for line in totals {
+        println!("{line}");
+    }
+    println!(
+        "goal: an LS correction of a 1M-vertex mesh downloaded and applied in ≤ 200 ms (rows 'auto', laplacian-smoothing)"
+    );
+    Ok(())
+}

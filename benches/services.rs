@@ -1,0 +1,299 @@
+//! The in-house services (issue 4) on the generated 1M-vertex / 2M-triangle scan (150
+//! spurious pieces, 400 holes), printed as one table. Run with `cargo bench --bench services`
+//! (release). Per service: the whole run inside the host (`Runtime::run`: array copies,
+//! sandbox with its default limits — deadline, memory cap — and the store applying the
+//! edits), the same code native (the plugin crate's plain function on the arrays), their
+//! ratio, MeshLab's figure from the issue and, when pymeshlab imports (`$PYMESHLAB_PYTHON`,
+//! default `python3`), MeshLab timed on the same mesh saved as binary PLY. Each figure is
+//! the best of a few runs, all side by side in this one run, as the machine is noisy.
+//!
+//! Goals: each filter ≤ 0.5× MeshLab's figure, all checks together ≤ 800 ms in the sandbox,
+//! WASM ≤ 1.3× native.
+
+mod common;
+
+use std::time::Duration;
+
+use common::{SCAN_1M, best, meshlab_available, meshlab_time, ms, ratio};
+use meshflow_builtin_plugins::PLUGINS;
+use meshflow_host::generate::scan;
+use meshflow_host::runtime::{Limits, Runtime, Value};
+use meshflow_host::{MeshData, io};
+use meshflow_plugin_checks::{angles, counts, normals, topology};
+use meshflow_plugin_cleanup::components::{Keep, small_components};
+use meshflow_plugin_cleanup::degenerate::repair_degenerate;
+use meshflow_plugin_holes::fill::{Settings, fill_holes};
+use meshflow_plugin_smoothing::laplacian::{Pinning, Weights, smooth};
+use meshflow_plugin_smoothing::noise::add_noise;
+use meshflow_sdk::geometry::bounding_box;
+
+const RUNS: usize = 3;
+
+/// What a filter's result must agree on between the native and the sandboxed run.
+struct Outcome {
+    triangles: usize,
+    /// The moved positions, for filters that only move vertices.
+    positions: Option<Vec<f32>>,
+}
+
+/// A filter run with its default parameters (the natives below use the same values).
+struct Filter {
+    plugin: &'static str,
+    service: &'static str,
+    native: fn(&MeshData) -> Outcome,
+    /// MeshLab 2025.07's time from the issue, if it gives one.
+    meshlab_issue: Option<Duration>,
+    /// The pymeshlab statement doing the same on a `MeshSet` `ms`.
+    meshlab: &'static str,
+}
+
+fn moved(positions: Vec<f32>, mesh: &MeshData) -> Outcome {
+    Outcome { triangles: mesh.triangle_count(), positions: Some(positions) }
+}
+
+const FILTERS: [Filter; 5] = [
+    Filter {
+        plugin: "cleanup",
+        service: "remove-smallest-components",
+        native: |m| {
+            let removal = small_components(m.vertex_count(), &m.triangles, Keep::Largest);
+            Outcome { triangles: m.triangle_count() - removal.triangles.len(), positions: None }
+        },
+        meshlab_issue: Some(Duration::from_millis(1940)),
+        meshlab: "ms.meshing_remove_connected_component_by_face_number(mincomponentsize=10000)",
+    },
+    Filter {
+        plugin: "cleanup",
+        service: "remove-degenerate-triangles",
+        native: |m| {
+            let (repaired, _) = repair_degenerate(m.positions.clone(), m.triangles.clone(), 0.0);
+            let live = (0..repaired.triangle_slots()).filter(|&t| repaired.is_triangle_live(t));
+            Outcome { triangles: live.count(), positions: None }
+        },
+        meshlab_issue: Some(Duration::from_millis(630)),
+        meshlab: "ms.meshing_remove_null_faces(); ms.meshing_remove_duplicate_faces()",
+    },
+    Filter {
+        plugin: "smoothing",
+        service: "laplacian-smoothing",
+        native: |m| {
+            let xyz = smooth(&m.positions, &m.triangles, 1, Pinning::Boundary, Weights::Uniform);
+            moved(xyz, m)
+        },
+        meshlab_issue: Some(Duration::from_millis(1430)),
+        meshlab: "ms.apply_coord_laplacian_smoothing(stepsmoothnum=1, boundary=True, \
+                  cotangentweight=False)",
+    },
+    Filter {
+        plugin: "smoothing",
+        service: "add-noise",
+        native: |m| {
+            let diagonal = bounding_box(&m.positions).map_or(0.0, |b| b.diagonal());
+            moved(add_noise(&m.positions, 0.01 * diagonal, 0), m)
+        },
+        meshlab_issue: None,
+        meshlab: "ms.apply_coord_random_displacement(displacement=pymeshlab.PercentageValue(1))",
+    },
+    Filter {
+        plugin: "holes",
+        service: "fill-holes",
+        native: |m| {
+            let settings = Settings {
+                max_hole_edges: meshflow_plugin_holes::DEFAULT_MAX_HOLE_EDGES as usize,
+                refine: true,
+                fairing_iterations: 100,
+            };
+            let filling = fill_holes(&m.positions, &m.triangles, settings);
+            Outcome {
+                triangles: m.triangle_count() + filling.new_triangles.len() / 3,
+                positions: None,
+            }
+        },
+        meshlab_issue: Some(Duration::from_millis(1760)),
+        meshlab: "ms.meshing_close_holes(maxholesize=500)",
+    },
+];
+
+/// A check run natively on the host's arrays.
+type NativeCheck = fn(&MeshData) -> Value;
+
+/// Every check with its native twin.
+const CHECKS: [(&str, NativeCheck); 11] = [
+    ("vertex-count", |m| Value::Integer(m.vertex_count() as i64)),
+    ("edge-count", |m| Value::Integer(counts::edge_count(m.vertex_count(), &m.triangles) as i64)),
+    ("triangle-count", |m| Value::Integer(m.triangle_count() as i64)),
+    ("component-count", |m| {
+        Value::Integer(counts::component_count(m.vertex_count(), &m.triangles) as i64)
+    }),
+    ("hole-count", |m| Value::Integer(counts::hole_count(m.vertex_count(), &m.triangles) as i64)),
+    ("is-manifold", |m| Value::Boolean(topology::is_manifold(m.vertex_count(), &m.triangles))),
+    ("is-oriented", |m| Value::Boolean(topology::is_oriented(m.vertex_count(), &m.triangles))),
+    ("is-orientable", |m| Value::Boolean(topology::is_orientable(m.vertex_count(), &m.triangles))),
+    ("min-angle", |m| Value::Real(angles::min_angle(&m.positions, &m.triangles))),
+    ("max-angle", |m| Value::Real(angles::max_angle(&m.positions, &m.triangles))),
+    ("normal-instability", |m| {
+        Value::Real(normals::normal_instability(&m.positions, &m.triangles))
+    }),
+];
+
+/// MeshLab's closest equivalent of all checks: its topological measures, and per-face
+/// triangle-shape quality with its statistics (it has no min/max-angle measure).
+const MESHLAB_CHECKS: &str = "ms.get_topological_measures(); \
+    ms.compute_scalar_by_aspect_ratio_per_face(); ms.get_scalar_statistics_per_face()";
+
+/// One line of the table.
+struct Row {
+    service: String,
+    native: Duration,
+    wasm: Duration,
+    meshlab_issue: Option<Duration>,
+    meshlab_here: Option<Duration>,
+    goal: String,
+}
+
+fn main() {
+    let mesh = scan(&SCAN_1M);
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let ply = dir.path().join("scan.ply");
+    io::save(&ply, &mesh).expect("saving the scan");
+    let with_meshlab = meshlab_available();
+    let meshlab = |statement: &str| {
+        with_meshlab.then(|| meshlab_time(&ply, "ms.load_new_mesh(MESH)", statement, RUNS))?
+    };
+    let runtime = Runtime::new(Limits::default(), None).expect("a runtime");
+
+    let mut rows = Vec::new();
+    for filter in &FILTERS {
+        rows.push(filter_row(&runtime, &mesh, filter, meshlab(filter.meshlab)));
+    }
+    rows.extend(check_rows(&runtime, &mesh, meshlab(MESHLAB_CHECKS)));
+
+    println!(
+        "mesh: generated scan ({} vertices, {} triangles, {} pieces, {} holes punched)",
+        mesh.vertex_count(),
+        mesh.triangle_count(),
+        SCAN_1M.components + 1,
+        SCAN_1M.holes
+    );
+    if !with_meshlab {
+        println!("pymeshlab does not import: no \"MeshLab here\" figures (pip install pymeshlab)");
+    }
+    print_table(&rows);
+    println!(
+        "\nMeshLab here, checks: get_topological_measures + compute_scalar_by_aspect_ratio_per_face \
+         + get_scalar_statistics_per_face. wasm/ML: against \"here\" when measured, else the issue."
+    );
+}
+
+fn load(runtime: &Runtime, plugin: &str) -> meshflow_host::runtime::Plugin {
+    let wasm = PLUGINS.iter().find(|p| p.name == plugin).expect("a built-in plugin").wasm;
+    runtime.load(wasm).expect("the plugin loads")
+}
+
+fn filter_row(
+    runtime: &Runtime,
+    mesh: &MeshData,
+    filter: &Filter,
+    meshlab_here: Option<Duration>,
+) -> Row {
+    let plugin = load(runtime, filter.plugin);
+    let (native, expected) = best(RUNS, || (filter.native)(mesh));
+    let (wasm, output) =
+        best(RUNS, || runtime.run(&plugin, filter.service, mesh, &[]).expect("a filter run"));
+    let result = output.mesh.expect("a filter returns a mesh");
+    assert_eq!(result.triangle_count(), expected.triangles, "{}: triangle count", filter.service);
+    if let Some(positions) = expected.positions {
+        assert!(result.positions == positions, "{}: positions differ", filter.service);
+    }
+    let goal = match filter.meshlab_issue {
+        Some(t) => format!("≤ {:.0} ms (0.5× ML)", 0.5 * ms(t)),
+        None => "—".into(),
+    };
+    Row {
+        service: filter.service.into(),
+        native,
+        wasm,
+        meshlab_issue: filter.meshlab_issue,
+        meshlab_here,
+        goal,
+    }
+}
+
+fn check_rows(runtime: &Runtime, mesh: &MeshData, meshlab_here: Option<Duration>) -> Vec<Row> {
+    let plugin = load(runtime, "checks");
+    let mut rows = Vec::new();
+    let (mut native_total, mut wasm_total) = (Duration::ZERO, Duration::ZERO);
+    for (service, native) in CHECKS {
+        let (native_time, expected) = best(RUNS, || native(mesh));
+        let (wasm_time, out) =
+            best(RUNS, || runtime.run(&plugin, service, mesh, &[]).expect("a check run"));
+        let value = out.value.expect("a check value");
+        // Reals may differ in the last bits: wasm links its own libm.
+        let agree = match (&value, &expected) {
+            (Value::Real(a), Value::Real(b)) => (a - b).abs() <= 1e-12 * b.abs().max(1.0),
+            _ => value == expected,
+        };
+        assert!(agree, "{service}: the sandbox gave {value:?}, native {expected:?}");
+        native_total += native_time;
+        wasm_total += wasm_time;
+        rows.push(Row {
+            service: format!("{service} = {}", shown(&value)),
+            native: native_time,
+            wasm: wasm_time,
+            meshlab_issue: None,
+            meshlab_here: None,
+            goal: String::new(),
+        });
+    }
+    rows.push(Row {
+        service: "all checks".into(),
+        native: native_total,
+        wasm: wasm_total,
+        meshlab_issue: Some(Duration::from_millis(8000)),
+        meshlab_here,
+        goal: "≤ 800 ms".into(),
+    });
+    rows
+}
+
+fn shown(value: &Value) -> String {
+    match value {
+        Value::Integer(n) => n.to_string(),
+        Value::Boolean(b) => b.to_string(),
+        Value::Real(x) => format!("{x:.4}"),
+        other => format!("{other:?}"),
+    }
+}
+
+fn print_table(rows: &[Row]) {
+    let optional = |t: Option<Duration>| t.map_or("—".into(), |t| format!("{:.0}", ms(t)));
+    println!(
+        "\n| {:<38} | {:>9} | {:>9} | {:>8} | {:>10} | {:>10} | {:>7} | {:<18} |",
+        "service",
+        "native ms",
+        "wasm ms",
+        "wasm/nat",
+        "ML issue",
+        "ML here",
+        "wasm/ML",
+        "goal (wasm)"
+    );
+    println!(
+        "|{:-<40}|{:->11}|{:->11}|{:->10}|{:->12}|{:->12}|{:->9}|{:-<20}|",
+        "", "", "", "", "", "", "", ""
+    );
+    for r in rows {
+        let reference = r.meshlab_here.or(r.meshlab_issue);
+        println!(
+            "| {:<38} | {:>9.1} | {:>9.1} | {:>8.2} | {:>10} | {:>10} | {:>7} | {:<18} |",
+            r.service,
+            ms(r.native),
+            ms(r.wasm),
+            ratio(r.wasm, r.native),
+            optional(r.meshlab_issue),
+            optional(r.meshlab_here),
+            reference.map_or("—".into(), |m| format!("{:.2}", ratio(r.wasm, m))),
+            r.goal,
+        );
+    }
+}

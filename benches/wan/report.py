@@ -1,0 +1,211 @@
+#!/usr/bin/env python3
+"""The WAN benchmark's report: pairs each workload's `auto` and `full` run records (written
+by `meshflow submit --report`) and writes report.json and paper-shaped tables in report.md.
+
+T_i is the slowest receiving host's download of step i's result, U_i its apply time; IB is
+the input broadcast (until every plan host held the input)."""
+
+import argparse
+import datetime
+import json
+import os
+import platform
+from pathlib import Path
+
+WORKFLOWS = {"repair": "RSC → LS(1) → HF → RDT", "while": "WHILE normal-instability > t DO LS(1)"}
+ABBREVIATIONS = {
+    "remove-smallest-components": "RSC",
+    "laplacian-smoothing": "LS(1)",
+    "fill-holes": "HF",
+    "remove-degenerate-triangles": "RDT",
+    "normal-instability": "NI?",
+}
+
+
+def kb(size):
+    return None if size is None else round(size / 1024, 1)
+
+
+def slowest(transfers, field):
+    return max((t[field] for t in transfers), default=0.0)
+
+
+def timing(step):
+    return {
+        "task_ms": round(step["compute_ms"], 1),
+        "transfer_ms": round(slowest(step["transfers"], "download_ms"), 1),
+        "update_ms": round(slowest(step["transfers"], "apply_ms"), 1),
+        "via": sorted({t["via"] for t in step["transfers"]}),
+    }
+
+
+def broadcast(record):
+    """Input broadcast: its time and the slowest host's download rate."""
+    hosts = record["broadcast"]["hosts"]
+    rates = [h["bytes"] * 8 / h["download_ms"] / 1e3 for h in hosts if h["download_ms"] > 0]
+    return {
+        "ms": round(record["broadcast"]["ms"], 1),
+        "bytes": max(h["bytes"] for h in hosts),
+        "hosts": len(hosts),
+        "min_mbit_s": round(min(rates), 3) if rates else None,
+    }
+
+
+def pair(mesh, workflow, auto, full):
+    if len(auto["steps"]) != len(full["steps"]):
+        raise SystemExit(f"{mesh} {workflow}: auto ran {len(auto['steps'])} steps, full {len(full['steps'])}")
+    steps = []
+    for a, f in zip(auto["steps"], full["steps"]):
+        steps.append({
+            "index": a["index"],
+            "path": a["path"],
+            "service": a["service"],
+            "host": a["host"],
+            "value": a["value"],
+            "correction_kb": kb(a["correction_bytes"] if a["correction_bytes"] is not None else f["correction_bytes"]),
+            "full_kb": kb(f["full_bytes"] if f["full_bytes"] is not None else a["full_bytes"]),
+            "auto": timing(a),
+            "full": timing(f),
+        })
+    auto_s, full_s = auto["total_ms"] / 1e3, full["total_ms"] / 1e3
+    return {
+        "mesh": mesh,
+        "workflow": workflow,
+        "vertices": auto["input"]["vertices"],
+        "triangles": auto["input"]["triangles"],
+        "same_result": auto["result"]["hash"] == full["result"]["hash"],
+        "auto_total_s": round(auto_s, 3),
+        "full_total_s": round(full_s, 3),
+        "full_over_auto": round(full_s / auto_s, 3),
+        "broadcast": {"auto": broadcast(auto), "full": broadcast(full)},
+        "warnings": auto["warnings"] + full["warnings"],
+        "steps": steps,
+    }
+
+
+def load_runs(directory):
+    records = {}
+    for path in sorted(Path(directory).glob("*.json")):
+        mesh, workflow, mode = path.name[: -len(".json")].rsplit(".", 2)
+        record = json.loads(path.read_text())
+        if record["status"] != "completed":
+            raise SystemExit(f"{path}: run {record['status']}: {record['error']}")
+        records.setdefault((mesh, workflow), {})[mode] = record
+    return [pair(mesh, wf, modes["auto"], modes["full"]) for (mesh, wf), modes in records.items()]
+
+
+def link_check(path, rate):
+    rows = []
+    for line in Path(path).read_text().splitlines():
+        address, size, seconds = line.split("\t")
+        mbit = int(size) * 8 / float(seconds) / 1e6
+        rows.append({"host": address, "bytes": int(size), "seconds": float(seconds),
+                     "mbit_s": round(mbit, 3), "of_link": round(mbit / rate, 3)})
+    return rows
+
+
+def machine():
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"{cpu}, {os.cpu_count()} cores, Linux {platform.release()}"
+
+
+def cell(value, digits=0):
+    return "–" if value is None else f"{value:,.{digits}f}"
+
+
+def markdown(report):
+    rate = report["link_mbit"]
+    lines = [
+        f"# WAN benchmark — {report['date']}",
+        "",
+        f"Machine: {report['machine']}. Every host behind its own {rate} Mbit/s link "
+        f"({report['delay_ms']} ms one-way delay), shaped with tc in a private network namespace.",
+        "",
+        "## Link check (2 MB download into each host address)",
+        "",
+        "| host | seconds | Mbit/s | of link |",
+        "|---|---:|---:|---:|",
+    ]
+    for row in report["link_check"]:
+        lines.append(f"| {row['host']} | {row['seconds']:.2f} | {row['mbit_s']:.2f} | {row['of_link']:.0%} |")
+    lines += [
+        "",
+        "## Totals",
+        "",
+        "| mesh | workflow | V | T | IB KB | IB rate (of link) | auto s | full s | full / auto | auto ≤ 0.5× full |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|:---:|",
+    ]
+    for run in report["runs"]:
+        ib = run["broadcast"]["auto"]
+        ib_rate = min(r for r in (run["broadcast"]["auto"]["min_mbit_s"], run["broadcast"]["full"]["min_mbit_s"]) if r)
+        lines.append(
+            f"| {run['mesh']} | {run['workflow']} | {run['vertices']:,} | {run['triangles']:,} "
+            f"| {cell(kb(ib['bytes']))} | {ib_rate:.2f} Mbit/s ({ib_rate / rate:.0%}) "
+            f"| {run['auto_total_s']:.1f} | {run['full_total_s']:.1f} | {run['full_over_auto']:.2f} "
+            f"| {'yes' if run['auto_total_s'] <= 0.5 * run['full_total_s'] else 'no'} |"
+        )
+    for run in report["runs"]:
+        lines += [
+            "",
+            f"## {run['mesh']} — {WORKFLOWS.get(run['workflow'], run['workflow'])}",
+            "",
+            "Times in ms; T_i = slowest download of the step's result by a host with work left, "
+            "U_i = slowest apply. auto moves corrections where they are smaller, full moves `.mfm` meshes.",
+            "",
+            "| step | task | host | correction KB | full KB | task (auto) | T_i (auto) | U_i (auto) "
+            "| task (full) | T_i (full) | U_i (full) |",
+            "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+            f"| IB | input | {run['broadcast']['auto']['hosts']} hosts | | {cell(kb(run['broadcast']['auto']['bytes']), 1)} "
+            f"| | {cell(run['broadcast']['auto']['ms'])} | | | {cell(run['broadcast']['full']['ms'])} | |",
+        ]
+        for step in run["steps"]:
+            name = ABBREVIATIONS.get(step["service"], step["service"])
+            if step["value"] is not None:
+                name += f" = {step['value']:.3g}" if isinstance(step["value"], float) else f" = {step['value']}"
+            a, f = step["auto"], step["full"]
+            lines.append(
+                f"| {step['index']} | {name} | {step['host']} | {cell(step['correction_kb'], 1)} "
+                f"| {cell(step['full_kb'], 1)} | {cell(a['task_ms'])} | {cell(a['transfer_ms'])} "
+                f"| {cell(a['update_ms'])} | {cell(f['task_ms'])} | {cell(f['transfer_ms'])} | {cell(f['update_ms'])} |"
+            )
+        lines.append(
+            f"| total | | | | | **{run['auto_total_s']:.2f} s** | | | **{run['full_total_s']:.2f} s** | | |"
+        )
+        lines.append("")
+        lines.append(f"full / auto = **{run['full_over_auto']:.2f}**; same final mesh in both modes: "
+                     f"{'yes' if run['same_result'] else 'NO'}.")
+        for warning in run["warnings"]:
+            lines.append(f"Warning: {warning}")
+    return "\n".join(lines) + "\n"
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--runs", required=True)
+    parser.add_argument("--link-check", required=True)
+    parser.add_argument("--rate", type=float, required=True)
+    parser.add_argument("--delay", type=int, required=True)
+    parser.add_argument("--out", required=True)
+    args = parser.parse_args()
+    report = {
+        "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+        "machine": machine(),
+        "link_mbit": args.rate,
+        "delay_ms": args.delay,
+        "link_check": link_check(args.link_check, args.rate),
+        "runs": load_runs(args.runs),
+    }
+    out = Path(args.out)
+    (out / "report.json").write_text(json.dumps(report, indent=2, ensure_ascii=False) + "\n")
+    (out / "report.md").write_text(markdown(report))
+
+
+if __name__ == "__main__":
+    main()

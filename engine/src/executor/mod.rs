@@ -1,0 +1,645 @@
+//! The concurrent transfer protocol of DESIGN §5: broadcast the input to every host of the
+//! plan in parallel, trigger each task as soon as its host is up to date, forward every
+//! result in parallel to the hosts that still have work, and keep IF / WHILE on an active
+//! task list. A host that fails is marked down and its task moves to another host.
+
+mod replica;
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+use std::time::Instant;
+
+use meshflow_host::api::{
+    FilterResult, FullRef, RunRequest, RunResult, SessionState, Transfer as Use, Update,
+};
+use meshflow_host::client::ClientError;
+use serde_json::{Value as Json, json};
+
+use crate::plan::{Plan, pick};
+use crate::record::{BroadcastRecord, HostLoad, InputRecord, ResultRecord, Status, StepRecord};
+use crate::registry::{HostEntry, Registry};
+use crate::run::Run;
+use crate::workflow::{Condition, Step, Task, Transfer, Workflow};
+use replica::Replica;
+
+/// Runs `workflow` on `input` and records everything in `run`; never panics on a bad host
+/// or input, ends with the run completed or failed.
+pub async fn execute(run: Arc<Run>, workflow: Workflow, input: String, registry: Arc<Registry>) {
+    run.set_status(Status::Running, None);
+    let outcome = match Plan::new(&workflow, &registry) {
+        Ok(plan) => {
+            let mut executor = Executor::new(run.clone(), registry, plan, workflow.transfer);
+            let outcome = executor.execute(&workflow, &input).await;
+            executor.close_sessions();
+            outcome
+        }
+        Err(error) => Err(error.to_string()),
+    };
+    match outcome {
+        Ok(()) => run.set_status(Status::Completed, None),
+        Err(error) => run.set_status(Status::Failed, Some(error)),
+    }
+}
+
+/// The mesh as of the last finished filter, and how to get it.
+struct Current {
+    hash: String,
+    full: FullRef,
+    correction: Option<meshflow_host::api::BlobRef>,
+    vertices: u64,
+    triangles: u64,
+    /// The size of the last full mesh seen, to choose the smaller transfer in `auto`.
+    full_bytes_estimate: u64,
+}
+
+/// Why a task could not run on its host.
+enum Failure {
+    /// The host is unreachable or broken: try another one.
+    Host(String),
+    /// The step itself failed (plugin error, bad parameters): the run ends.
+    Step(String),
+}
+
+impl From<ClientError> for Failure {
+    fn from(error: ClientError) -> Self {
+        if is_host_failure(&error) {
+            Failure::Host(error.to_string())
+        } else {
+            Failure::Step(error.to_string())
+        }
+    }
+}
+
+/// A host that cannot be reached, or that answers with a server error, is down; a 4xx is
+/// the step's own fault and would fail the same way elsewhere.
+fn is_host_failure(error: &ClientError) -> bool {
+    error.status().is_none_or(|status| status >= 500 && status != 502)
+}
+
+struct Executor {
+    run: Arc<Run>,
+    registry: Arc<Registry>,
+    plan: Plan,
+    transfer: Transfer,
+    replicas: Vec<Replica>,
+    current: Option<Current>,
+    /// The input's URL and every filter run since, with its output hash: a host that must
+    /// take over when no copy of the current mesh survives replays them (services are
+    /// deterministic, so the hashes must match).
+    input: String,
+    history: Vec<(Task, String)>,
+    /// When the last host reply arrived, for the engine-overhead figure.
+    last_reply: Instant,
+}
+
+/// An entry of the active task list: a step, and for a WHILE the rounds already done.
+struct Active {
+    step: Step,
+    rounds: u32,
+}
+
+impl Executor {
+    fn new(run: Arc<Run>, registry: Arc<Registry>, plan: Plan, transfer: Transfer) -> Self {
+        Self {
+            run,
+            registry,
+            plan,
+            transfer,
+            replicas: Vec::new(),
+            current: None,
+            input: String::new(),
+            history: Vec::new(),
+            last_reply: Instant::now(),
+        }
+    }
+
+    async fn execute(&mut self, workflow: &Workflow, input: &str) -> Result<(), String> {
+        self.input = input.to_owned();
+        self.broadcast(input).await?;
+        let mut active: VecDeque<Active> =
+            workflow.steps.iter().map(|step| Active { step: step.clone(), rounds: 0 }).collect();
+        while let Some(Active { step, rounds }) = active.pop_front() {
+            match step {
+                Step::Run(task) => {
+                    let receivers = self.hosts_of(&active);
+                    self.run_filter(&task, &receivers).await?;
+                }
+                Step::If { condition, then, otherwise, .. } => {
+                    let branch = if self.evaluate(&condition).await? { then } else { otherwise };
+                    for step in branch.into_iter().rev() {
+                        active.push_front(Active { step, rounds: 0 });
+                    }
+                }
+                Step::While { ref path, ref condition, ref body, max_iterations } => {
+                    if !self.evaluate(condition).await? {
+                        continue;
+                    }
+                    if rounds == max_iterations {
+                        let warning = format!(
+                            "{path}: stopped after max-iterations = {max_iterations} rounds with \
+                             its condition still true"
+                        );
+                        self.run.update("warning", |r| {
+                            r.warnings.push(warning.clone());
+                            json!(warning)
+                        });
+                        continue;
+                    }
+                    let body = body.clone();
+                    active.push_front(Active { step, rounds: rounds + 1 });
+                    for step in body.into_iter().rev() {
+                        active.push_front(Active { step, rounds: 0 });
+                    }
+                }
+            }
+        }
+        self.finish().await
+    }
+
+    /// Sends the input to every host of the plan at once and waits until all hold it.
+    async fn broadcast(&mut self, input: &str) -> Result<(), String> {
+        let started = Instant::now();
+        let mut hosts = self.plan.hosts();
+        let mut loads = Vec::new();
+        let mut excluded = Vec::new();
+        while !hosts.is_empty() {
+            let attempts = hosts.iter().map(|host| load_input(host.clone(), input, None));
+            let outcomes = futures_util::future::join_all(attempts).await;
+            let mut retry = Vec::new();
+            for (host, outcome) in hosts.iter().zip(outcomes) {
+                match outcome {
+                    Ok((session, status)) => {
+                        let hash = status.hash.clone().unwrap_or_default();
+                        loads.push(HostLoad {
+                            host: host.url.clone(),
+                            bytes: status.input_bytes.unwrap_or(0),
+                            download_ms: status.download_ms.unwrap_or(0.0),
+                            load_ms: status.load_ms.unwrap_or(0.0),
+                        });
+                        self.set_input(input, &status);
+                        self.replicas.push(Replica::new(host.clone(), session, hash));
+                    }
+                    Err(Failure::Step(message)) => return Err(format!("input {input}: {message}")),
+                    Err(Failure::Host(message)) => {
+                        host.mark_down(message);
+                        excluded.push(host.clone());
+                        retry.extend(self.replace(host, &excluded)?);
+                    }
+                }
+            }
+            hosts = retry;
+        }
+        let hashes: std::collections::BTreeSet<&str> =
+            self.replicas.iter().map(|r| r.hash.as_str()).collect();
+        if hashes.len() > 1 {
+            return Err(format!("input {input}: hosts decoded it differently ({hashes:?})"));
+        }
+        let ms = started.elapsed().as_secs_f64() * 1e3;
+        self.run.update("broadcast", |r| {
+            let record = BroadcastRecord { ms, hosts: loads };
+            let json = json!(record);
+            r.broadcast = Some(record);
+            json
+        });
+        self.last_reply = Instant::now();
+        Ok(())
+    }
+
+    fn set_input(&mut self, url: &str, status: &meshflow_host::api::SessionStatus) {
+        if self.current.is_some() {
+            return;
+        }
+        let hash = status.hash.clone().unwrap_or_default();
+        let (vertices, triangles) =
+            (status.vertices.unwrap_or(0) as u64, status.triangles.unwrap_or(0) as u64);
+        self.current = Some(Current {
+            full: FullRef { url: url.to_owned(), hash: hash.clone() },
+            hash: hash.clone(),
+            correction: None,
+            vertices,
+            triangles,
+            full_bytes_estimate: status.input_bytes.unwrap_or(u64::MAX),
+        });
+        self.run.update("input", |r| {
+            let record = InputRecord { url: url.to_owned(), hash, vertices, triangles };
+            let json = json!(record);
+            r.input = Some(record);
+            json
+        });
+    }
+
+    /// Moves every task planned on the failed `host` to other hosts; returns the hosts that
+    /// are new to the plan.
+    fn replace(
+        &mut self,
+        host: &Arc<HostEntry>,
+        excluded: &[Arc<HostEntry>],
+    ) -> Result<Vec<Arc<HostEntry>>, String> {
+        let before = self.plan.hosts();
+        for path in self.plan.tasks_on(host) {
+            let service = self.plan.service(&path).to_owned();
+            let replacement = pick(&self.registry.hosts(), &before, &service, excluded)
+                .ok_or_else(|| {
+                    format!(
+                        "{path}: host {} failed and no other host offers \"{service}\"",
+                        host.url
+                    )
+                })?;
+            self.plan.assign(&path, replacement);
+        }
+        let after = self.plan.hosts();
+        Ok(after.into_iter().filter(|h| !before.iter().any(|b| Arc::ptr_eq(b, h))).collect())
+    }
+
+    /// The hosts of every task still on the active list, bodies of IF and WHILE included.
+    fn hosts_of(&self, active: &VecDeque<Active>) -> Vec<Arc<HostEntry>> {
+        let steps: Vec<Step> = active.iter().map(|a| a.step.clone()).collect();
+        let workflow = Workflow { steps, input: None, transfer: self.transfer };
+        let mut hosts: Vec<Arc<HostEntry>> = Vec::new();
+        for task in workflow.tasks() {
+            let host = self.plan.host(&task.path);
+            if !hosts.iter().any(|h| Arc::ptr_eq(h, host)) {
+                hosts.push(host.clone());
+            }
+        }
+        hosts
+    }
+
+    async fn run_filter(
+        &mut self,
+        task: &Task,
+        receivers: &[Arc<HostEntry>],
+    ) -> Result<(), String> {
+        let (index, result, host) = self.run_task(task, "filter").await?;
+        let RunResult::Filter(filter) = result else {
+            return Err(format!(
+                "{}: {} returned a check value, not a mesh",
+                task.path, task.service
+            ));
+        };
+        self.advance(&filter, &host);
+        self.history.push((task.clone(), filter.output_hash.clone()));
+        let current = self.current.as_ref().expect("the input is loaded");
+        let update = Update {
+            correction: Some(filter.correction.clone()),
+            full: filter.full.clone(),
+            use_: self.choose_transfer(filter.correction.bytes, current.full_bytes_estimate),
+        };
+        let hash = current.hash.clone();
+        for replica in &mut self.replicas {
+            let wanted = receivers.iter().any(|h| Arc::ptr_eq(h, &replica.host));
+            if wanted && !Arc::ptr_eq(&replica.host, &host) {
+                replica.forward(&self.run, index, update.clone(), &hash);
+            }
+        }
+        Ok(())
+    }
+
+    fn choose_transfer(&self, correction_bytes: u64, full_bytes: u64) -> Use {
+        match self.transfer {
+            Transfer::Full => Use::Full,
+            Transfer::Correction => Use::Correction,
+            Transfer::Auto if correction_bytes < full_bytes => Use::Correction,
+            Transfer::Auto => Use::Full,
+        }
+    }
+
+    /// The filter's output becomes the current mesh; the producer already holds it.
+    fn advance(&mut self, filter: &FilterResult, producer: &Arc<HostEntry>) {
+        let current = self.current.as_mut().expect("the input is loaded");
+        current.hash = filter.output_hash.clone();
+        current.full = filter.full.clone();
+        current.correction = Some(filter.correction.clone());
+        current.vertices = filter.vertices as u64;
+        current.triangles = filter.triangles as u64;
+        if let Some(replica) = self.replicas.iter_mut().find(|r| Arc::ptr_eq(&r.host, producer)) {
+            replica.hash = filter.output_hash.clone();
+        }
+    }
+
+    async fn evaluate(&mut self, condition: &Condition) -> Result<bool, String> {
+        let (index, result, _) = self.run_task(&condition.check, "check").await?;
+        let RunResult::Check(check) = result else {
+            return Err(format!(
+                "{}: {} is not a check",
+                condition.check.path, condition.check.service
+            ));
+        };
+        let holds = compare(&check.value, condition)
+            .map_err(|message| format!("{}: {message}", condition.check.path))?;
+        self.run.update("condition", |r| {
+            r.steps[index].condition = Some(holds);
+            json!({"step": index, "condition": holds})
+        });
+        Ok(holds)
+    }
+
+    /// Runs one task on its planned host, or on another one if that host fails; records it.
+    async fn run_task(
+        &mut self,
+        task: &Task,
+        kind: &'static str,
+    ) -> Result<(usize, RunResult, Arc<HostEntry>), String> {
+        let mut failed: Vec<Arc<HostEntry>> = Vec::new();
+        loop {
+            let host = self.plan.host(&task.path).clone();
+            if !host.is_up() && !failed.iter().any(|h| Arc::ptr_eq(h, &host)) {
+                failed.push(host.clone());
+            }
+            if failed.iter().any(|h| Arc::ptr_eq(h, &host)) {
+                let replacement =
+                    pick(&self.registry.hosts(), &self.plan.hosts(), &task.service, &failed)
+                        .ok_or_else(|| {
+                            let tried: Vec<&str> = failed.iter().map(|h| h.url.as_str()).collect();
+                            format!(
+                                "{}: no host left for \"{}\" (failed: {})",
+                                task.path,
+                                task.service,
+                                tried.join(", ")
+                            )
+                        })?;
+                self.plan.assign(&task.path, replacement);
+                continue;
+            }
+            match self.attempt(task, kind, &host, &failed).await {
+                Ok((index, result)) => return Ok((index, result, host)),
+                Err(Failure::Step(message)) => {
+                    return Err(format!(
+                        "{} ({} on {}): {message}",
+                        task.path, task.service, host.url
+                    ));
+                }
+                Err(Failure::Host(message)) => {
+                    tracing::warn!(host = %host.url, "marking host down: {message}");
+                    host.mark_down(message);
+                    self.replicas.retain(|r| !Arc::ptr_eq(&r.host, &host));
+                    failed.push(host);
+                }
+            }
+        }
+    }
+
+    async fn attempt(
+        &mut self,
+        task: &Task,
+        kind: &'static str,
+        host: &Arc<HostEntry>,
+        failed: &[Arc<HostEntry>],
+    ) -> Result<(usize, RunResult), Failure> {
+        let waiting = Instant::now();
+        let session = self.bring_up_to_date(host).await?;
+        let wait_ms = waiting.elapsed().as_secs_f64() * 1e3;
+        let overhead_ms = (self.last_reply.elapsed().as_secs_f64() * 1e3 - wait_ms).max(0.0);
+        let request =
+            RunRequest { service: task.service.clone(), params: task.params.clone(), plugin: None };
+        let started_ms = self.run.elapsed_ms();
+        let result = {
+            let _in_flight = host.assign();
+            host.client.run(&session, &request).await?
+        };
+        self.last_reply = Instant::now();
+        let input_hash = self.current.as_ref().map(|c| c.hash.clone()).unwrap_or_default();
+        let mut record = StepRecord {
+            index: 0,
+            path: task.path.clone(),
+            kind,
+            service: task.service.clone(),
+            host: host.url.clone(),
+            plugin: String::new(),
+            params: task.params.clone(),
+            started_ms,
+            finished_ms: self.run.elapsed_ms(),
+            compute_ms: 0.0,
+            wait_ms,
+            overhead_ms,
+            input_hash,
+            output_hash: None,
+            vertices: None,
+            triangles: None,
+            edits: None,
+            correction_bytes: None,
+            full_bytes: None,
+            value: None,
+            condition: None,
+            report: String::new(),
+            failed_hosts: failed.iter().map(|h| h.url.clone()).collect(),
+            transfers: Vec::new(),
+        };
+        match &result {
+            RunResult::Filter(f) => {
+                record.plugin = f.plugin.clone();
+                record.compute_ms = f.compute_ms;
+                record.report = f.report.clone();
+                record.output_hash = Some(f.output_hash.clone());
+                record.vertices = Some(f.vertices as u64);
+                record.triangles = Some(f.triangles as u64);
+                record.edits = Some(f.edits as u64);
+                record.correction_bytes = Some(f.correction.bytes);
+            }
+            RunResult::Check(c) => {
+                record.plugin = c.plugin.clone();
+                record.compute_ms = c.compute_ms;
+                record.report = c.report.clone();
+                record.value = Some(c.value.clone());
+            }
+        }
+        let mut index = 0;
+        self.run.update("step", |r| {
+            index = r.steps.len();
+            record.index = index;
+            let json = json!(record);
+            r.steps.push(record);
+            json
+        });
+        Ok((index, result))
+    }
+
+    /// The session on `host` holding the current mesh: waits for forwarded updates, sends
+    /// the full mesh to a host that fell behind, and opens a session on a host new to the
+    /// run (a replacement) from the current full mesh.
+    async fn bring_up_to_date(&mut self, host: &Arc<HostEntry>) -> Result<String, Failure> {
+        let hash = self.current.as_ref().expect("the input is loaded").hash.clone();
+        let sources = self.full_sources(host);
+        if let Some(index) = self.replicas.iter().position(|r| Arc::ptr_eq(&r.host, host)) {
+            let replica = &mut self.replicas[index];
+            if replica.settle(&hash).await {
+                return Ok(replica.session.clone());
+            }
+            for url in &sources {
+                let full = FullRef { url: url.clone(), hash: hash.clone() };
+                let update = Update { correction: None, full, use_: Use::Full };
+                match host.client.update(&replica.session, &update).await {
+                    Ok(_) => {
+                        replica.hash = hash;
+                        return Ok(replica.session.clone());
+                    }
+                    Err(error) if is_host_failure(&error) => return Err(error.into()),
+                    Err(_) => {}
+                }
+            }
+            self.replicas.remove(index);
+        }
+        for url in &sources {
+            match load_input(host.clone(), url, Some(hash.clone())).await {
+                Ok((session, _)) => {
+                    self.replicas.push(Replica::new(host.clone(), session.clone(), hash));
+                    return Ok(session);
+                }
+                Err(Failure::Step(_)) => {}
+                Err(host_failure) => return Err(host_failure),
+            }
+        }
+        self.replay_from_input(host).await
+    }
+
+    /// The last resort when no copy of the current mesh is reachable: load the input on
+    /// `host` and run every filter since, checking each output hash against the record.
+    async fn replay_from_input(&mut self, host: &Arc<HostEntry>) -> Result<String, Failure> {
+        let input_hash = self.run.record().input.map(|i| i.hash);
+        let (session, _) = load_input(host.clone(), &self.input, input_hash).await?;
+        for (task, expected) in &self.history {
+            let request = RunRequest {
+                service: task.service.clone(),
+                params: task.params.clone(),
+                plugin: None,
+            };
+            let output = match host.client.run(&session, &request).await? {
+                RunResult::Filter(filter) => filter.output_hash,
+                RunResult::Check(_) => String::new(),
+            };
+            if &output != expected {
+                return Err(Failure::Step(format!(
+                    "replaying {} on {} gave mesh {output}, the run had {expected}",
+                    task.path, host.url
+                )));
+            }
+        }
+        let warning = format!(
+            "no copy of the current mesh survived; {} replayed {} filter step(s) from the input",
+            host.url,
+            self.history.len()
+        );
+        self.run.update("warning", |r| {
+            r.warnings.push(warning.clone());
+            json!(warning)
+        });
+        let hash = self.current.as_ref().expect("the input is loaded").hash.clone();
+        self.replicas.push(Replica::new(host.clone(), session.clone(), hash));
+        Ok(session)
+    }
+
+    /// Where the current mesh can be fetched whole: the producer's full-mesh URL, then every
+    /// other host whose session holds (or is about to hold) it — hosts pack a session's
+    /// mesh on request — in case the producer is gone.
+    fn full_sources(&self, except: &Arc<HostEntry>) -> Vec<String> {
+        let current = self.current.as_ref().expect("the input is loaded");
+        let mut sources = vec![current.full.url.clone()];
+        for replica in &self.replicas {
+            if replica.hash == current.hash && !Arc::ptr_eq(&replica.host, except) {
+                let url = format!("{}/blobs/{}.mfm", replica.host.url, current.hash);
+                if !sources.contains(&url) {
+                    sources.push(url);
+                }
+            }
+        }
+        sources
+    }
+
+    /// Records where the final mesh is; packing it now also tells its size.
+    async fn finish(&mut self) -> Result<(), String> {
+        let current = self.current.as_ref().expect("the input is loaded");
+        let producer = self.replicas.iter().find(|r| r.hash == current.hash);
+        let bytes = match producer {
+            Some(replica) => replica.host.client.blob_size(&current.full.url).await.ok(),
+            None => None,
+        };
+        let result = ResultRecord {
+            url: current.full.url.clone(),
+            hash: current.hash.clone(),
+            bytes,
+            vertices: current.vertices,
+            triangles: current.triangles,
+        };
+        self.run.update("result", |r| {
+            let json = json!(result);
+            r.result = Some(result);
+            json
+        });
+        Ok(())
+    }
+
+    /// Sessions are closed in the background once the run is over; the result stays as a
+    /// blob on its host.
+    fn close_sessions(&mut self) {
+        for replica in self.replicas.drain(..) {
+            tokio::spawn(async move {
+                let _ = replica.host.client.delete_session(&replica.session).await;
+            });
+        }
+    }
+}
+
+/// Opens a session on `host` from `url` and waits until it is loaded.
+async fn load_input(
+    host: Arc<HostEntry>,
+    url: &str,
+    hash: Option<String>,
+) -> Result<(String, meshflow_host::api::SessionStatus), Failure> {
+    let created = host.client.create_session(url, hash.as_deref()).await?;
+    let status = host.client.wait_ready(&created.id).await?;
+    match status.state {
+        SessionState::Failed => Err(Failure::Step(
+            status.error.unwrap_or_else(|| "the host could not load it".to_owned()),
+        )),
+        _ => Ok((created.id, status)),
+    }
+}
+
+/// Whether a check's value satisfies the condition.
+fn compare(value: &Json, condition: &Condition) -> Result<bool, String> {
+    let ordering = match (value, &condition.value) {
+        (Json::Number(a), Json::Number(b)) => {
+            let (a, b) = (a.as_f64().unwrap_or(f64::NAN), b.as_f64().unwrap_or(f64::NAN));
+            a.partial_cmp(&b).ok_or_else(|| format!("cannot compare {a} with {b}"))?
+        }
+        (Json::Bool(a), Json::Bool(b)) => a.cmp(b),
+        (Json::String(a), Json::String(b)) => a.cmp(b),
+        (actual, expected) => {
+            return Err(format!(
+                "the check returned {actual}, which cannot be compared with {expected}"
+            ));
+        }
+    };
+    Ok(condition.op.holds(ordering))
+}
+
+#[cfg(test)]
+mod tests {
+    use serde_json::json;
+
+    use super::*;
+    use crate::workflow::Workflow;
+
+    fn condition(op: &str, value: Json) -> Condition {
+        let workflow = Workflow::from_json(&json!([
+            {"while": {"check": "c", "op": op, "value": value}, "do": []}
+        ]))
+        .unwrap();
+        match workflow.steps.into_iter().next() {
+            Some(Step::While { condition, .. }) => condition,
+            _ => unreachable!(),
+        }
+    }
+
+    #[test]
+    fn conditions_compare_numbers_booleans_and_text() {
+        assert!(compare(&json!(12.5), &condition(">", json!(12))).unwrap());
+        assert!(!compare(&json!(12), &condition(">", json!(12))).unwrap());
+        assert!(compare(&json!(12), &condition(">=", json!(12.0))).unwrap());
+        assert!(compare(&json!(3), &condition("!=", json!(4))).unwrap());
+        assert!(compare(&json!(true), &condition("==", json!(true))).unwrap());
+        assert!(compare(&json!("a"), &condition("<", json!("b"))).unwrap());
+        let mismatch = compare(&json!(true), &condition("==", json!(1))).unwrap_err();
+        assert_eq!(mismatch, "the check returned true, which cannot be compared with 1");
+    }
+}

@@ -1,0 +1,101 @@
+//! One host's copy of the run's mesh (a session there), and the queue of updates that
+//! brings it up to date: each forwarded result is applied after the one before it.
+
+use std::sync::Arc;
+
+use meshflow_host::api::{Transfer as Use, Update, Updated};
+use meshflow_host::client::ClientError;
+use tokio::task::JoinHandle;
+
+use crate::record::TransferRecord;
+use crate::registry::HostEntry;
+use crate::run::Run;
+
+pub struct Replica {
+    pub host: Arc<HostEntry>,
+    pub session: String,
+    /// The hash the session will hold once `pending` has finished.
+    pub hash: String,
+    /// The last update forwarded, which waits for the ones before it.
+    pending: Option<JoinHandle<Result<Updated, ClientError>>>,
+}
+
+impl Replica {
+    pub fn new(host: Arc<HostEntry>, session: String, hash: String) -> Self {
+        Self { host, session, hash, pending: None }
+    }
+
+    /// Queues `update` after the updates already forwarded; the transfer is recorded under
+    /// step `step` of `run`.
+    pub fn forward(&mut self, run: &Arc<Run>, step: usize, update: Update, hash: &str) {
+        let previous = self.pending.take();
+        let (run, client, session, host) =
+            (run.clone(), self.host.client.clone(), self.session.clone(), self.host.url.clone());
+        self.pending = Some(tokio::spawn(async move {
+            if let Some(previous) = previous {
+                // A failed predecessor leaves the session behind; this update's correction
+                // then does not fit its base and the host falls back to the full mesh.
+                let _ = previous.await;
+            }
+            let started_ms = run.elapsed_ms();
+            let outcome = client.update(&session, &update).await;
+            let record = transfer_record(host, started_ms, run.elapsed_ms(), &update, &outcome);
+            run.update("transfer", |r| {
+                let json = serde_json::json!({"step": step, "transfer": record});
+                // A full-mesh download tells the step's full-mesh size.
+                if record.via == "full" && record.error.is_none() {
+                    r.steps[step].full_bytes = Some(record.bytes);
+                }
+                r.steps[step].transfers.push(record);
+                json
+            });
+            outcome
+        }));
+        self.hash = hash.to_owned();
+    }
+
+    /// Waits for the forwarded updates; true when the session then holds `hash`.
+    pub async fn settle(&mut self, hash: &str) -> bool {
+        match self.pending.take() {
+            None => self.hash == hash,
+            Some(pending) => {
+                matches!(pending.await, Ok(Ok(updated)) if updated.hash == hash)
+                    && self.hash == hash
+            }
+        }
+    }
+}
+
+fn transfer_record(
+    host: String,
+    started_ms: f64,
+    finished_ms: f64,
+    update: &Update,
+    outcome: &Result<Updated, ClientError>,
+) -> TransferRecord {
+    let via = |u: Use| if u == Use::Correction { "correction" } else { "full" }.to_owned();
+    match outcome {
+        Ok(updated) => TransferRecord {
+            host,
+            via: via(updated.via),
+            bytes: updated.bytes,
+            download_ms: updated.download_ms,
+            apply_ms: updated.apply_ms,
+            started_ms,
+            finished_ms,
+            fallback: updated.fallback.clone(),
+            error: None,
+        },
+        Err(error) => TransferRecord {
+            host,
+            via: via(update.use_),
+            bytes: 0,
+            download_ms: 0.0,
+            apply_ms: 0.0,
+            started_ms,
+            finished_ms,
+            fallback: None,
+            error: Some(error.to_string()),
+        },
+    }
+}

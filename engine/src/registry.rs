@@ -1,0 +1,177 @@
+//! The hosts an engine knows: their services, whether they answer, and how busy they are.
+
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use meshflow_host::api::ServiceEntry;
+use meshflow_host::client::HostClient;
+use meshflow_host::runtime::ServiceInfo;
+use serde::Serialize;
+
+/// How often the engine asks every host for its health and services.
+pub const POLL_INTERVAL: Duration = Duration::from_secs(2);
+
+pub struct HostEntry {
+    pub url: String,
+    pub client: HostClient,
+    state: Mutex<HostState>,
+}
+
+#[derive(Default, Clone, Serialize)]
+pub struct HostState {
+    pub up: bool,
+    pub services: Vec<ServiceEntry>,
+    /// Runs in progress on the host, as it last said.
+    pub running: u32,
+    /// Tasks this engine has triggered there and not yet seen finish.
+    pub assigned: u32,
+    pub last_error: Option<String>,
+}
+
+impl HostEntry {
+    pub fn state(&self) -> HostState {
+        self.state.lock().unwrap().clone()
+    }
+
+    pub fn is_up(&self) -> bool {
+        self.state.lock().unwrap().up
+    }
+
+    pub fn offers(&self, service: &str) -> bool {
+        let state = self.state.lock().unwrap();
+        state.up && state.services.iter().any(|s| s.info.name == service)
+    }
+
+    /// The load used to pick among hosts: what it runs plus what we are about to send it.
+    pub fn load(&self) -> u32 {
+        let state = self.state.lock().unwrap();
+        state.running + state.assigned
+    }
+
+    pub fn mark_down(&self, reason: String) {
+        let mut state = self.state.lock().unwrap();
+        state.up = false;
+        state.last_error = Some(reason);
+    }
+
+    /// Counts a task in flight on this host until the guard drops.
+    pub fn assign(self: &Arc<Self>) -> Assignment {
+        self.state.lock().unwrap().assigned += 1;
+        Assignment(self.clone())
+    }
+
+    /// Asks the host for its health and services; a host that does not answer is down.
+    pub async fn refresh(&self) {
+        let polled = async {
+            let health = self.client.health().await?;
+            let services = self.client.services().await?;
+            Ok::<_, meshflow_host::client::ClientError>((health, services))
+        }
+        .await;
+        let mut state = self.state.lock().unwrap();
+        match polled {
+            Ok((health, services)) => {
+                state.up = true;
+                state.running = u32::try_from(health.running).unwrap_or(u32::MAX);
+                state.services = services;
+                state.last_error = None;
+            }
+            Err(error) => {
+                state.up = false;
+                state.last_error = Some(error.to_string());
+            }
+        }
+    }
+}
+
+pub struct Assignment(Arc<HostEntry>);
+
+impl Drop for Assignment {
+    fn drop(&mut self) {
+        let mut state = self.0.state.lock().unwrap();
+        state.assigned = state.assigned.saturating_sub(1);
+    }
+}
+
+#[derive(Default)]
+pub struct Registry {
+    hosts: Mutex<Vec<Arc<HostEntry>>>,
+}
+
+/// A service on offer and the hosts that offer it.
+#[derive(Clone, Serialize)]
+pub struct Offer {
+    #[serde(flatten)]
+    pub info: ServiceInfo,
+    pub hosts: Vec<String>,
+}
+
+impl Registry {
+    /// Adds a host (once per URL) and asks it for its services before returning.
+    pub async fn register(&self, url: &str) -> Arc<HostEntry> {
+        let url = url.trim_end_matches('/').to_owned();
+        let entry = {
+            let mut hosts = self.hosts.lock().unwrap();
+            match hosts.iter().find(|h| h.url == url) {
+                Some(entry) => entry.clone(),
+                None => {
+                    let entry = Arc::new(HostEntry {
+                        client: HostClient::new(&url),
+                        url,
+                        state: Mutex::new(HostState::default()),
+                    });
+                    hosts.push(entry.clone());
+                    entry
+                }
+            }
+        };
+        entry.refresh().await;
+        entry
+    }
+
+    pub fn hosts(&self) -> Vec<Arc<HostEntry>> {
+        self.hosts.lock().unwrap().clone()
+    }
+
+    /// Polls every host, concurrently.
+    pub async fn refresh_all(&self) {
+        let hosts = self.hosts();
+        futures_util::future::join_all(hosts.iter().map(|h| h.refresh())).await;
+    }
+
+    /// Keeps polling until the process ends.
+    pub fn spawn_poller(self: &Arc<Self>) {
+        let registry = Arc::downgrade(self);
+        tokio::spawn(async move {
+            loop {
+                tokio::time::sleep(POLL_INTERVAL).await;
+                let Some(registry) = registry.upgrade() else { return };
+                registry.refresh_all().await;
+            }
+        });
+    }
+
+    /// The service catalogue: every service offered by a host that is up, by name.
+    pub fn catalogue(&self) -> BTreeMap<String, Offer> {
+        let mut offers = BTreeMap::<String, Offer>::new();
+        for host in self.hosts() {
+            let state = host.state();
+            if !state.up {
+                continue;
+            }
+            for service in state.services {
+                offers
+                    .entry(service.info.name.clone())
+                    .or_insert_with(|| Offer { info: service.info.clone(), hosts: Vec::new() })
+                    .hosts
+                    .push(host.url.clone());
+            }
+        }
+        offers
+    }
+
+    pub fn service(&self, name: &str) -> Option<ServiceInfo> {
+        self.catalogue().remove(name).map(|offer| offer.info)
+    }
+}

@@ -1,0 +1,346 @@
+//! The workflow language: a list of steps, each a service run, an IF or a WHILE over a check.
+//!
+//! Parsed by hand from JSON rather than with derived `Deserialize`, so that every error names
+//! the path of the offending step (`steps[2].do[0]`), which serde's untagged enums cannot.
+
+use serde::Serialize;
+use serde_json::{Map, Value as Json};
+
+/// A WHILE without `max-iterations` stops after this many rounds.
+pub const DEFAULT_MAX_ITERATIONS: u32 = 100;
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Workflow {
+    pub steps: Vec<Step>,
+    /// The input mesh URL, when the workflow carries it.
+    pub input: Option<String>,
+    pub transfer: Transfer,
+}
+
+#[derive(Debug, Clone, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Step {
+    Run(Task),
+    If { path: String, condition: Condition, then: Vec<Step>, otherwise: Vec<Step> },
+    While { path: String, condition: Condition, body: Vec<Step>, max_iterations: u32 },
+}
+
+/// One run of a service; `path` names it in errors, records and the plan.
+#[derive(Debug, Clone, Serialize)]
+pub struct Task {
+    pub path: String,
+    pub service: String,
+    pub params: Map<String, Json>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Condition {
+    /// The check, as a task at `<if or while path>.check`.
+    pub check: Task,
+    pub op: Comparison,
+    pub value: Json,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum Comparison {
+    #[serde(rename = "<")]
+    Less,
+    #[serde(rename = "<=")]
+    LessOrEqual,
+    #[serde(rename = "==")]
+    Equal,
+    #[serde(rename = "!=")]
+    NotEqual,
+    #[serde(rename = ">=")]
+    GreaterOrEqual,
+    #[serde(rename = ">")]
+    Greater,
+}
+
+/// How a step's result reaches the other hosts.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Transfer {
+    /// The smaller of the correction and the full mesh.
+    #[default]
+    Auto,
+    Correction,
+    Full,
+}
+
+/// A workflow that does not parse or does not fit the catalogue: where and why.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{path}: {message}")]
+pub struct WorkflowError {
+    pub path: String,
+    pub message: String,
+}
+
+impl WorkflowError {
+    pub fn new(path: impl Into<String>, message: impl Into<String>) -> Self {
+        Self { path: path.into(), message: message.into() }
+    }
+}
+
+impl Transfer {
+    pub fn parse(text: &str) -> Option<Self> {
+        match text {
+            "auto" => Some(Self::Auto),
+            "correction" => Some(Self::Correction),
+            "full" => Some(Self::Full),
+            _ => None,
+        }
+    }
+}
+
+impl Comparison {
+    fn parse(text: &str) -> Option<Self> {
+        Some(match text {
+            "<" => Self::Less,
+            "<=" => Self::LessOrEqual,
+            "==" => Self::Equal,
+            "!=" => Self::NotEqual,
+            ">=" => Self::GreaterOrEqual,
+            ">" => Self::Greater,
+            _ => return None,
+        })
+    }
+
+    /// Whether `ordering` (of actual against expected) satisfies the comparison.
+    pub fn holds(self, ordering: std::cmp::Ordering) -> bool {
+        use std::cmp::Ordering::*;
+        match self {
+            Self::Less => ordering == Less,
+            Self::LessOrEqual => ordering != Greater,
+            Self::Equal => ordering == Equal,
+            Self::NotEqual => ordering != Equal,
+            Self::GreaterOrEqual => ordering != Less,
+            Self::Greater => ordering == Greater,
+        }
+    }
+
+    /// Equality tests are the only ones that make sense on booleans and text.
+    pub fn is_equality(self) -> bool {
+        matches!(self, Self::Equal | Self::NotEqual)
+    }
+}
+
+impl Workflow {
+    /// Parses a workflow: either `{"steps": [...], "input"?, "transfer"?}` or a bare list
+    /// of steps.
+    pub fn from_json(json: &Json) -> Result<Self, WorkflowError> {
+        let (steps, object) = match json {
+            Json::Array(steps) => (steps, None),
+            Json::Object(object) => {
+                known_keys(object, "workflow", &["steps", "input", "transfer"])?;
+                let steps = object
+                    .get("steps")
+                    .and_then(Json::as_array)
+                    .ok_or_else(|| WorkflowError::new("workflow", "needs \"steps\": [...]"))?;
+                (steps, Some(object))
+            }
+            _ => {
+                return Err(WorkflowError::new("workflow", "must be an object or a list of steps"));
+            }
+        };
+        let field = |name| object.and_then(|o| o.get(name));
+        let input = match field("input") {
+            None | Some(Json::Null) => None,
+            Some(Json::String(url)) => Some(url.clone()),
+            Some(_) => return Err(WorkflowError::new("input", "must be a URL string")),
+        };
+        let transfer = match field("transfer") {
+            None => Transfer::default(),
+            Some(value) => value.as_str().and_then(Transfer::parse).ok_or_else(|| {
+                WorkflowError::new("transfer", "must be \"auto\", \"correction\" or \"full\"")
+            })?,
+        };
+        Ok(Self { steps: parse_steps(steps, "steps")?, input, transfer })
+    }
+
+    /// Every task of the workflow, IF and WHILE conditions and bodies included, in order.
+    pub fn tasks(&self) -> Vec<&Task> {
+        let mut tasks = Vec::new();
+        collect_tasks(&self.steps, &mut tasks);
+        tasks
+    }
+}
+
+fn collect_tasks<'a>(steps: &'a [Step], out: &mut Vec<&'a Task>) {
+    for step in steps {
+        match step {
+            Step::Run(task) => out.push(task),
+            Step::If { condition, then, otherwise, .. } => {
+                out.push(&condition.check);
+                collect_tasks(then, out);
+                collect_tasks(otherwise, out);
+            }
+            Step::While { condition, body, .. } => {
+                out.push(&condition.check);
+                collect_tasks(body, out);
+            }
+        }
+    }
+}
+
+fn parse_steps(steps: &[Json], path: &str) -> Result<Vec<Step>, WorkflowError> {
+    steps.iter().enumerate().map(|(i, step)| parse_step(step, &format!("{path}[{i}]"))).collect()
+}
+
+fn parse_step(json: &Json, path: &str) -> Result<Step, WorkflowError> {
+    let object = json.as_object().ok_or_else(|| WorkflowError::new(path, "a step is an object"))?;
+    if object.contains_key("run") {
+        known_keys(object, path, &["run", "params"])?;
+        Ok(Step::Run(parse_task(object, "run", path)?))
+    } else if object.contains_key("if") {
+        known_keys(object, path, &["if", "then", "else"])?;
+        let branch = |key: &str| match object.get(key) {
+            None => Ok(Vec::new()),
+            Some(Json::Array(steps)) => parse_steps(steps, &format!("{path}.{key}")),
+            Some(_) => Err(WorkflowError::new(format!("{path}.{key}"), "must be a list of steps")),
+        };
+        Ok(Step::If {
+            path: path.to_owned(),
+            condition: parse_condition(&object["if"], &format!("{path}.if"))?,
+            then: branch("then")?,
+            otherwise: branch("else")?,
+        })
+    } else if object.contains_key("while") {
+        known_keys(object, path, &["while", "do", "max-iterations"])?;
+        let body = match object.get("do") {
+            Some(Json::Array(steps)) => parse_steps(steps, &format!("{path}.do"))?,
+            _ => return Err(WorkflowError::new(path, "a WHILE needs \"do\": [steps]")),
+        };
+        let max_iterations = match object.get("max-iterations") {
+            None => DEFAULT_MAX_ITERATIONS,
+            Some(n) => n.as_u64().and_then(|n| u32::try_from(n).ok()).ok_or_else(|| {
+                WorkflowError::new(format!("{path}.max-iterations"), "must be a whole number ≥ 0")
+            })?,
+        };
+        Ok(Step::While {
+            path: path.to_owned(),
+            condition: parse_condition(&object["while"], &format!("{path}.while"))?,
+            body,
+            max_iterations,
+        })
+    } else {
+        Err(WorkflowError::new(path, "a step is {\"run\": ...}, {\"if\": ...} or {\"while\": ...}"))
+    }
+}
+
+fn parse_condition(json: &Json, path: &str) -> Result<Condition, WorkflowError> {
+    let object = json.as_object().ok_or_else(|| {
+        WorkflowError::new(path, "a condition is {\"check\", \"params\"?, \"op\", \"value\"}")
+    })?;
+    known_keys(object, path, &["check", "params", "op", "value"])?;
+    let op =
+        object.get("op").and_then(Json::as_str).and_then(Comparison::parse).ok_or_else(|| {
+            WorkflowError::new(format!("{path}.op"), "must be one of < <= == != >= >")
+        })?;
+    let value = object
+        .get("value")
+        .cloned()
+        .ok_or_else(|| WorkflowError::new(path, "needs the \"value\" to compare with"))?;
+    Ok(Condition { check: parse_task(object, "check", path)?, op, value })
+}
+
+fn parse_task(object: &Map<String, Json>, key: &str, path: &str) -> Result<Task, WorkflowError> {
+    let service = object
+        .get(key)
+        .and_then(Json::as_str)
+        .ok_or_else(|| WorkflowError::new(format!("{path}.{key}"), "must be a service name"))?;
+    let params = match object.get("params") {
+        None => Map::new(),
+        Some(Json::Object(params)) => params.clone(),
+        Some(_) => return Err(WorkflowError::new(format!("{path}.params"), "must be an object")),
+    };
+    let path = if key == "check" { format!("{path}.check") } else { path.to_owned() };
+    Ok(Task { path, service: service.to_owned(), params })
+}
+
+fn known_keys(object: &Map<String, Json>, path: &str, known: &[&str]) -> Result<(), WorkflowError> {
+    match object.keys().find(|k| !known.contains(&k.as_str())) {
+        None => Ok(()),
+        Some(key) => Err(WorkflowError::new(
+            path,
+            format!("unknown key \"{key}\" (expected {})", known.join(", ")),
+        )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn parses_runs_ifs_and_whiles_with_paths() {
+        let workflow = Workflow::from_json(&json!({
+            "steps": [
+                {"run": "laplacian-smoothing", "params": {"iterations": 2}},
+                {"if": {"check": "is-manifold", "op": "==", "value": true},
+                 "then": [{"run": "fill-holes"}], "else": [{"run": "remove-degenerate-triangles"}]},
+                {"while": {"check": "normal-instability", "op": ">", "value": 5.0},
+                 "do": [{"run": "laplacian-smoothing"}], "max-iterations": 7}
+            ],
+            "transfer": "full"
+        }))
+        .unwrap();
+        assert_eq!(workflow.transfer, Transfer::Full);
+        let paths: Vec<_> = workflow.tasks().iter().map(|t| t.path.clone()).collect();
+        assert_eq!(
+            paths,
+            [
+                "steps[0]",
+                "steps[1].if.check",
+                "steps[1].then[0]",
+                "steps[1].else[0]",
+                "steps[2].while.check",
+                "steps[2].do[0]"
+            ]
+        );
+        let Step::While { max_iterations, condition, .. } = &workflow.steps[2] else { panic!() };
+        assert_eq!((*max_iterations, condition.op), (7, Comparison::Greater));
+    }
+
+    #[test]
+    fn errors_name_the_offending_step() {
+        let error = |json| Workflow::from_json(&json).unwrap_err().to_string();
+        assert_eq!(
+            error(
+                json!([{"run": "a"}, {"while": {"check": "c", "op": "~", "value": 1}, "do": []}])
+            ),
+            "steps[1].while.op: must be one of < <= == != >= >"
+        );
+        assert_eq!(
+            error(
+                json!({"steps": [{"if": {"check": "c", "op": "==", "value": 1}, "then": [{"runn": "x"}]}]})
+            ),
+            "steps[0].then[0]: a step is {\"run\": ...}, {\"if\": ...} or {\"while\": ...}"
+        );
+        assert_eq!(
+            error(json!({"steps": [], "transfer": "fast"})),
+            "transfer: must be \"auto\", \"correction\" or \"full\""
+        );
+        assert_eq!(
+            error(json!([{"run": "a", "param": {}}])),
+            "steps[0]: unknown key \"param\" (expected run, params)"
+        );
+        assert_eq!(
+            error(
+                json!([{"while": {"check": "c", "op": "<", "value": 1}, "do": [], "max-iterations": -1}])
+            ),
+            "steps[0].max-iterations: must be a whole number ≥ 0"
+        );
+    }
+
+    #[test]
+    fn a_while_defaults_to_the_iteration_cap() {
+        let workflow = Workflow::from_json(
+            &json!([{"while": {"check": "c", "op": "<", "value": 1}, "do": [{"run": "s"}]}]),
+        )
+        .unwrap();
+        let Step::While { max_iterations, .. } = &workflow.steps[0] else { panic!() };
+        assert_eq!(*max_iterations, DEFAULT_MAX_ITERATIONS);
+    }
+}

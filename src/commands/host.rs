@@ -1,0 +1,84 @@
+//! `meshflow host`: serve the host HTTP API (sessions, services, plugin upload, blobs).
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::Context;
+use clap::Args;
+use meshflow_host::server::{
+    DEFAULT_BLOB_BUDGET_BYTES, DEFAULT_MAX_DOWNLOAD_BYTES, DEFAULT_SESSION_TTL, HostConfig, serve,
+};
+
+#[derive(Args)]
+pub struct HostArgs {
+    /// Address to listen on.
+    #[arg(long, default_value = "127.0.0.1:7070", value_name = "ADDR")]
+    listen: String,
+    /// Folder for blobs, uploaded plugins, compiled components and sessions; kept across
+    /// restarts.
+    #[arg(long, value_name = "DIR")]
+    data: PathBuf,
+    /// Bearer token for plugin upload and delete; without it uploads are refused.
+    #[arg(long)]
+    token: Option<String>,
+    /// Engine to register with at start.
+    #[arg(long, value_name = "URL")]
+    engine: Option<String>,
+    /// URL others reach this host at (default: http:// + the listening address).
+    #[arg(long, value_name = "URL")]
+    public_url: Option<String>,
+    /// Total size of stored blobs before the oldest unneeded ones are deleted.
+    #[arg(long, value_name = "MIB", default_value_t = DEFAULT_BLOB_BUDGET_BYTES >> 20)]
+    blob_budget_mib: u64,
+    /// Sessions idle this long are deleted.
+    #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_SESSION_TTL.as_secs())]
+    session_ttl: u64,
+    /// Largest download (input, correction, full mesh) accepted.
+    #[arg(long, value_name = "MIB", default_value_t = DEFAULT_MAX_DOWNLOAD_BYTES >> 20)]
+    max_download_mib: u64,
+    /// Built-in plugin families to load (comma list of smoothing, checks, holes, cleanup);
+    /// default all. Hosts offering different services make a workflow cross hosts.
+    #[arg(long, value_name = "NAMES", value_delimiter = ',')]
+    builtin: Option<Vec<String>>,
+}
+
+pub fn run(args: HostArgs) -> anyhow::Result<()> {
+    init_logging();
+    let config = HostConfig {
+        token: args.token,
+        engine: args.engine,
+        public_url: args.public_url,
+        builtins: builtin_components(args.builtin.as_deref())?,
+        blob_budget_bytes: args.blob_budget_mib << 20,
+        session_ttl: Duration::from_secs(args.session_ttl),
+        max_download_bytes: args.max_download_mib << 20,
+        ..HostConfig::new(args.data)
+    };
+    tokio::runtime::Runtime::new()?.block_on(async {
+        let listener = tokio::net::TcpListener::bind(&args.listen)
+            .await
+            .with_context(|| format!("listening on {}", args.listen))?;
+        serve(config, listener).await
+    })
+}
+
+/// The components of the named built-in families, or of all of them.
+fn builtin_components(names: Option<&[String]>) -> anyhow::Result<Vec<&'static [u8]>> {
+    let Some(names) = names else { return Ok(crate::plugins::builtin_components()) };
+    let known = meshflow_builtin_plugins::PLUGINS;
+    names
+        .iter()
+        .map(|name| {
+            let builtin = known.iter().find(|builtin| builtin.name == name.as_str());
+            builtin.map(|builtin| builtin.wasm).with_context(|| {
+                let names: Vec<&str> = known.iter().map(|builtin| builtin.name).collect();
+                format!("no built-in plugin family {name:?}; known: {}", names.join(", "))
+            })
+        })
+        .collect()
+}
+
+/// Log lines on stderr; a second call (several servers in one process) is harmless.
+pub fn init_logging() {
+    let _ = tracing_subscriber::fmt().with_target(false).with_writer(std::io::stderr).try_init();
+}

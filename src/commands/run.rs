@@ -1,0 +1,50 @@
+//! `meshflow run`: a workflow on a local mesh through an embedded engine and hosts.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use crate::embedded::{self, Layout};
+use crate::remote::{Submission, TransferMode};
+
+#[derive(Args)]
+pub struct RunArgs {
+    /// Workflow JSON file.
+    workflow: PathBuf,
+    /// Input mesh (OBJ, PLY, OFF, STL or .mfm).
+    input: PathBuf,
+    /// Where to write the result (format by extension).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// How many hosts to start.
+    #[arg(long, default_value_t = 3)]
+    hosts: usize,
+    /// Which built-in services each host offers.
+    #[arg(long, value_enum, default_value_t = Layout::Spread)]
+    layout: Layout,
+    /// Overrides the workflow's "transfer".
+    #[arg(long, value_enum)]
+    transfer: Option<TransferMode>,
+    /// Write the run's record (every step, transfer and timing) as JSON.
+    #[arg(long, value_name = "R.json")]
+    report: Option<PathBuf>,
+    /// Print the run's record on stdout instead of progress.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(args: RunArgs) -> anyhow::Result<()> {
+    tokio::runtime::Runtime::new()?.block_on(async {
+        let system = embedded::start(args.hosts, "127.0.0.1:0", None, args.layout).await?;
+        let submission = Submission {
+            engine: system.engine.url.clone(),
+            workflow: args.workflow,
+            input: Some(args.input.display().to_string()),
+            transfer: args.transfer,
+            output: Some(args.output),
+            report: args.report,
+            json: args.json,
+        };
+        submission.execute(true).await
+    })
+}

@@ -1,0 +1,48 @@
+//! `meshflow submit`: a workflow to a running engine, optionally waiting for the result.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use crate::remote::{Submission, TransferMode};
+
+#[derive(Args)]
+pub struct SubmitArgs {
+    /// The engine's URL.
+    #[arg(long, value_name = "URL")]
+    engine: String,
+    /// Workflow JSON file.
+    workflow: PathBuf,
+    /// The input: a URL hosts can fetch, or a local mesh file to upload to the engine.
+    #[arg(long, value_name = "URL|FILE")]
+    input: Option<String>,
+    /// Where to write the result (format by extension); implies --wait.
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Follow the run's progress until it ends.
+    #[arg(long)]
+    wait: bool,
+    /// Overrides the workflow's "transfer".
+    #[arg(long, value_enum)]
+    transfer: Option<TransferMode>,
+    /// Write the run's record as JSON (implies --wait).
+    #[arg(long, value_name = "R.json")]
+    report: Option<PathBuf>,
+    /// Print JSON (the run id, or the record when waiting) instead of progress.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(args: SubmitArgs) -> anyhow::Result<()> {
+    let wait = args.wait || args.output.is_some() || args.report.is_some();
+    let submission = Submission {
+        engine: args.engine.trim_end_matches('/').to_owned(),
+        workflow: args.workflow,
+        input: args.input,
+        transfer: args.transfer,
+        output: args.output,
+        report: args.report,
+        json: args.json,
+    };
+    tokio::runtime::Runtime::new()?.block_on(submission.execute(wait))
+}

@@ -1,0 +1,189 @@
+//! A real meshflow system on 127.0.0.1 for end-to-end tests: an engine and hosts, each on
+//! its own port and data folder, talked to over HTTP as a user would.
+
+pub mod local;
+pub mod process;
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use meshflow_builtin_plugins::PLUGINS;
+use meshflow_engine::EngineHandle;
+use meshflow_host::MeshData;
+use meshflow_host::io::{self, Format};
+use meshflow_host::server::{HostConfig, HostHandle};
+use serde_json::Value as Json;
+use tokio::net::TcpListener;
+
+/// The bearer token of every in-process host.
+pub const TOKEN: &str = "sesame";
+
+/// Longest a test waits for a run to finish.
+const RUN_TIMEOUT: Duration = Duration::from_secs(120);
+
+/// Compiled components shared by every host and local runtime of the tests.
+pub fn components_cache() -> PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join("workflow-components")
+}
+
+/// An input mesh: the bytes a user uploads and the mesh a host decodes from them.
+pub struct Input {
+    pub name: &'static str,
+    pub bytes: Vec<u8>,
+    pub mesh: MeshData,
+}
+
+impl Input {
+    pub fn bunny() -> Self {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data/bunny.obj");
+        let bytes = std::fs::read(path).unwrap();
+        let mesh = io::load_bytes(&bytes, Format::Obj, "bunny.obj").unwrap();
+        Self { name: "bunny.obj", bytes, mesh }
+    }
+
+    /// A generated scan with holes, debris and non-manifold spots, uploaded as PLY.
+    pub fn scan(vertices: usize, seed: u64) -> Self {
+        use meshflow_host::generate::{ScanSpec, scan};
+        let spec = ScanSpec { vertices, components: 12, holes: 15, noise: 0.2, seed };
+        let mut bytes = Vec::new();
+        io::write_to(&mut bytes, &scan(&spec), Format::Ply).unwrap();
+        let mesh = io::load_bytes(&bytes, Format::Ply, "scan.ply").unwrap();
+        Self { name: "scan.ply", bytes, mesh }
+    }
+}
+
+/// An engine and the hosts it knows.
+pub struct Cluster {
+    pub engine: EngineHandle,
+    /// In-process hosts, in registration order (empty when the hosts run elsewhere).
+    pub hosts: Vec<HostHandle>,
+    pub http: reqwest::Client,
+    _data: tempfile::TempDir,
+}
+
+impl Cluster {
+    /// One in-process host per entry, offering the named built-in plugin families
+    /// (`smoothing`, `cleanup`, `holes`, `checks`); uploads allowed with [`TOKEN`].
+    pub async fn start(families: &[&[&str]]) -> Self {
+        Self::start_with(families, &[]).await
+    }
+
+    /// In-process hosts as [`Cluster::start`] makes them, then hosts running elsewhere.
+    pub async fn start_with(families: &[&[&str]], other_hosts: &[String]) -> Self {
+        let data = tempfile::tempdir().unwrap();
+        let mut hosts = Vec::new();
+        for (index, names) in families.iter().enumerate() {
+            let config = HostConfig {
+                builtins: builtins(names),
+                artefact_cache: Some(components_cache()),
+                token: Some(TOKEN.into()),
+                ..HostConfig::new(data.path().join(format!("host-{index}")))
+            };
+            let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+            hosts.push(meshflow_host::server::start(config, listener).await.unwrap());
+        }
+        let urls: Vec<String> =
+            hosts.iter().map(|h| h.url.clone()).chain(other_hosts.iter().cloned()).collect();
+        let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let engine = meshflow_engine::start(data.path().join("engine"), None, &urls, listener)
+            .await
+            .unwrap();
+        Self { engine, hosts, http: reqwest::Client::new(), _data: data }
+    }
+
+    pub fn url(&self, path: &str) -> String {
+        format!("{}{path}", self.engine.url)
+    }
+
+    /// `POST /inputs`: the URL hosts fetch the input from.
+    pub async fn upload(&self, input: &Input) -> String {
+        let url = self.url(&format!("/inputs?name={}", input.name));
+        let answer = self.http.post(url).body(input.bytes.clone()).send().await.unwrap();
+        assert_eq!(answer.status(), 201);
+        answer.json::<Json>().await.unwrap()["url"].as_str().unwrap().to_owned()
+    }
+
+    /// `POST /runs` with a raw body: the status and the JSON answer.
+    pub async fn post_run(&self, body: impl Into<reqwest::Body>) -> (u16, Json) {
+        let answer = self.http.post(self.url("/runs")).body(body).send().await.unwrap();
+        let status = answer.status().as_u16();
+        (status, answer.json().await.unwrap())
+    }
+
+    /// Submits `workflow` on `input`; the run id.
+    pub async fn submit(&self, workflow: &Json, input: &str) -> String {
+        let body = serde_json::json!({"workflow": workflow, "input": input});
+        let (status, answer) = self.post_run(body.to_string()).await;
+        assert_eq!(status, 202, "the engine refused the run: {answer}");
+        answer["id"].as_str().unwrap().to_owned()
+    }
+
+    /// `GET /runs/{id}`.
+    pub async fn record(&self, id: &str) -> Json {
+        let answer = self.http.get(self.url(&format!("/runs/{id}"))).send().await.unwrap();
+        assert_eq!(answer.status(), 200);
+        answer.json().await.unwrap()
+    }
+
+    /// Polls the run until it completes or fails; its record.
+    pub async fn finished(&self, id: &str) -> Json {
+        let deadline = tokio::time::Instant::now() + RUN_TIMEOUT;
+        loop {
+            let record = self.record(id).await;
+            if matches!(record["status"].as_str(), Some("completed" | "failed")) {
+                return record;
+            }
+            assert!(tokio::time::Instant::now() < deadline, "run {id} still going: {record:#}");
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    }
+
+    /// Submits and waits for the end.
+    pub async fn run(&self, workflow: &Json, input: &str) -> Json {
+        let id = self.submit(workflow, input).await;
+        self.finished(&id).await
+    }
+
+    /// The final mesh through `GET /runs/{id}/result` (a redirect to the host holding it).
+    pub async fn result(&self, id: &str) -> MeshData {
+        let answer = self.http.get(self.url(&format!("/runs/{id}/result"))).send().await.unwrap();
+        assert_eq!(answer.status(), 200);
+        meshflow_host::pack::decode(&answer.bytes().await.unwrap()).unwrap()
+    }
+
+    /// `GET /services`: the catalogue by service name, with the hosts offering each.
+    pub async fn services(&self) -> Json {
+        self.http.get(self.url("/services")).send().await.unwrap().json().await.unwrap()
+    }
+}
+
+/// The component bytes of the named built-in plugin families.
+pub fn builtins(names: &[&str]) -> Vec<&'static [u8]> {
+    names.iter().map(|name| builtin(name)).collect()
+}
+
+pub fn builtin(name: &str) -> &'static [u8] {
+    PLUGINS.iter().find(|p| p.name == name).map(|p| p.wasm).expect("a built-in plugin family")
+}
+
+/// Every step of a record as (path, outcome): a filter's output hash, a check's value.
+pub fn executed(record: &Json) -> Vec<(String, Json)> {
+    steps(record)
+        .iter()
+        .map(|step| {
+            let outcome = match step["kind"].as_str() {
+                Some("filter") => step["output_hash"].clone(),
+                _ => step["value"].clone(),
+            };
+            (step["path"].as_str().unwrap().to_owned(), outcome)
+        })
+        .collect()
+}
+
+pub fn steps(record: &Json) -> &[Json] {
+    record["steps"].as_array().expect("a record lists its steps")
+}
+
+pub fn text(json: &Json) -> &str {
+    json.as_str().unwrap_or_else(|| panic!("expected a string, got {json}"))
+}

@@ -1,0 +1,58 @@
+//! Hosts as separate `meshflow host` processes, so a test can kill one outright.
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+use meshflow_host::client::HostClient;
+
+/// How long a fresh host may take to compile its plugins and answer.
+const START_TIMEOUT: Duration = Duration::from_secs(60);
+
+/// A `meshflow host` child process; killed when dropped.
+pub struct HostProcess {
+    pub url: String,
+    child: Child,
+}
+
+impl HostProcess {
+    /// Starts `meshflow host` on a free loopback port with its data under `data`, and waits
+    /// until it answers `/health`.
+    pub async fn start(data: &Path) -> Self {
+        let port = free_port();
+        let child = Command::new(env!("CARGO_BIN_EXE_meshflow"))
+            .args(["host", "--listen", &format!("127.0.0.1:{port}"), "--data"])
+            .arg(data)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("starting meshflow host");
+        let host = Self { url: format!("http://127.0.0.1:{port}"), child };
+        let client = HostClient::new(&host.url);
+        let deadline = tokio::time::Instant::now() + START_TIMEOUT;
+        while client.health().await.is_err() {
+            assert!(tokio::time::Instant::now() < deadline, "{} did not start", host.url);
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+        host
+    }
+
+    /// SIGKILL: the host vanishes mid-request, as on a crash.
+    pub fn kill(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for HostProcess {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+/// A port nobody listens on right now (the OS hands out ephemeral ports in turn, so it is
+/// very unlikely to be taken again before the host binds it).
+fn free_port() -> u16 {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    listener.local_addr().unwrap().port()
+}

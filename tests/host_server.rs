@@ -1,0 +1,477 @@
+//! The host HTTP server end to end: real HTTP on 127.0.0.1, hosts on ephemeral ports, each
+//! with its own data folder, inputs served by a tiny file server.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+
+use meshflow_host::api::{RunRequest, RunResult, SessionState, Transfer, Update};
+use meshflow_host::client::{ClientError, HostClient};
+use meshflow_host::runtime::Limits;
+use meshflow_host::server::{HostConfig, HostHandle, start};
+use meshflow_host::{Catalog, MeshData, Runtime, io};
+
+const TOKEN: &str = "sesame";
+
+fn bunny_path() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data/bunny.obj")
+}
+
+fn bunny() -> MeshData {
+    io::load(&bunny_path()).unwrap()
+}
+
+/// Compiled components shared by every host of every test, as one machine's would be.
+fn shared_cache() -> PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join("host-components")
+}
+
+fn config(data: &Path) -> HostConfig {
+    HostConfig {
+        builtins: meshflow_builtin_plugins::PLUGINS.iter().map(|p| p.wasm).collect(),
+        artefact_cache: Some(shared_cache()),
+        ..HostConfig::new(data)
+    }
+}
+
+async fn start_host(config: HostConfig) -> (HostHandle, HostClient) {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let handle = start(config, listener).await.unwrap();
+    let client = HostClient::new(&handle.url);
+    (handle, client)
+}
+
+/// Serves `files` (name -> bytes) over HTTP; returns the base URL.
+async fn serve_files(files: Vec<(&str, Vec<u8>)>) -> String {
+    use axum::extract::{Path, State};
+    use axum::http::StatusCode;
+    let files: Arc<HashMap<String, Vec<u8>>> =
+        Arc::new(files.into_iter().map(|(n, b)| (n.to_owned(), b)).collect());
+    let app =
+        axum::Router::new()
+            .route(
+                "/{name}",
+                axum::routing::get(
+                    |State(files): State<Arc<HashMap<String, Vec<u8>>>>,
+                     Path(name): Path<String>| async move {
+                        files.get(&name).cloned().ok_or(StatusCode::NOT_FOUND)
+                    },
+                ),
+            )
+            .with_state(files);
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let url = format!("http://{}", listener.local_addr().unwrap());
+    tokio::spawn(async move { axum::serve(listener, app).await });
+    url
+}
+
+async fn bunny_url() -> String {
+    let base = serve_files(vec![("bunny.obj", std::fs::read(bunny_path()).unwrap())]).await;
+    format!("{base}/bunny.obj")
+}
+
+async fn ready_session(client: &HostClient, url: &str) -> String {
+    let created = client.create_session(url, None).await.unwrap();
+    assert_eq!(created.state, SessionState::Loading);
+    let status = client.wait_ready(&created.id).await.unwrap();
+    assert_eq!(status.state, SessionState::Ready, "{:?}", status.error);
+    created.id
+}
+
+fn request(service: &str, params: serde_json::Value) -> RunRequest {
+    let serde_json::Value::Object(params) = params else { panic!("params must be an object") };
+    RunRequest { service: service.into(), params, plugin: None }
+}
+
+async fn filter(
+    client: &HostClient,
+    id: &str,
+    service: &str,
+    params: serde_json::Value,
+) -> meshflow_host::api::FilterResult {
+    match client.run(id, &request(service, params)).await.unwrap() {
+        RunResult::Filter(result) => result,
+        other => panic!("expected a filter result, got {other:?}"),
+    }
+}
+
+fn api_error(result: Result<impl std::fmt::Debug, ClientError>) -> (u16, String, String) {
+    match result.expect_err("the host should refuse") {
+        ClientError::Api { status, code, message, .. } => (status, code, message),
+        other => panic!("expected an HTTP error, got {other}"),
+    }
+}
+
+/// The same filter run locally, as `meshflow apply` would.
+fn local_filter(
+    mesh: &MeshData,
+    service: &str,
+    params: &[(&str, meshflow_host::runtime::Value)],
+) -> MeshData {
+    let runtime = Runtime::new(Limits::default(), Some(&shared_cache())).unwrap();
+    let mut catalog = Catalog::new();
+    for builtin in meshflow_builtin_plugins::PLUGINS {
+        catalog.add(runtime.load(builtin.wasm).unwrap());
+    }
+    let (plugin, _) = catalog.find(service).unwrap();
+    let params: Vec<_> = params.iter().map(|(k, v)| (k.to_string(), v.clone())).collect();
+    runtime.run(plugin, service, mesh, &params).unwrap().mesh.unwrap()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn filters_and_checks_run_and_other_hosts_follow_by_correction_or_full_mesh() {
+    let dirs = [(); 3].map(|()| tempfile::tempdir().unwrap());
+    let (_a, a) = start_host(config(dirs[0].path())).await;
+    let (_b, b) = start_host(config(dirs[1].path())).await;
+    let (_c, c) = start_host(config(dirs[2].path())).await;
+    let url = bunny_url().await;
+    let input = bunny();
+
+    let on_a = ready_session(&a, &url).await;
+    let status = a.session(&on_a).await.unwrap();
+    assert_eq!(status.hash.as_deref(), Some(input.content_hash().to_hex().as_str()));
+    assert_eq!((status.vertices, status.triangles), (Some(1839), Some(3674)));
+    assert_eq!(status.input_bytes, Some(std::fs::metadata(bunny_path()).unwrap().len()));
+    let on_b = ready_session(&b, &url).await;
+    let on_c = ready_session(&c, &url).await;
+    assert_eq!(a.health().await.unwrap().sessions, 1);
+
+    let step = filter(&a, &on_a, "laplacian-smoothing", serde_json::json!({"iterations": 2})).await;
+    let expected = local_filter(
+        &input,
+        "laplacian-smoothing",
+        &[("iterations", meshflow_host::runtime::Value::Integer(2))],
+    );
+    assert_eq!(step.input_hash, input.content_hash().to_hex());
+    assert_eq!(step.output_hash, expected.content_hash().to_hex());
+    assert_eq!((step.vertices, step.edits), (1839, 1839));
+    assert_eq!(a.session(&on_a).await.unwrap().hash.as_deref(), Some(step.output_hash.as_str()));
+    assert_eq!(a.blob_size(&step.correction.url).await.unwrap(), step.correction.bytes);
+
+    let RunResult::Check(check) =
+        a.run(&on_a, &request("vertex-count", serde_json::json!({}))).await.unwrap()
+    else {
+        panic!("vertex-count is a check")
+    };
+    assert_eq!(check.value, 1839);
+
+    // B replays the correction; C takes the full mesh, packed on first request.
+    let update =
+        |use_| Update { correction: Some(step.correction.clone()), full: step.full.clone(), use_ };
+    let by_correction = b.update(&on_b, &update(Transfer::Correction)).await.unwrap();
+    assert_eq!(by_correction.via, Transfer::Correction);
+    assert_eq!(by_correction.fallback, None);
+    assert_eq!(by_correction.hash, step.output_hash);
+    assert_eq!(by_correction.bytes, step.correction.bytes);
+    let full = c.update(&on_c, &update(Transfer::Full)).await.unwrap();
+    assert_eq!((full.via, full.hash.as_str()), (Transfer::Full, step.output_hash.as_str()));
+    assert_eq!(full.bytes, a.blob_size(&step.full.url).await.unwrap());
+    assert!(full.bytes > step.correction.bytes, "{} vs {}", full.bytes, step.correction.bytes);
+    for (host, id) in [(&b, &on_b), (&c, &on_c)] {
+        assert_eq!(
+            host.session(id).await.unwrap().hash.as_deref(),
+            Some(step.output_hash.as_str())
+        );
+    }
+    // B's next step starts from the same bits as A's would.
+    let next_on_b =
+        filter(&b, &on_b, "add-noise", serde_json::json!({"amount": 0.5, "seed": 7})).await;
+    let next_on_a =
+        filter(&a, &on_a, "add-noise", serde_json::json!({"amount": 0.5, "seed": 7})).await;
+    assert_eq!(next_on_a.output_hash, next_on_b.output_hash);
+    assert_ne!(next_on_a.output_hash, step.output_hash);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn blobs_have_a_length_and_an_etag_that_answers_304() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_host, client) = start_host(config(dir.path())).await;
+    let id = ready_session(&client, &bunny_url().await).await;
+    let step = filter(&client, &id, "add-noise", serde_json::json!({"seed": 1})).await;
+    let http = reqwest::Client::new();
+    for url in [&step.correction.url, &step.full.url] {
+        let name = url.rsplit('/').next().unwrap();
+        let got = http.get(url).send().await.unwrap();
+        assert_eq!(got.status(), 200);
+        assert_eq!(got.headers()["etag"], format!("\"{name}\"").as_str());
+        let length: u64 = got.headers()["content-length"].to_str().unwrap().parse().unwrap();
+        assert_eq!(got.bytes().await.unwrap().len() as u64, length);
+        let head = http.head(url).send().await.unwrap();
+        assert_eq!(head.headers()["content-length"], length.to_string().as_str());
+        let cached =
+            http.get(url).header("if-none-match", format!("\"{name}\"")).send().await.unwrap();
+        assert_eq!(cached.status(), 304);
+        let stale = http.get(url).header("if-none-match", "\"other\"").send().await.unwrap();
+        assert_eq!(stale.status(), 200);
+    }
+    let full = client.download(&step.full.url).await.unwrap();
+    assert_eq!(
+        meshflow_host::pack::decode(&full).unwrap().content_hash().to_hex(),
+        step.output_hash
+    );
+    let missing = format!("{}/blobs/{}.mfc", client.base_url(), "0".repeat(64));
+    assert_eq!(api_error(client.blob_size(&missing).await).0, 404);
+    assert_eq!(
+        api_error(client.download(&format!("{}/blobs/..%2Fsessions", client.base_url())).await).0,
+        404
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_correction_that_does_not_apply_falls_back_to_the_full_mesh_and_says_why() {
+    let dirs = [(); 2].map(|()| tempfile::tempdir().unwrap());
+    let (_a, a) = start_host(config(dirs[0].path())).await;
+    let (_b, b) = start_host(config(dirs[1].path())).await;
+    let url = bunny_url().await;
+    let (on_a, on_b) = (ready_session(&a, &url).await, ready_session(&b, &url).await);
+    filter(&a, &on_a, "add-noise", serde_json::json!({"seed": 1})).await;
+    let second = filter(&a, &on_a, "add-noise", serde_json::json!({"seed": 2})).await;
+
+    // The second step's correction applies to the first step's result, not to the input.
+    let update = Update {
+        correction: Some(second.correction.clone()),
+        full: second.full.clone(),
+        use_: Transfer::Correction,
+    };
+    let updated = b.update(&on_b, &update).await.unwrap();
+    assert_eq!((updated.via, updated.hash.as_str()), (Transfer::Full, second.output_hash.as_str()));
+    let reason = updated.fallback.unwrap();
+    assert!(reason.contains("applies to mesh"), "{reason}");
+
+    // A corrupt correction, then one that cannot be downloaded.
+    let mut corrupt = a.download(&second.correction.url).await.unwrap();
+    let middle = corrupt.len() / 2;
+    corrupt[middle] ^= 0x55;
+    let files = serve_files(vec![("bad.mfc", corrupt)]).await;
+    let on_b2 = ready_session(&b, &url).await;
+    let mut bad = update.clone();
+    bad.full = filter(&a, &on_a, "add-noise", serde_json::json!({"seed": 3})).await.full;
+    bad.correction.as_mut().unwrap().url = format!("{files}/bad.mfc");
+    let reason = b.update(&on_b2, &bad).await.unwrap().fallback.unwrap();
+    assert!(reason.contains("corrupt") && reason.contains("bad.mfc"), "{reason}");
+    bad.correction.as_mut().unwrap().url = format!("{files}/missing.mfc");
+    let on_b3 = ready_session(&b, &url).await;
+    let reason = b.update(&on_b3, &bad).await.unwrap().fallback.unwrap();
+    assert!(reason.contains("missing.mfc") && reason.contains("404"), "{reason}");
+
+    // A full mesh whose hash is not the announced one is refused; the session is unharmed.
+    let before = b.session(&on_b3).await.unwrap().hash;
+    let mut lying = bad.clone();
+    lying.use_ = Transfer::Full;
+    lying.full.hash = "ab".repeat(32);
+    let (status, code, message) = api_error(b.update(&on_b3, &lying).await);
+    assert_eq!((status, code.as_str()), (422, "hash-mismatch"), "{message}");
+    let after = b.session(&on_b3).await.unwrap();
+    assert_eq!((after.state, after.hash), (SessionState::Ready, before));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn inputs_that_cannot_be_had_fail_the_session_with_the_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_host, client) = start_host(config(dir.path())).await;
+    let files = serve_files(vec![
+        ("noise.bin", vec![0, 1, 2, 3, 255, 254]),
+        ("cut.obj", b"v 0 0 0\nf 1 2 3\n".to_vec()),
+    ])
+    .await;
+    let hash = bunny().content_hash().to_hex();
+    let cases = [
+        ("http://127.0.0.1:1/in.obj".to_owned(), None, "http://127.0.0.1:1/in.obj"),
+        (format!("{files}/gone.obj"), None, "404"),
+        (format!("{files}/noise.bin"), None, "cannot tell the mesh format"),
+        (format!("{files}/cut.obj"), None, "cut.obj"),
+        (bunny_url().await, Some("cd".repeat(32)), &*hash),
+    ];
+    for (url, expected_hash, words) in cases {
+        let created = client.create_session(&url, expected_hash.as_deref()).await.unwrap();
+        let status = client.wait_ready(&created.id).await.unwrap();
+        assert_eq!(status.state, SessionState::Failed, "{url}");
+        let error = status.error.unwrap();
+        assert!(error.contains(words), "{url}: {error}");
+        let (code, name, _) = api_error(
+            client.run(&created.id, &request("vertex-count", serde_json::json!({}))).await,
+        );
+        assert_eq!((code, name.as_str()), (409, "session-failed"));
+    }
+    let (status, code, _) = api_error(client.create_session("not a url", None).await);
+    assert_eq!((status, code.as_str()), (400, "bad-url"));
+    assert_eq!(api_error(client.session("nope").await).0, 404);
+    let raw = reqwest::Client::new()
+        .post(format!("{}/sessions", client.base_url()))
+        .body("{")
+        .header("content-type", "application/json")
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(raw.status(), 400);
+    let body: serde_json::Value = raw.json().await.unwrap();
+    assert_eq!(body["error"]["code"], "bad-json");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn plugins_upload_with_the_token_only_and_a_failing_plugin_leaves_the_session_working() {
+    let dirs = [(); 2].map(|()| tempfile::tempdir().unwrap());
+    let hostile = meshflow_builtin_plugins::fixture("hostile").to_vec();
+    let (_closed, closed) = start_host(config(dirs[0].path())).await;
+    let (status, _, message) = api_error(closed.upload_plugin(hostile.clone(), Some(TOKEN)).await);
+    assert_eq!(status, 403);
+    assert!(message.contains("--token"), "{message}");
+
+    let (_host, client) = start_host(HostConfig {
+        token: Some(TOKEN.into()),
+        limits: Limits { deadline: Duration::from_secs(2), ..Limits::default() },
+        ..config(dirs[1].path())
+    })
+    .await;
+    assert_eq!(api_error(client.upload_plugin(hostile.clone(), None).await).0, 401);
+    assert_eq!(api_error(client.upload_plugin(hostile.clone(), Some("wrong")).await).0, 401);
+    let (status, code, message) =
+        api_error(client.upload_plugin(b"\0asm but not really".to_vec(), Some(TOKEN)).await);
+    assert_eq!((status, code.as_str()), (422, "invalid-plugin"), "{message}");
+    let uploaded = client.upload_plugin(hostile.clone(), Some(TOKEN)).await.unwrap();
+    assert!(uploaded.services.iter().any(|s| s.name == "ignore-bad-edits"));
+    let again = client.upload_plugin(hostile.clone(), Some(TOKEN)).await.unwrap();
+    assert_eq!(again.digest, uploaded.digest);
+    let services = client.services().await.unwrap();
+    let trap = services.iter().find(|s| s.info.name == "trap").unwrap();
+    assert_eq!((trap.plugin.as_str(), trap.builtin), (uploaded.digest.as_str(), false));
+    assert!(services.iter().any(|s| s.info.name == "laplacian-smoothing" && s.builtin));
+
+    let id = ready_session(&client, &bunny_url().await).await;
+    let step = filter(&client, &id, "ignore-bad-edits", serde_json::json!({})).await;
+    assert_eq!((step.plugin.as_str(), step.edits), (uploaded.digest.as_str(), 1));
+    for (service, words) in [("trap", "crashed"), ("fail", "fail"), ("bad-edit", "bad-edit")] {
+        let (status, code, message) =
+            api_error(client.run(&id, &request(service, serde_json::json!({}))).await);
+        assert_eq!((status, code.as_str()), (422, "plugin-failed"), "{service}: {message}");
+        assert!(message.contains(words), "{service}: {message}");
+        let status = client.session(&id).await.unwrap();
+        assert_eq!(
+            (status.state, status.hash.as_deref()),
+            (SessionState::Ready, Some(step.output_hash.as_str()))
+        );
+    }
+    let (status, code, message) =
+        api_error(client.run(&id, &request("smooth-everything", serde_json::json!({}))).await);
+    assert_eq!((status, code.as_str()), (400, "unknown-service"));
+    assert!(message.contains("laplacian-smoothing"), "{message}");
+    let bad = request("laplacian-smoothing", serde_json::json!({"iterations": "many"}));
+    assert_eq!(api_error(client.run(&id, &bad).await).1, "bad-params");
+
+    // A run in progress makes the session busy; the deadline then stops the plugin.
+    let looping = {
+        let (client, id) = (client.clone(), id.clone());
+        tokio::spawn(async move {
+            client.run(&id, &request("loop-forever", serde_json::json!({}))).await
+        })
+    };
+    while client.session(&id).await.unwrap().state != SessionState::Busy {
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    assert_eq!(client.health().await.unwrap().running, 1);
+    let (status, code, _) =
+        api_error(client.run(&id, &request("vertex-count", serde_json::json!({}))).await);
+    assert_eq!((status, code.as_str()), (409, "session-busy"));
+    let (status, _, message) = api_error(looping.await.unwrap());
+    assert!(status == 422 && message.contains("deadline"), "{message}");
+    filter(&client, &id, "add-noise", serde_json::json!({})).await;
+
+    let builtin = services.iter().find(|s| s.builtin).unwrap().plugin.clone();
+    assert_eq!(api_error(client.delete_plugin(&builtin, Some(TOKEN)).await).0, 403);
+    assert_eq!(api_error(client.delete_plugin(&uploaded.digest, None).await).0, 401);
+    client.delete_plugin(&uploaded.digest, Some(TOKEN)).await.unwrap();
+    assert_eq!(api_error(client.delete_plugin(&uploaded.digest, Some(TOKEN)).await).0, 404);
+    assert!(!client.plugins().await.unwrap().iter().any(|p| p.digest == uploaded.digest));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_restarted_host_keeps_its_plugins_blobs_and_sessions() {
+    let dir = tempfile::tempdir().unwrap();
+    let host_config = || HostConfig { token: Some(TOKEN.into()), ..config(dir.path()) };
+    let (handle, client) = start_host(host_config()).await;
+    let uploaded = client
+        .upload_plugin(meshflow_builtin_plugins::fixture("hostile").to_vec(), Some(TOKEN))
+        .await
+        .unwrap();
+    let id = ready_session(&client, &bunny_url().await).await;
+    filter(&client, &id, "laplacian-smoothing", serde_json::json!({})).await;
+    let step = filter(&client, &id, "ignore-bad-edits", serde_json::json!({})).await;
+    handle.shutdown().await.unwrap();
+
+    // The input's file server is gone too: the session is rebuilt from stored blobs.
+    let (_handle, client) = start_host(host_config()).await;
+    assert!(client.plugins().await.unwrap().iter().any(|p| p.digest == uploaded.digest));
+    let status = client.wait_ready(&id).await.unwrap();
+    assert_eq!(
+        (status.state, status.hash.as_deref()),
+        (SessionState::Ready, Some(step.output_hash.as_str()))
+    );
+    let correction = step.correction.url.rsplit('/').next().unwrap();
+    let local = format!("{}/blobs/{correction}", client.base_url());
+    assert_eq!(client.blob_size(&local).await.unwrap(), step.correction.bytes);
+    let full = format!("{}/blobs/{}.mfm", client.base_url(), step.output_hash);
+    assert!(client.blob_size(&full).await.unwrap() > 0);
+    let next = filter(&client, &id, "ignore-bad-edits", serde_json::json!({})).await;
+    assert_eq!(next.input_hash, step.output_hash);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn blobs_over_the_budget_are_evicted_unless_a_session_needs_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_handle, client) =
+        start_host(HostConfig { blob_budget_bytes: 1, ..config(dir.path()) }).await;
+    let url = bunny_url().await;
+    let (first, second) = (ready_session(&client, &url).await, ready_session(&client, &url).await);
+    let gone = filter(&client, &first, "add-noise", serde_json::json!({"seed": 1})).await;
+    let kept = filter(&client, &second, "add-noise", serde_json::json!({"seed": 2})).await;
+    assert_eq!(client.blob_size(&gone.correction.url).await.unwrap(), gone.correction.bytes);
+    client.delete_session(&first).await.unwrap();
+    assert_eq!(api_error(client.session(&first).await).0, 404);
+    let last = filter(&client, &second, "add-noise", serde_json::json!({"seed": 3})).await;
+    assert_eq!(api_error(client.blob_size(&gone.correction.url).await).0, 404);
+    for needed in [&kept.correction, &last.correction] {
+        assert_eq!(client.blob_size(&needed.url).await.unwrap(), needed.bytes);
+    }
+    let blobs = std::fs::read_dir(dir.path().join("blobs")).unwrap().count();
+    assert_eq!(blobs, 3, "the input and the live session's two corrections");
+}
+
+#[test]
+fn the_cli_serves_a_host_and_uploads_a_plugin_to_it() {
+    use std::io::BufRead;
+    let dir = tempfile::tempdir().unwrap();
+    let meshflow = env!("CARGO_BIN_EXE_meshflow");
+    let mut host = std::process::Command::new(meshflow)
+        .args(["host", "--listen", "127.0.0.1:0", "--token", TOKEN, "--data"])
+        .arg(dir.path())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut log = std::io::BufReader::new(host.stderr.take().unwrap()).lines();
+    let url = log
+        .by_ref()
+        .map_while(Result::ok)
+        .find_map(|line| Some(line.split("reached at ").nth(1)?.trim().to_owned()))
+        .expect("the host logs its URL");
+    let wasm = dir.path().join("hostile.wasm");
+    std::fs::write(&wasm, meshflow_builtin_plugins::fixture("hostile")).unwrap();
+    let upload = |token: &str| {
+        std::process::Command::new(meshflow)
+            .args(["plugin", "upload", "--host", &url, "--token", token])
+            .arg(&wasm)
+            .output()
+            .unwrap()
+    };
+    let refused = upload("wrong");
+    let uploaded = upload(TOKEN);
+    host.kill().unwrap();
+    host.wait().unwrap();
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("401"));
+    let stdout = String::from_utf8(uploaded.stdout).unwrap();
+    assert!(uploaded.status.success(), "{}", String::from_utf8_lossy(&uploaded.stderr));
+    let digest = meshflow_host::runtime::digest(meshflow_builtin_plugins::fixture("hostile"));
+    assert!(stdout.starts_with(&format!("plugin {digest}")), "{stdout}");
+    assert!(stdout.contains("loop-forever (filter"), "{stdout}");
+}

@@ -1,0 +1,345 @@
+//! Workflows end to end (issue 5): an engine and 2–3 hosts on 127.0.0.1, real HTTP, held to
+//! the same services applied locally in sequence.
+
+mod common;
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+use common::local::{Local, Trace};
+use common::process::HostProcess;
+use common::{Cluster, Input, TOKEN, builtin, components_cache, executed, steps, text};
+use meshflow_engine::workflow::Workflow;
+use meshflow_host::client::HostClient;
+use serde_json::{Value as Json, json};
+
+/// Each filter family on its own host and the checks with the hole filler, so every example
+/// crosses hosts.
+const SPREAD: &[&[&str]] = &[&["smoothing"], &["cleanup"], &["holes", "checks"]];
+
+fn example(name: &str) -> Json {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("examples/workflows/{name}.json"));
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// The workflow run locally on `input`.
+fn locally(workflow: &Json, input: &Input) -> Trace {
+    let local = Local::new(&components_cache());
+    local.run(&Workflow::from_json(workflow).unwrap(), input.mesh.clone())
+}
+
+/// Runs `workflow` with `transfer` auto and then full: both give the local result, step by
+/// step, and move data between hosts as the mode says.
+async fn run_both_ways(cluster: &Cluster, workflow: &Json, input: &Input, expected: &Trace) {
+    let url = cluster.upload(input).await;
+    for mode in ["auto", "full"] {
+        let mut workflow = workflow.clone();
+        workflow["transfer"] = mode.into();
+        let id = cluster.submit(&workflow, &url).await;
+        let record = cluster.finished(&id).await;
+        assert_eq!(record["status"], "completed", "{mode}: {}", record["error"]);
+        assert_eq!(executed(&record), expected.steps, "{mode}: steps and their outcomes");
+        assert_eq!(text(&record["result"]["hash"]), expected.hash(), "{mode}");
+        assert_eq!(cluster.result(&id).await.content_hash().to_hex(), expected.hash(), "{mode}");
+        assert_transfers(&record, if mode == "auto" { "correction" } else { "full" });
+    }
+}
+
+/// The input reached every host of the plan once; afterwards each filter's result went, by
+/// `via` (`correction` or `full` mesh), to every other host that ran a later step, and to
+/// no host outside the plan.
+fn assert_transfers(record: &Json, via: &str) {
+    let loads: Vec<&str> =
+        record["broadcast"]["hosts"].as_array().unwrap().iter().map(|h| text(&h["host"])).collect();
+    let plan: BTreeSet<&str> = loads.iter().copied().collect();
+    assert_eq!(plan.len(), loads.len(), "one input load per host: {loads:?}");
+    let steps = steps(record);
+    let workers: BTreeSet<&str> = steps.iter().map(|s| text(&s["host"])).collect();
+    assert!(workers.is_subset(&plan), "steps ran on {workers:?}, the input went to {plan:?}");
+    assert!(workers.len() >= 2, "the run stayed on {workers:?}");
+    for (index, step) in steps.iter().enumerate().filter(|(_, s)| s["kind"] == "filter") {
+        let transfers = step["transfers"].as_array().unwrap();
+        let receivers: BTreeSet<&str> = transfers.iter().map(|t| text(&t["host"])).collect();
+        let producer = text(&step["host"]);
+        let later: BTreeSet<&str> = steps[index + 1..]
+            .iter()
+            .map(|s| text(&s["host"]))
+            .filter(|h| *h != producer)
+            .collect();
+        assert!(
+            later.is_subset(&receivers),
+            "{}: sent to {receivers:?}, needed on {later:?}",
+            step["path"]
+        );
+        assert!(receivers.is_subset(&plan) && !receivers.contains(producer), "{receivers:?}");
+        for transfer in transfers {
+            assert_eq!(transfer["via"], via, "{}: {transfer}", step["path"]);
+            assert_eq!((&transfer["error"], &transfer["fallback"]), (&Json::Null, &Json::Null));
+        }
+        if via == "full" && !transfers.is_empty() {
+            assert!(step["full_bytes"].as_u64().unwrap() > 0, "{step}");
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn repair_gives_the_local_result_by_corrections_or_full_meshes() {
+    let cluster = Cluster::start(SPREAD).await;
+    let (workflow, input) = (example("repair"), Input::bunny());
+    let expected = locally(&workflow, &input);
+    run_both_ways(&cluster, &workflow, &input, &expected).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn smoothing_while_unstable_runs_as_many_rounds_as_locally() {
+    let cluster = Cluster::start(SPREAD).await;
+    let (workflow, input) = (example("smooth-while-unstable"), Input::bunny());
+    let expected = locally(&workflow, &input);
+    let rounds = expected.count("steps[1].do[0]");
+    assert!(rounds > 1, "the example should take several rounds, took {rounds}");
+    assert_eq!(expected.capped_whiles, 0);
+    // Step by step equality includes the number of rounds.
+    run_both_ways(&cluster, &workflow, &input, &expected).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn branch_on_manifold_takes_either_branch_as_the_input_needs() {
+    let cluster = Cluster::start(SPREAD).await;
+    let workflow = example("branch-on-manifold");
+    let local = Local::new(&components_cache());
+    for (input, manifold, branch) in [
+        (Input::bunny(), true, "steps[0].then[0]"),
+        (Input::scan(20_000, 5), false, "steps[0].else[0]"),
+    ] {
+        assert_eq!(local.check("is-manifold", &input.mesh), manifold, "{}", input.name);
+        let expected = locally(&workflow, &input);
+        assert_eq!(expected.count(branch), 1, "{}", input.name);
+        run_both_ways(&cluster, &workflow, &input, &expected).await;
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_plugin_uploaded_to_a_host_joins_the_catalogue_and_runs_in_a_workflow() {
+    let cluster = Cluster::start(&[&["smoothing", "checks"], &["holes"]]).await;
+    let service = "remove-smallest-components";
+    let workflow = json!([{"run": service}, {"run": "laplacian-smoothing"}]);
+    let input = Input::scan(20_000, 8);
+    let url = cluster.upload(&input).await;
+    let (status, refused) =
+        cluster.post_run(json!({"workflow": workflow, "input": url}).to_string()).await;
+    assert_eq!(status, 400, "{refused}");
+    assert!(text(&refused["error"]["message"]).contains("steps[0]"), "{refused}");
+
+    let uploader = &cluster.hosts[1].url;
+    let uploaded = HostClient::new(uploader)
+        .upload_plugin(builtin("cleanup").to_vec(), Some(TOKEN))
+        .await
+        .unwrap();
+    assert!(uploaded.services.iter().any(|s| s.name == service));
+    let registered = cluster
+        .http
+        .post(cluster.url("/hosts"))
+        .json(&json!({"url": uploader}))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(registered.status(), 201);
+    let services = cluster.services().await;
+    let offer = services.as_array().unwrap().iter().find(|s| s["name"] == service);
+    assert_eq!(offer.map(|o| &o["hosts"]), Some(&json!([uploader])), "{services:#}");
+
+    let expected = locally(&workflow, &input);
+    let record = cluster.run(&workflow, &url).await;
+    assert_eq!(record["status"], "completed", "{}", record["error"]);
+    assert_eq!(steps(&record)[0]["host"], json!(uploader));
+    assert_eq!(steps(&record)[0]["plugin"], json!(uploaded.digest));
+    assert_eq!(text(&record["result"]["hash"]), expected.hash());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_host_killed_mid_run_leaves_the_run_to_another_host() {
+    // Killed as soon as it has produced a result: it is the only host that holds it.
+    killed_mid_run(&[], |_| true).await;
+}
+
+/// As above, with the checks on a host of their own, which follows every result: killed
+/// once that host holds the result too.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_host_killed_mid_run_is_replaced_from_a_host_that_follows_the_run() {
+    let followed = |step: &Json| {
+        let transfers = step["transfers"].as_array().unwrap();
+        !transfers.is_empty() && transfers.iter().all(|t| t["error"].is_null())
+    };
+    killed_mid_run(&[&["checks"]], followed).await;
+}
+
+/// Three `meshflow host` processes offering everything, after in-process hosts offering
+/// `families`; the host that produced the first result is killed (SIGKILL) once
+/// `kill_when` holds for that step, while the run goes on; the run must still end with the
+/// local result.
+async fn killed_mid_run(families: &[&[&str]], kill_when: impl Fn(&Json) -> bool) {
+    let data = tempfile::tempdir().unwrap();
+    let mut hosts = Vec::new();
+    for name in ["a", "b", "c"] {
+        hosts.push(HostProcess::start(&data.path().join(name)).await);
+    }
+    let urls: Vec<String> = hosts.iter().map(|h| h.url.clone()).collect();
+    let cluster = Cluster::start_with(families, &urls).await;
+    // Long enough to be caught in the middle: rounds of smoothing on a larger scan.
+    let workflow = json!([{
+        "while": {"check": "vertex-count", "op": ">", "value": 0},
+        "do": [{"run": "laplacian-smoothing", "params": {"iterations": 2}}],
+        "max-iterations": 8
+    }]);
+    let input = Input::scan(150_000, 13);
+    let expected = locally(&workflow, &input);
+    let id = cluster.submit(&workflow, &cluster.upload(&input).await).await;
+
+    let (victim, done) = loop {
+        let record = cluster.record(&id).await;
+        let produced = steps(&record).iter().find(|s| s["kind"] == "filter");
+        if let Some(step) = produced.filter(|step| kill_when(step)) {
+            break (text(&step["host"]).to_owned(), steps(&record).len());
+        }
+        assert_eq!(record["status"], "running", "{record:#}");
+        tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+    };
+    hosts.iter_mut().find(|h| h.url == victim).unwrap().kill();
+
+    assert!(done < expected.steps.len(), "the run was over before the kill");
+    let record = cluster.finished(&id).await;
+    assert_eq!(record["status"], "completed", "after killing {victim}: {}", record["error"]);
+    let failed = |s: &Json| s["failed_hosts"].as_array().unwrap().contains(&json!(victim));
+    assert!(steps(&record).iter().any(failed), "no step records {victim} as failed");
+    assert_ne!(steps(&record).last().unwrap()["host"], json!(victim));
+    assert_eq!(executed(&record), expected.steps);
+    assert_eq!(text(&record["result"]["hash"]), expected.hash());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn twenty_concurrent_runs_on_three_hosts_agree() {
+    let cluster = Cluster::start(SPREAD).await;
+    let (workflow, input) = (example("repair"), Input::bunny());
+    let expected = locally(&workflow, &input);
+    let url = cluster.upload(&input).await;
+    let ids =
+        futures_util::future::join_all((0..20).map(|_| cluster.submit(&workflow, &url))).await;
+    assert_eq!(ids.iter().collect::<BTreeSet<_>>().len(), 20, "run ids are unique");
+    let records = futures_util::future::join_all(ids.iter().map(|id| cluster.finished(id))).await;
+    for record in &records {
+        assert_eq!(record["status"], "completed", "{}", record["error"]);
+        assert_eq!(text(&record["result"]["hash"]), expected.hash());
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn workflows_that_do_not_parse_or_fit_the_catalogue_are_refused_naming_the_step() {
+    let cluster = Cluster::start(SPREAD).await;
+    let url = cluster.upload(&Input::bunny()).await;
+    let (status, answer) = cluster.post_run("{\"workflow\": [").await;
+    assert_eq!((status, &answer["error"]["code"]), (400, &json!("bad-json")), "{answer}");
+
+    let refusals = [
+        (json!([{"run": "fill-holes"}, {"run": "no-such-service"}]), "steps[1]", "no-such-service"),
+        (
+            json!([{"run": "fill-holes"}, {"run": "laplacian-smoothing", "params": {"iterations": "many"}}]),
+            "steps[1]",
+            "iterations",
+        ),
+        (json!([{"run": "fill-holes"}, {"run": "is-manifold"}]), "steps[1]", "is a check"),
+        (
+            json!([{"run": "fill-holes"}, {
+                "while": {"check": "normal-instability", "op": ">", "value": 1.0},
+                "do": [{"run": "hole-count"}]
+            }]),
+            "steps[1].do[0]",
+            "is a check",
+        ),
+    ];
+    for (workflow, path, reason) in refusals {
+        let (status, answer) =
+            cluster.post_run(json!({"workflow": workflow, "input": url}).to_string()).await;
+        let message = text(&answer["error"]["message"]);
+        assert_eq!(status, 400, "{answer}");
+        assert!(message.starts_with(path) && message.contains(reason), "{message}");
+    }
+    let runs: Json =
+        cluster.http.get(cluster.url("/runs")).send().await.unwrap().json().await.unwrap();
+    assert_eq!(runs, json!([]), "a refused workflow leaves no run behind");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn inputs_that_cannot_be_fetched_or_read_fail_the_run_clearly() {
+    let cluster = Cluster::start(SPREAD).await;
+    let workflow = example("repair");
+    let closed = {
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        format!("http://{}/scan.ply", listener.local_addr().unwrap())
+    };
+    let not_a_mesh =
+        Input { name: "notes.ply", bytes: b"shopping list\n".to_vec(), mesh: Default::default() };
+    let uploaded = cluster.upload(&not_a_mesh).await;
+    for (input, reason) in [(closed, "Connection refused"), (uploaded, "not a PLY file")] {
+        let record = cluster.run(&workflow, &input).await;
+        assert_eq!(record["status"], "failed", "{record:#}");
+        let error = text(&record["error"]);
+        assert!(error.contains(&input) && error.contains(reason), "{error}");
+        assert!(steps(&record).is_empty(), "{record:#}");
+        assert_eq!(record["result"], Json::Null);
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_failing_plugin_fails_its_run_naming_the_step_and_other_runs_carry_on() {
+    let cluster = Cluster::start(SPREAD).await;
+    let hostile = meshflow_builtin_plugins::fixture("hostile").to_vec();
+    let host = &cluster.hosts[0].url;
+    HostClient::new(host).upload_plugin(hostile, Some(TOKEN)).await.unwrap();
+    cluster.http.post(cluster.url("/hosts")).json(&json!({"url": host})).send().await.unwrap();
+    let input = Input::bunny();
+    let url = cluster.upload(&input).await;
+    let repair = example("repair");
+    let expected = locally(&repair, &input);
+
+    let failing = ["fail", "trap"].map(|service| {
+        json!([{"run": "remove-smallest-components"}, {"run": service}, {"run": "fill-holes"}])
+    });
+    let runs = [&failing[0], &failing[1], &repair].map(|workflow| cluster.run(workflow, &url));
+    let [fail, trap, good] = futures_util::future::join_all(runs).await.try_into().unwrap();
+    for (record, service) in [(fail, "fail"), (trap, "trap")] {
+        assert_eq!(record["status"], "failed", "{record:#}");
+        let error = text(&record["error"]);
+        assert!(error.starts_with("steps[1]") && error.contains(service), "{error}");
+        assert_eq!(steps(&record).len(), 1, "nothing ran after the failed step");
+    }
+    assert_eq!(good["status"], "completed", "{}", good["error"]);
+    assert_eq!(text(&good["result"]["hash"]), expected.hash());
+    // The host is not blamed for its plugin: it stays in service.
+    let hosts: Json =
+        cluster.http.get(cluster.url("/hosts")).send().await.unwrap().json().await.unwrap();
+    assert!(hosts.as_array().unwrap().iter().all(|h| h["up"] == true), "{hosts:#}");
+    let after = cluster.run(&repair, &url).await;
+    assert_eq!(text(&after["result"]["hash"]), expected.hash());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_while_that_stays_true_stops_at_max_iterations_with_a_warning() {
+    let cluster = Cluster::start(SPREAD).await;
+    let workflow = json!([{
+        "while": {"check": "vertex-count", "op": ">", "value": 0},
+        "do": [{"run": "laplacian-smoothing"}],
+        "max-iterations": 3
+    }]);
+    let input = Input::bunny();
+    let expected = locally(&workflow, &input);
+    assert_eq!((expected.count("steps[0].do[0]"), expected.capped_whiles), (3, 1));
+    let record = cluster.run(&workflow, &cluster.upload(&input).await).await;
+    assert_eq!(record["status"], "completed", "{}", record["error"]);
+    assert_eq!(executed(&record), expected.steps);
+    assert_eq!(text(&record["result"]["hash"]), expected.hash());
+    let warnings = record["warnings"].as_array().unwrap();
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    let warning = text(&warnings[0]);
+    assert!(warning.starts_with("steps[0]") && warning.contains("max-iterations = 3"), "{warning}");
+}
