@@ -8,7 +8,8 @@
 //! ring of new vertices and a centre, added as vertices then triangles), RDT (collapses,
 //! swaps and removals at scattered thin triangles). Per step: correction bytes, the
 //! result's packed (.mfm) and binary PLY + zstd-19 bytes, and encode / apply / pack /
-//! unpack times (best of a few runs).
+//! unpack times (best of a few runs). The scan runs twice: as generated, and quantised to
+//! 16 bits per axis at ingest (`--quantize 16`), each step snapped back onto the grid.
 
 mod common;
 
@@ -19,6 +20,7 @@ use std::time::Duration;
 use common::{best, ms};
 
 use meshflow_host::generate::{ScanSpec, scan};
+use meshflow_host::quantize::{self, Grid};
 use meshflow_host::store::{MeshStore, Op};
 use meshflow_host::{MeshData, correction, io, pack};
 use meshflow_plugin_smoothing::laplacian::{Pinning, Weights, smooth};
@@ -151,7 +153,9 @@ struct Row {
     unpack: Duration,
 }
 
-fn steps(name: &'static str, input: MeshData, rows: &mut Vec<Row>) {
+/// Runs the steps from `input`; on a `grid`, each result is snapped back onto it as the
+/// host does after a step.
+fn steps(name: &'static str, input: MeshData, grid: Option<Grid>, rows: &mut Vec<Row>) {
     let mut mesh = input;
     type Step = fn(&mut MeshStore, &MeshData);
     let steps: [(&str, Step); 5] = [
@@ -166,6 +170,10 @@ fn steps(name: &'static str, input: MeshData, rows: &mut Vec<Row>) {
         let mut store = MeshStore::new(mesh.clone());
         edit(&mut store, &mesh);
         let (result, log) = store.finish();
+        let (result, log) = match &grid {
+            Some(grid) => quantize::snap_step(grid, &mesh, result, log).expect("replays"),
+            None => (result, log),
+        };
         let (encode, bytes) =
             best(RUNS, || correction::encode(&mesh, &log, &result).expect("encodes"));
         let (apply, applied) = best(RUNS, || correction::apply(&mesh, &bytes).expect("applies"));
@@ -208,9 +216,12 @@ fn main() {
     let mut rows = Vec::new();
     let bunny = io::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data/bunny.obj"))
         .expect("the bunny ships with the repository");
-    steps("bunny", bunny, &mut rows);
+    steps("bunny", bunny, None, &mut rows);
     let spec = ScanSpec { vertices: 1_000_000, components: 150, holes: 40, noise: 0.2, seed: 11 };
-    steps("scan 1M", scan(&spec), &mut rows);
+    let mut quantised = scan(&spec);
+    steps("scan 1M", quantised.clone(), None, &mut rows);
+    let grid = quantize::quantize(&mut quantised, 16).expect("a finite mesh");
+    steps("1M q16", quantised, Some(grid), &mut rows);
 
     println!(
         "{:<8} {:<6} {:>9} {:>10} {:<34} {:>10} {:>10} {:>6} {:>9} {:>9} {:>9} {:>9}",

@@ -21,7 +21,7 @@ use meshflow_host::io::{Format, PlyEncoding};
 use meshflow_host::runtime::{Limits, Runtime, Value};
 use meshflow_host::store::{MeshStore, Op};
 use meshflow_host::{MeshData, io};
-use meshflow_plugin_smoothing::laplacian::{Pinning, smooth_uniform};
+use meshflow_plugin_smoothing::laplacian::{Pinning, Weights, smooth};
 
 const RUNS: usize = 5;
 
@@ -75,8 +75,9 @@ fn main() {
 }
 
 fn laplacian_rows(mesh: &MeshData) {
-    let (native, expected) =
-        best(RUNS, || smooth_uniform(&mesh.positions, &mesh.triangles, 1, Pinning::Boundary));
+    let (native, expected) = best(RUNS, || {
+        smooth(&mesh.positions, &mesh.triangles, 1, Pinning::Boundary, Weights::Uniform)
+    });
     let runtime = Runtime::new(Limits::default(), None).expect("a runtime");
     let wasm = PLUGINS.iter().find(|p| p.name == "smoothing").expect("smoothing").wasm;
     let plugin = runtime.load(wasm).expect("the smoothing plugin");

@@ -18,7 +18,7 @@ ABBREVIATIONS = {
     "laplacian-smoothing": "LS(1)",
     "fill-holes": "HF",
     "remove-degenerate-triangles": "RDT",
-    "normal-instability": "NI?",
+    "normal-instability": "NI",
 }
 
 
@@ -60,7 +60,7 @@ def pair(mesh, workflow, auto, full):
             "index": a["index"],
             "path": a["path"],
             "service": a["service"],
-            "host": a["host"],
+            "host": a["host"].removeprefix("http://").rsplit(":", 1)[0],
             "value": a["value"],
             "correction_kb": kb(a["correction_bytes"] if a["correction_bytes"] is not None else f["correction_bytes"]),
             "full_kb": kb(f["full_bytes"] if f["full_bytes"] is not None else a["full_bytes"]),

@@ -9,12 +9,11 @@
 //! the `f32` resolution at the box's largest coordinate.
 //!
 //! Where snapping belongs: plugins compute freely (a smoothing step lands between grid
-//! points); the host snaps the step's result afterwards with [`snap_step`], which replays
-//! the step's log and appends one `set-positions` op that puts every live vertex on the
-//! grid. A step that already ends on the grid is left alone. The appended op merges with a
-//! trailing `set-positions` (a smoothing step), so its correction still holds one position
-//! per vertex, and the correction codec, which detects the grid ([`Grid::detect`]), codes
-//! coordinates as grid-index residuals.
+//! points); the host snaps the step afterwards with [`snap_step`], which replays the step's
+//! log with the coordinates it carries snapped, and appends one `set-positions` op only if
+//! a computed position (a split's centroid, say) is still off the grid. A step that already
+//! ends on the grid is left alone. The store itself stays grid-agnostic; the correction
+//! codec detects the grid ([`Grid::detect`]) and codes coordinates as grid steps.
 //!
 //! ```
 //! use meshflow_host::{MeshData, quantize::Grid};
@@ -80,11 +79,7 @@ impl Grid {
             let largest = lo[k].abs().max(hi[k].abs());
             // Finer than one unit in the last place of the largest value changes nothing.
             let resolution = if largest == 0.0 { MIN_EXPONENT } else { ulp_exponent(largest) };
-            let cells = if extent > 0.0 {
-                ceil_log2(extent) - bits as i32
-            } else {
-                MIN_EXPONENT
-            };
+            let cells = if extent > 0.0 { ceil_log2(extent) - bits as i32 } else { MIN_EXPONENT };
             cells.max(resolution).clamp(MIN_EXPONENT, MAX_EXPONENT)
         });
         Ok(Self { exponents })
@@ -162,8 +157,10 @@ pub fn quantize(mesh: &mut MeshData, bits: u32) -> Result<Grid, QuantizeError> {
     Ok(grid)
 }
 
-/// Puts a step's result back on the grid: replays `log` from `base` and, if the result has
-/// an off-grid vertex, appends a `set-positions` op with every live vertex snapped. Returns
+/// Puts a step's result back on the grid: the coordinates the log carries (added and moved
+/// vertices, explicit split points, set positions) are snapped, the log is replayed from
+/// `base`, and if a computed position (a centroid, a midpoint, a transform) is still off
+/// the grid, one `set-positions` op with every live vertex snapped is appended. Returns
 /// the result and log to keep (unchanged when the step stayed on the grid).
 pub fn snap_step(
     grid: &Grid,
@@ -176,12 +173,41 @@ pub fn snap_step(
     }
     let mut store = MeshStore::new(base.clone());
     for op in log {
-        store.apply(op)?;
+        store.apply(grid.snap_op(op))?;
     }
-    let mut xyz = store.positions().to_vec();
-    grid.snap_all(&mut xyz);
-    store.apply(Op::SetPositions { xyz })?;
+    if !grid.holds(store.positions()) {
+        let mut xyz = store.positions().to_vec();
+        grid.snap_all(&mut xyz);
+        store.apply(Op::SetPositions { xyz })?;
+    }
     Ok(store.finish())
+}
+
+impl Grid {
+    /// `op` with the coordinates it carries snapped (matrices stay as they are).
+    fn snap_op(&self, op: Op) -> Op {
+        let snap_point =
+            |at: Option<[f32; 3]>| at.map(|p| std::array::from_fn(|k| self.snap(k, p[k])));
+        match op {
+            Op::AddVertices { mut xyz } => {
+                self.snap_all(&mut xyz);
+                Op::AddVertices { xyz }
+            }
+            Op::MoveVertices { ids, mut xyz } => {
+                self.snap_all(&mut xyz);
+                Op::MoveVertices { ids, xyz }
+            }
+            Op::SetPositions { mut xyz } => {
+                self.snap_all(&mut xyz);
+                Op::SetPositions { xyz }
+            }
+            Op::SplitTriangle { triangle, at } => {
+                Op::SplitTriangle { triangle, at: snap_point(at) }
+            }
+            Op::SplitEdge { edge, at } => Op::SplitEdge { edge, at: snap_point(at) },
+            op => op,
+        }
+    }
 }
 
 fn power_of_two(exponent: i32) -> f64 {

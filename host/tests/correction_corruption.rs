@@ -57,12 +57,17 @@ fn every_single_bit_flip_is_an_error() {
 #[test]
 fn wrong_version_magic_and_base_are_named() {
     let (base, bytes) = sample(3);
-    let mut v2 = bytes.clone();
-    v2[4] = 2;
-    assert!(matches!(
-        correction::apply(&base, &v2),
-        Err(CorrectionError::UnsupportedVersion { found: 2, supported: 1 })
-    ));
+    let mut next = bytes.clone();
+    next[4..6].copy_from_slice(&(correction::VERSION + 1).to_le_bytes());
+    let error = correction::apply(&base, &next).unwrap_err();
+    assert!(
+        matches!(
+            error,
+            CorrectionError::UnsupportedVersion { found, supported }
+                if found == correction::VERSION + 1 && supported == correction::VERSION
+        ),
+        "{error}"
+    );
     let mut magic = bytes.clone();
     magic[0] = b'X';
     assert!(matches!(correction::decode(&magic), Err(CorrectionError::BadMagic)));

@@ -14,12 +14,7 @@ const PACKED: &str = "mfm";
 
 /// Packs `input`; with `quantize`, first snaps it to a grid of at most `2^bits` cells per
 /// axis over its bounding box (the packed mesh then codes grid steps).
-pub fn pack(
-    input: &Path,
-    output: &Path,
-    quantize: Option<u32>,
-    json: bool,
-) -> anyhow::Result<()> {
+pub fn pack(input: &Path, output: &Path, quantize: Option<u32>, json: bool) -> anyhow::Result<()> {
     let mut mesh = load_mesh(input)?;
     if let Some(bits) = quantize {
         quantize::quantize(&mut mesh, bits)?;

@@ -41,7 +41,13 @@ pub fn run(args: &PluginArgs, json: bool) -> anyhow::Result<()> {
 
 /// One service and its parameters, as `meshflow services` lists them.
 pub fn print(s: &ServiceInfo, digest: &str) {
-    println!("{} ({}, plugin {}): {}", s.name, kind_name(s.kind), &digest[..12.min(digest.len())], s.doc);
+    println!(
+        "{} ({}, plugin {}): {}",
+        s.name,
+        kind_name(s.kind),
+        &digest[..12.min(digest.len())],
+        s.doc
+    );
     for line in describe_params(s).lines().skip(1) {
         println!("{line}");
     }

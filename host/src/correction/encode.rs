@@ -216,13 +216,15 @@ impl Encoder {
         let mut previous = motion::STILL;
         for v in (0..store.vertex_slots()).filter(|&v| store.is_vertex_live(v)) {
             let (p, q) = (at(current, v), at(xyz, v));
-            let (state, predicted) = if same_bits(q, p) {
-                (motion::STILL, p)
+            let predicted = smoothing.predict(p, smoothing.mean(current, v), lambda);
+            // "Predicted" first: on a grid, many small moves snap back to the old position,
+            // and one symbol for all of them keeps the runs long.
+            let state = if same_bits(q, predicted) {
+                motion::PREDICTED
+            } else if same_bits(q, p) {
+                motion::STILL
             } else {
-                let predicted = smoothing.predict(p, smoothing.mean(current, v), lambda);
-                let state =
-                    if same_bits(q, predicted) { motion::PREDICTED } else { motion::RESIDUAL };
-                (state, predicted)
+                motion::RESIDUAL
             };
             out.geometry.symbol(&mut m.motion[previous], state);
             previous = state;

@@ -152,4 +152,3 @@ pub(crate) fn read(bytes: &[u8]) -> Result<(Correction, [&[u8]; 4]), CorrectionE
     };
     Ok((header, sections))
 }
-

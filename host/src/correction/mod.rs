@@ -59,7 +59,10 @@ pub fn replay(base: &MeshData, bytes: &[u8]) -> Result<(MeshData, Vec<Op>), Corr
     let (header, sections) = header::read(bytes)?;
     let counts = [base.vertex_count() as u64, base.triangle_count() as u64];
     if counts != header.base_counts {
-        return Err(CorrectionError::BaseMismatch { expected: header.base, found: base.content_hash() });
+        return Err(CorrectionError::BaseMismatch {
+            expected: header.base,
+            found: base.content_hash(),
+        });
     }
     // The base hash (a pass over the whole mesh) is checked on a second thread while the
     // ops replay; on a mismatch the replay is discarded.

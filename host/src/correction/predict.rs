@@ -49,46 +49,51 @@ struct Neighbours {
 }
 
 impl Neighbours {
-    /// Built without sorting: the raw lists (the other two corners of every triangle at a
-    /// vertex) are symmetric, so walking them by ascending vertex `u` and appending `u` to
-    /// the list of each of its neighbours `v` fills every list in ascending order, with the
-    /// repeats of one neighbour adjacent, where they are dropped.
+    /// Built without sorting: the neighbour relation is symmetric, so walking the vertices
+    /// `u` in ascending order and appending `u` to the list of every other corner `v` of
+    /// `u`'s triangles fills each list in ascending order, with the repeats of one
+    /// neighbour adjacent, where they are dropped.
     fn of_store(store: &MeshStore) -> Self {
         let slots = store.vertex_slots() as usize;
-        let live = store.triangles().chunks_exact(3).filter(|t| t[0] != REMOVED);
+        let triangles = store.triangles();
+        // The live triangles at each vertex (CSR); a corner repeated in a degenerate
+        // triangle is listed as often as it appears.
         let mut start = vec![0u32; slots + 1];
-        for t in live.clone() {
-            for &v in t {
-                start[v as usize + 1] += 2;
-            }
+        for &v in triangles.iter().filter(|&&v| v != REMOVED) {
+            start[v as usize + 1] += 1;
         }
         for i in 0..slots {
             start[i + 1] += start[i];
         }
         let mut fill = start[..slots].to_vec();
-        let mut raw = vec![0u32; start[slots] as usize];
-        for t in live {
-            for k in 0..3 {
-                let at = &mut fill[t[k] as usize];
-                raw[*at as usize] = t[(k + 1) % 3];
-                raw[*at as usize + 1] = t[(k + 2) % 3];
-                *at += 2;
+        let mut around = vec![0u32; start[slots] as usize];
+        for (t, corners) in triangles.chunks_exact(3).enumerate().filter(|(_, c)| c[0] != REMOVED) {
+            for &v in corners {
+                around[fill[v as usize] as usize] = t as u32;
+                fill[v as usize] += 1;
             }
         }
-        // Symmetry: as many raw entries name `v` as `v` has, so `start` fits both.
+        drop(fill);
+        // Each listing of a vertex at a triangle gives each of its two other corners one
+        // entry, so a list needs at most twice as many slots as the vertex has listings.
         let mut len = vec![0u32; slots];
-        let mut ids = vec![0u32; raw.len()];
+        let mut ids = vec![0u32; 2 * around.len()];
         for u in 0..slots {
-            let u32_id = u as u32;
-            for &v in &raw[start[u] as usize..start[u + 1] as usize] {
-                let (v, s) = (v as usize, start[v as usize] as usize);
-                let n = len[v] as usize;
-                // A degenerate triangle may name the vertex itself: not a neighbour.
-                if v != u && (n == 0 || ids[s + n - 1] != u32_id) {
-                    ids[s + n] = u32_id;
-                    len[v] += 1;
+            let id = u as u32;
+            for &t in &around[start[u] as usize..start[u + 1] as usize] {
+                for &v in &triangles[3 * t as usize..3 * t as usize + 3] {
+                    let (v, n) = (v as usize, len[v as usize] as usize);
+                    let s = 2 * start[v] as usize;
+                    // A degenerate triangle may name the vertex itself: not a neighbour.
+                    if v != u && (n == 0 || ids[s + n - 1] != id) {
+                        ids[s + n] = id;
+                        len[v] += 1;
+                    }
                 }
             }
+        }
+        for s in &mut start {
+            *s *= 2;
         }
         Self { start, len, ids }
     }
@@ -135,7 +140,8 @@ impl Smoothing {
     pub(crate) fn predict(&self, p: [f32; 3], mean: Option<[f64; 3]>, lambda: f32) -> [f32; 3] {
         let Some(mean) = mean else { return p };
         let l = f64::from(lambda);
-        let q: [f32; 3] = std::array::from_fn(|k| (mean[k] * l + f64::from(p[k]) * (1.0 - l)) as f32);
+        let q: [f32; 3] =
+            std::array::from_fn(|k| (mean[k] * l + f64::from(p[k]) * (1.0 - l)) as f32);
         match &self.grid {
             None => q,
             Some(grid) => std::array::from_fn(|k| grid.snap(k, q[k])),

@@ -22,8 +22,8 @@ use std::path::Path;
 
 use crate::mesh::MeshData;
 
-pub use error::{LoadError, Position, SaveError};
 pub use atomic::write_file;
+pub use error::{LoadError, Position, SaveError};
 
 /// A mesh file format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -120,6 +120,6 @@ mod tests {
             assert_eq!(ByteReader::new(&out).grid(), Ok(grid));
         }
         assert_eq!(ByteReader::new(&[2]).grid(), Err(FramingError::BadGrid));
-        assert_eq!(ByteReader::new(&[1, 0, 0, 0xfe, 1]).grid(), Err(FramingError::BadGrid));
+        assert_eq!(ByteReader::new(&[1, 0, 0, 0xfe, 3]).grid(), Err(FramingError::BadGrid));
     }
 }

@@ -1,4 +1,4 @@
-//! Entropy models for constriction's range coder: adaptive categorical and uniform bits.
+//! The entropy model for constriction's range coder: an adaptive categorical distribution.
 //!
 //! Encoder and decoder update an [`AdaptiveModel`] identically after every symbol, with
 //! integer arithmetic only, so both sides always hold the same distribution and no table is
@@ -114,37 +114,6 @@ impl DecoderModel<PRECISION> for AdaptiveModel {
         let s = self.cdf.partition_point(|&c| c <= quantile) - 1;
         let (left, right) = (self.cdf[s], self.cdf[s + 1]);
         (s, left, NonZeroU32::new(right - left).expect("every symbol has probability >= 1"))
-    }
-}
-
-/// `bits` raw bits (1 ..= 16), each value equally likely.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct UniformBits {
-    pub(crate) bits: u32,
-}
-
-impl EntropyModel<PRECISION> for UniformBits {
-    type Symbol = u32;
-    type Probability = u32;
-}
-
-impl EncoderModel<PRECISION> for UniformBits {
-    fn left_cumulative_and_probability(
-        &self,
-        symbol: impl std::borrow::Borrow<u32>,
-    ) -> Option<(u32, NonZeroU32)> {
-        let s = *symbol.borrow();
-        let shift = PRECISION as u32 - self.bits;
-        (s >> self.bits == 0)
-            .then(|| (s << shift, NonZeroU32::new(1 << shift).expect("shift < 32")))
-    }
-}
-
-impl DecoderModel<PRECISION> for UniformBits {
-    fn quantile_function(&self, quantile: u32) -> (u32, u32, NonZeroU32) {
-        let shift = PRECISION as u32 - self.bits;
-        let s = quantile >> shift;
-        (s, s << shift, NonZeroU32::new(1 << shift).expect("shift < 32"))
     }
 }
 

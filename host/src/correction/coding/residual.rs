@@ -100,8 +100,9 @@ mod tests {
     #[test]
     fn grid_points_cost_their_steps_and_anything_else_is_escaped_exactly() {
         let grid = Grid::from_exponents([-10, -10, -4]);
-        let mut points: Vec<[f32; 3]> =
-            (0..500).map(|i| [i as f32 / 1024.0, -(i as f32) / 512.0, (i % 7) as f32 / 16.0]).collect();
+        let mut points: Vec<[f32; 3]> = (0..500)
+            .map(|i| [i as f32 / 1024.0, -(i as f32) / 512.0, (i % 7) as f32 / 16.0])
+            .collect();
         points.extend([[0.1, -0.0, 1e30], [f32::MAX, f32::MIN, 3.0e-40]]);
         let predicted = |i: usize| if i == 0 { [0.0; 3] } else { points[i - 1] };
         for grid in [None, grid] {

@@ -1,4 +1,9 @@
-//! One range-coded stream: symbols under adaptive models, integers, raw bits and floats.
+//! One coded stream: symbols under adaptive models, integers, raw bits and floats.
+//!
+//! Symbols are range coded; raw bits (the low bits of large integers, float bit patterns)
+//! gain nothing from a model, so they go to a plain bit stream beside it, which is much
+//! cheaper to read. Layout: varint byte length of the range-coded words, the words (u32
+//! LE), then the raw bits packed in u32 LE words, least significant bit first.
 //!
 //! [`SymbolWriter`] and [`SymbolReader`] are mirror images; every `write_*` has a `read_*`
 //! that consumes exactly what it wrote. A reader never panics on corrupt data: it returns
@@ -7,11 +12,9 @@
 use constriction::stream::queue::{DefaultRangeDecoder, DefaultRangeEncoder};
 use constriction::stream::{Decode, Encode};
 
+use super::bytes::{ByteReader, put_varint};
 use super::integer::{join, raw_bits, split, unzigzag, zigzag};
-use super::model::{AdaptiveModel, UniformBits};
-
-/// Raw bits are coded at most this many at a time (the model precision bounds it).
-const RAW_CHUNK: u32 = 16;
+use super::model::AdaptiveModel;
 
 /// The stream ended or held data no model can produce.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -19,11 +22,15 @@ pub(crate) struct CorruptStream;
 
 pub(crate) struct SymbolWriter {
     coder: DefaultRangeEncoder,
+    raw: Vec<u32>,
+    /// Bits not yet in `raw`, the oldest lowest.
+    pending: u64,
+    pending_bits: u32,
 }
 
 impl SymbolWriter {
     pub(crate) fn new() -> Self {
-        Self { coder: DefaultRangeEncoder::new() }
+        Self { coder: DefaultRangeEncoder::new(), raw: Vec::new(), pending: 0, pending_bits: 0 }
     }
 
     pub(crate) fn symbol(&mut self, model: &mut AdaptiveModel, symbol: usize) {
@@ -38,16 +45,15 @@ impl SymbolWriter {
         self.symbol(model, usize::from(bit));
     }
 
-    /// The low `bits` bits of `value`, raw.
-    pub(crate) fn raw(&mut self, mut bits: u32, mut value: u32) {
-        while bits > 0 {
-            let chunk = bits.min(RAW_CHUNK);
-            let part = value & ((1 << chunk) - 1);
-            self.coder
-                .encode_symbol(part, UniformBits { bits: chunk })
-                .expect("chunk-sized values always encode");
-            value = value.checked_shr(chunk).unwrap_or(0);
-            bits -= chunk;
+    /// The low `bits` bits (0..=32) of `value`, raw.
+    pub(crate) fn raw(&mut self, bits: u32, value: u32) {
+        let value = u64::from(value) & ((1u64 << bits) - 1);
+        self.pending |= value << self.pending_bits;
+        self.pending_bits += bits;
+        if self.pending_bits >= 32 {
+            self.raw.push(self.pending as u32);
+            self.pending >>= 32;
+            self.pending_bits -= 32;
         }
     }
 
@@ -66,27 +72,39 @@ impl SymbolWriter {
         self.raw(32, value.to_bits());
     }
 
-    /// The compressed stream, as little-endian bytes.
-    pub(crate) fn finish(self) -> Vec<u8> {
+    /// The compressed stream, as bytes.
+    pub(crate) fn finish(mut self) -> Vec<u8> {
+        if self.pending_bits > 0 {
+            self.raw.push(self.pending as u32);
+        }
         let words = self.coder.into_compressed().expect("a Vec backend cannot fail");
-        words.iter().flat_map(|w| w.to_le_bytes()).collect()
+        let mut out = Vec::with_capacity(10 + 4 * (words.len() + self.raw.len()));
+        put_varint(&mut out, 4 * words.len() as u64);
+        out.extend(words.iter().chain(&self.raw).flat_map(|w| w.to_le_bytes()));
+        out
     }
 }
 
 pub(crate) struct SymbolReader {
     coder: DefaultRangeDecoder,
+    raw: Vec<u32>,
+    /// The next raw word to load into `pending`.
+    next_raw: usize,
+    pending: u64,
+    pending_bits: u32,
 }
 
 impl SymbolReader {
     /// A reader over a stream written by [`SymbolWriter::finish`].
     pub(crate) fn new(bytes: &[u8]) -> Result<Self, CorruptStream> {
-        if !bytes.len().is_multiple_of(4) {
-            return Err(CorruptStream);
-        }
-        let words: Vec<u32> =
-            bytes.chunks_exact(4).map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]])).collect();
-        let coder = DefaultRangeDecoder::from_compressed(words).map_err(|_| CorruptStream)?;
-        Ok(Self { coder })
+        let mut r = ByteReader::new(bytes);
+        let coded =
+            usize::try_from(r.varint().map_err(|_| CorruptStream)?).map_err(|_| CorruptStream)?;
+        let coded = r.take(coded).map_err(|_| CorruptStream)?;
+        let raw = r.take(r.remaining()).map_err(|_| CorruptStream)?;
+        let coder =
+            DefaultRangeDecoder::from_compressed(words(coded)?).map_err(|_| CorruptStream)?;
+        Ok(Self { coder, raw: words(raw)?, next_raw: 0, pending: 0, pending_bits: 0 })
     }
 
     pub(crate) fn symbol(&mut self, model: &mut AdaptiveModel) -> Result<usize, CorruptStream> {
@@ -99,16 +117,17 @@ impl SymbolReader {
         Ok(self.symbol(model)? == 1)
     }
 
+    /// `bits` (0..=32) raw bits.
     pub(crate) fn raw(&mut self, bits: u32) -> Result<u32, CorruptStream> {
-        let (mut value, mut shift, mut left) = (0u32, 0u32, bits);
-        while left > 0 {
-            let chunk = left.min(RAW_CHUNK);
-            let part =
-                self.coder.decode_symbol(UniformBits { bits: chunk }).map_err(|_| CorruptStream)?;
-            value |= part << shift;
-            shift += chunk;
-            left -= chunk;
+        if self.pending_bits < bits {
+            let word = *self.raw.get(self.next_raw).ok_or(CorruptStream)?;
+            self.next_raw += 1;
+            self.pending |= u64::from(word) << self.pending_bits;
+            self.pending_bits += 32;
         }
+        let value = (self.pending & ((1u64 << bits) - 1)) as u32;
+        self.pending >>= bits;
+        self.pending_bits -= bits;
         Ok(value)
     }
 
@@ -125,6 +144,14 @@ impl SymbolReader {
     pub(crate) fn f32_bits(&mut self) -> Result<f32, CorruptStream> {
         Ok(f32::from_bits(self.raw(32)?))
     }
+}
+
+/// Little-endian u32 words; a length that is not a multiple of 4 is corrupt.
+fn words(bytes: &[u8]) -> Result<Vec<u32>, CorruptStream> {
+    if !bytes.len().is_multiple_of(4) {
+        return Err(CorruptStream);
+    }
+    Ok(bytes.chunks_exact(4).map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]])).collect())
 }
 
 #[cfg(test)]
@@ -152,12 +179,13 @@ mod tests {
             assert_eq!(r.f32_bits().map(f32::to_bits), Ok((v as f32 * 0.25).to_bits()));
         }
 
-        let garbage: Vec<u8> =
-            (0..64u32).map(|i| (i.wrapping_mul(2654435761) >> 13) as u8).collect();
+        // 32 bytes of range-coded words, 32 of raw bits, all noise.
+        let mut garbage = vec![32];
+        garbage.extend((0..64u32).map(|i| (i.wrapping_mul(2654435761) >> 13) as u8));
         let mut r = SymbolReader::new(&garbage).unwrap();
         let mut model = int_model();
         for _ in 0..10_000 {
-            if r.int(&mut model).is_err() {
+            if r.int(&mut model).is_err() || r.f32_bits().is_err() {
                 break;
             }
         }
