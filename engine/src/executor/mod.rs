@@ -460,6 +460,8 @@ impl Executor {
     async fn bring_up_to_date(&mut self, host: &Arc<HostEntry>) -> Result<String, Failure> {
         let hash = self.current.as_ref().expect("the input is loaded").hash.clone();
         let sources = self.full_sources(host);
+        // Why each copy could not be used, for the error if nothing else works either.
+        let mut refusals: Vec<String> = Vec::new();
         if let Some(index) = self.replicas.iter().position(|r| Arc::ptr_eq(&r.host, host)) {
             let replica = &mut self.replicas[index];
             if replica.settle(&hash).await {
@@ -474,7 +476,7 @@ impl Executor {
                         return Ok(replica.session.clone());
                     }
                     Err(error) if is_host_failure(&error) => return Err(error.into()),
-                    Err(_) => {}
+                    Err(error) => refusals.push(format!("update from {url}: {error}")),
                 }
             }
             self.replicas.remove(index);
@@ -485,15 +487,34 @@ impl Executor {
                     self.replicas.push(Replica::new(host.clone(), session.clone(), hash));
                     return Ok(session);
                 }
-                Err(Failure::Step(_)) => {}
+                Err(Failure::Step(error)) => refusals.push(format!("load of {url}: {error}")),
                 Err(host_failure) => return Err(host_failure),
             }
+        }
+        for message in &refusals {
+            tracing::warn!(host = %host.url, "no copy of mesh {hash}: {message}");
+        }
+        let missing: Vec<&str> = self
+            .history
+            .iter()
+            .map(|(task, _)| task.service.as_str())
+            .filter(|service| !host.offers(service))
+            .collect();
+        if !missing.is_empty() {
+            return Err(Failure::Step(format!(
+                "{} could not get mesh {hash} ({}) and cannot rebuild it from the input: it does \
+                 not offer {}",
+                host.url,
+                refusals.join("; "),
+                missing.join(", ")
+            )));
         }
         self.replay_from_input(host).await
     }
 
     /// The last resort when no copy of the current mesh is reachable: load the input on
-    /// `host` and run every filter since, checking each output hash against the record.
+    /// `host` (which offers every service run so far) and run every filter since, checking
+    /// each output hash against the record.
     async fn replay_from_input(&mut self, host: &Arc<HostEntry>) -> Result<String, Failure> {
         let input_hash = self.run.record().input.map(|i| i.hash);
         let (session, _) = load_input(host.clone(), &self.input, input_hash).await?;
