@@ -87,6 +87,8 @@ fn laplacian_rows(mesh: &MeshData) {
     });
     assert_eq!(output.mesh.expect("a filter returns a mesh").positions, expected);
     row("Laplacian step, native (same code, plain function)", native, "");
+    // Whole run: copying the mesh in and out, the host applying and logging the edit, with
+    // the sandbox on; the best of RUNS reuses a pool slot whose memory stayed resident.
     row(
         "Laplacian step, plugin in the sandbox (whole run)",
         sandboxed,

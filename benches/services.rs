@@ -180,6 +180,14 @@ fn main() {
     }
     print_table(&rows);
     println!(
+        "\nwasm: the whole `Runtime::run` — the mesh copied into the run's store, a fresh \
+         instance (pool slot), the guest copying the arrays in, computing and sending its edits, \
+         the host checking, applying and logging them, and compaction — with the sandbox on \
+         (epoch deadline, memory cap, NaN canonicalisation). native: the plugin crate's \
+         function on the host's arrays, no copies. Best of {RUNS}: pool slots keep linear \
+         memory resident between runs, so the first run of a process faults its pages in."
+    );
+    println!(
         "\nMeshLab here, checks: get_topological_measures + compute_scalar_by_aspect_ratio_per_face \
          + get_scalar_statistics_per_face. wasm/ML: against \"here\" when measured, else the issue."
     );

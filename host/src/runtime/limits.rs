@@ -24,6 +24,29 @@ pub const EDIT_BUDGET_PER_INPUT_ELEMENT: u64 = 64;
 /// Runs executing at once in one runtime.
 pub const DEFAULT_CONCURRENT_RUNS: usize = 4;
 
+// ---- the pooling instance allocator: one slot per concurrent run, reused run after run ----
+
+/// Linear-memory bytes a pool slot keeps resident (zeroed in place) between runs, so the next
+/// run does not page-fault on fresh zero pages: a 1M-vertex Laplacian step peaks at ~140 MiB
+/// and faulting it in cost ~20 % of the run. Up to `concurrent_runs` times this stays in the
+/// host's RSS while idle, below the `concurrent_runs * memory_bytes` it must allow anyway.
+pub const LINEAR_MEMORY_KEEP_RESIDENT: usize = 512 << 20;
+/// Same for tables (a slot holds at most [`TABLE_ELEMENTS`] 8-byte entries).
+pub const TABLE_KEEP_RESIDENT: usize = 1 << 20;
+/// Virtual address space reserved per linear memory. 4 GiB covers every 32-bit address, so
+/// with the guard below cranelift drops the bounds checks and the base never moves.
+pub const MEMORY_RESERVATION: u64 = 4 << 30;
+/// Guard pages after a linear memory: loads with an offset below this need no check.
+pub const MEMORY_GUARD_BYTES: u64 = 32 << 20;
+/// Per run (one component instance): core instances, memories and tables it may have.
+/// A component from `wasm32-wasip2` has a handful of core instances, one memory and a few
+/// tables; a plugin beyond these fails to load with the pool's message.
+pub const CORE_INSTANCES_PER_RUN: u32 = 32;
+pub const MEMORIES_PER_RUN: u32 = 2;
+pub const TABLES_PER_RUN: u32 = 16;
+/// Elements a table may grow to (function pointers: vtables of a large plugin).
+pub const TABLE_ELEMENTS: usize = 100_000;
+
 /// Per-runtime limits; every field has a named default above.
 #[derive(Clone, Debug)]
 pub struct Limits {

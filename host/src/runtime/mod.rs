@@ -25,7 +25,7 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use wasmtime::component::{HasSelf, Linker, Resource};
-use wasmtime::{Config, Engine, Store, Trap};
+use wasmtime::{Config, Enabled, Engine, PoolingAllocationConfig, Store, Trap};
 
 use crate::MeshData;
 use crate::store::{MeshStore, Op};
@@ -221,7 +221,38 @@ fn engine_config(limits: &Limits) -> Config {
     // The same plugin on the same mesh must give the same bits on every host.
     config.cranelift_nan_canonicalization(true);
     config.max_wasm_stack(MAX_WASM_STACK_BYTES);
+    // A 4 GiB reservation with guard pages: no bounds checks in the compiled code, and the
+    // memory never has to move, which lets cranelift keep its base pointer in a register.
+    config.memory_reservation(MEMORY_RESERVATION);
+    config.memory_guard_size(MEMORY_GUARD_BYTES);
+    config.memory_may_move(false);
+    config.allocation_strategy(pool(limits));
     config
+}
+
+/// The pooling allocator: a store's memories and tables come from slots reserved once, and
+/// a slot is reset in place when the store drops, keeping its pages resident (see
+/// [`LINEAR_MEMORY_KEEP_RESIDENT`]). Slots are sized from the limits: every instantiation
+/// runs under a permit (see [`Runtime::call`]), so `concurrent_runs` slots always suffice.
+fn pool(limits: &Limits) -> PoolingAllocationConfig {
+    let runs = limits.concurrent_runs.max(1) as u32;
+    let mut pool = PoolingAllocationConfig::new();
+    pool.total_component_instances(runs)
+        .total_core_instances(runs * CORE_INSTANCES_PER_RUN)
+        .max_core_instances_per_component(CORE_INSTANCES_PER_RUN)
+        .total_memories(runs * MEMORIES_PER_RUN)
+        .max_memories_per_component(MEMORIES_PER_RUN)
+        .total_tables(runs * TABLES_PER_RUN)
+        .max_tables_per_component(TABLES_PER_RUN)
+        .max_tables_per_module(TABLES_PER_RUN)
+        .table_elements(TABLE_ELEMENTS)
+        // The `MemoryCap` limiter refuses growth beyond this first, with a clear error.
+        .max_memory_size(limits.memory_bytes)
+        .linear_memory_keep_resident(LINEAR_MEMORY_KEEP_RESIDENT)
+        .table_keep_resident(TABLE_KEEP_RESIDENT)
+        // Where the kernel can tell (Linux >= 6.7), zero only the pages a run dirtied.
+        .pagemap_scan(Enabled::Auto);
+    pool
 }
 
 fn ticks(deadline: Duration) -> u64 {
