@@ -1,5 +1,7 @@
 //! Replaying a correction: decode each op against the state before it, apply it, repeat.
 
+use std::sync::mpsc;
+
 use crate::MeshData;
 use crate::store::{MeshStore, Op, OpKind};
 
@@ -14,6 +16,9 @@ use super::predict::{self, NewVertexNeighbours, Smoothing};
 /// packs more elements per byte, and a forged count cannot make the decoder allocate more.
 const ELEMENTS_PER_BYTE: u64 = 1 << 13;
 const ELEMENT_SLACK: u64 = 1 << 16;
+/// Vertices per batch of `set-positions` predictions handed between threads: small enough
+/// to stay in cache, large enough that handing over costs nothing.
+const CHUNK: u32 = 8192;
 
 /// Replays the sections of a correction whose header was read, starting from `base`.
 /// Returns the compacted result and the log the replay recorded.
@@ -229,35 +234,56 @@ impl Decoder {
         Ok(matrix)
     }
 
-    /// The mirror of the encoder's `set_positions`.
+    /// The mirror of the encoder's `set_positions`. The predictions (neighbour means, most of
+    /// the work) are made on a second thread, a chunk of vertices ahead of the decoding,
+    /// which only needs them to restore residuals.
     fn set_positions(&mut self) -> Result<Vec<f32>, CorruptStream> {
         self.take(OpKind::SetPositions, u64::from(self.store.vertex_slots()))?;
-        let store = &self.store;
-        let current = store.positions();
-        let smoothing = Smoothing::new(store, self.models.grid);
+        let (store, grid) = (&self.store, self.models.grid);
         let (m, input) = (&mut self.models, &mut self.input);
         let lambda = input.geometry.f32_bits()?;
+        let (current, slots) = (store.positions(), store.vertex_slots());
         let mut xyz = current.to_vec();
-        let mut previous = motion::STILL;
-        for v in 0..store.vertex_slots() {
-            if !store.is_vertex_live(v) {
-                continue;
+        std::thread::scope(|s| {
+            let (send, predictions) = mpsc::sync_channel(2);
+            s.spawn(move || {
+                let smoothing = Smoothing::new(store, grid);
+                for first in (0..slots).step_by(CHUNK as usize) {
+                    let chunk: Vec<[f32; 3]> = (first..slots.min(first + CHUNK))
+                        .map(|v| {
+                            let p = predict::point(store, v);
+                            let live = store.is_vertex_live(v);
+                            if live {
+                                smoothing.predict(p, smoothing.mean(current, v), lambda)
+                            } else {
+                                p
+                            }
+                        })
+                        .collect();
+                    if send.send(chunk).is_err() {
+                        return; // the decoding stopped at corrupt data
+                    }
+                }
+            });
+            let mut previous = motion::STILL;
+            for (first, chunk) in (0..slots).step_by(CHUNK as usize).zip(predictions) {
+                for (v, predicted) in (first..).zip(chunk) {
+                    if !store.is_vertex_live(v) {
+                        continue;
+                    }
+                    let state = input.geometry.symbol(&mut m.motion[previous])?;
+                    previous = state;
+                    let q = match state {
+                        motion::STILL => continue,
+                        motion::PREDICTED => predicted,
+                        _ => m.smoothing.read(&mut input.geometry, predicted)?,
+                    };
+                    let i = 3 * v as usize;
+                    xyz[i..i + 3].copy_from_slice(&q);
+                }
             }
-            let state = input.geometry.symbol(&mut m.motion[previous])?;
-            previous = state;
-            if state == motion::STILL {
-                continue;
-            }
-            let i = 3 * v as usize;
-            let p = [current[i], current[i + 1], current[i + 2]];
-            let predicted = smoothing.predict(p, smoothing.mean(current, v), lambda);
-            let q = match state {
-                motion::PREDICTED => predicted,
-                _ => m.smoothing.read(&mut input.geometry, predicted)?,
-            };
-            xyz[i..i + 3].copy_from_slice(&q);
-        }
-        Ok(xyz)
+            Ok(xyz)
+        })
     }
 }
 

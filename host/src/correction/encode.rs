@@ -209,14 +209,16 @@ impl Encoder {
             return; // the store refuses it in `apply`
         }
         let smoothing = Smoothing::new(store, self.models.grid);
-        let moved = Moved { store, current, new: xyz, smoothing: &smoothing };
+        // Fitting λ and coding need each mean up to four times: gathered once.
+        let means: Vec<_> = (0..store.vertex_slots()).map(|v| smoothing.mean(current, v)).collect();
+        let moved = Moved { store, current, new: xyz, smoothing: &smoothing, means: &means };
         let lambda = moved.best_lambda();
         let (m, out) = (&mut self.models, &mut self.out);
         out.geometry.f32_bits(lambda);
         let mut previous = motion::STILL;
         for v in (0..store.vertex_slots()).filter(|&v| store.is_vertex_live(v)) {
             let (p, q) = (at(current, v), at(xyz, v));
-            let predicted = smoothing.predict(p, smoothing.mean(current, v), lambda);
+            let predicted = smoothing.predict(p, means[v as usize], lambda);
             // "Predicted" first: on a grid, many small moves snap back to the old position,
             // and one symbol for all of them keeps the runs long.
             let state = if same_bits(q, predicted) {
@@ -254,7 +256,9 @@ struct Moved<'a> {
     store: &'a MeshStore,
     current: &'a [f32],
     new: &'a [f32],
-    smoothing: &'a Smoothing,
+    smoothing: &'a Smoothing<'a>,
+    /// Per vertex slot, [`Smoothing::mean`].
+    means: &'a [Option<[f64; 3]>],
 }
 
 impl Moved<'_> {
@@ -265,7 +269,7 @@ impl Moved<'_> {
             if !self.store.is_vertex_live(v) || same_bits(p, q) {
                 return None;
             }
-            Some((p, q, self.smoothing.mean(self.current, v)?))
+            Some((p, q, self.means[v as usize]?))
         })
     }
 

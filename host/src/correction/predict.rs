@@ -1,6 +1,8 @@
 //! Predictions both sides compute from the mesh state before an op, so that only the
 //! difference between prediction and truth is coded.
 
+use std::cell::RefCell;
+
 use crate::quantize::Grid;
 use crate::store::{MeshStore, REMOVED};
 
@@ -40,24 +42,17 @@ pub(crate) fn mean(points: impl Iterator<Item = [f32; 3]>) -> Option<[f32; 3]> {
     (n > 0).then(|| sum.map(|s| (s / f64::from(n)) as f32))
 }
 
-/// Distinct neighbours of every vertex slot over the live triangles, ascending: the
-/// neighbourhood a smoothing filter averages over.
-struct Neighbours {
+/// The live triangles at every vertex slot (CSR); a corner repeated in a degenerate
+/// triangle is listed as often as it appears.
+struct VertexTriangles {
     start: Vec<u32>,
-    len: Vec<u32>,
-    ids: Vec<u32>,
+    around: Vec<u32>,
 }
 
-impl Neighbours {
-    /// Built without sorting: the neighbour relation is symmetric, so walking the vertices
-    /// `u` in ascending order and appending `u` to the list of every other corner `v` of
-    /// `u`'s triangles fills each list in ascending order, with the repeats of one
-    /// neighbour adjacent, where they are dropped.
+impl VertexTriangles {
     fn of_store(store: &MeshStore) -> Self {
         let slots = store.vertex_slots() as usize;
         let triangles = store.triangles();
-        // The live triangles at each vertex (CSR); a corner repeated in a degenerate
-        // triangle is listed as often as it appears.
         let mut start = vec![0u32; slots + 1];
         for &v in triangles.iter().filter(|&&v| v != REMOVED) {
             start[v as usize + 1] += 1;
@@ -73,34 +68,11 @@ impl Neighbours {
                 fill[v as usize] += 1;
             }
         }
-        drop(fill);
-        // Each listing of a vertex at a triangle gives each of its two other corners one
-        // entry, so a list needs at most twice as many slots as the vertex has listings.
-        let mut len = vec![0u32; slots];
-        let mut ids = vec![0u32; 2 * around.len()];
-        for u in 0..slots {
-            let id = u as u32;
-            for &t in &around[start[u] as usize..start[u + 1] as usize] {
-                for &v in &triangles[3 * t as usize..3 * t as usize + 3] {
-                    let (v, n) = (v as usize, len[v as usize] as usize);
-                    let s = 2 * start[v] as usize;
-                    // A degenerate triangle may name the vertex itself: not a neighbour.
-                    if v != u && (n == 0 || ids[s + n - 1] != id) {
-                        ids[s + n] = id;
-                        len[v] += 1;
-                    }
-                }
-            }
-        }
-        for s in &mut start {
-            *s *= 2;
-        }
-        Self { start, len, ids }
+        Self { start, around }
     }
 
     fn of(&self, v: u32) -> &[u32] {
-        let s = self.start[v as usize] as usize;
-        &self.ids[s..s + self.len[v as usize] as usize]
+        &self.around[self.start[v as usize] as usize..self.start[v as usize + 1] as usize]
     }
 }
 
@@ -108,24 +80,42 @@ impl Neighbours {
 /// vertex with neighbours goes to `λ·mean + (1−λ)·p` per axis in f64 (for λ = 1 exactly the
 /// neighbour mean, the bits `laplacian-smoothing` produces), snapped to the grid if any;
 /// other vertices are predicted to stay.
-pub(crate) struct Smoothing {
-    neighbours: Neighbours,
+///
+/// A vertex's neighbours are gathered from its triangles when asked for, not stored: lists
+/// for every vertex would be several times the size of the mesh, and allocating them (page
+/// faults included) cost more than the gathering.
+pub(crate) struct Smoothing<'a> {
+    triangles: &'a [u32],
+    around: VertexTriangles,
+    /// The neighbours being gathered, kept to reuse its allocation.
+    scratch: RefCell<Vec<u32>>,
     grid: Option<Grid>,
 }
 
-impl Smoothing {
-    pub(crate) fn new(store: &MeshStore, grid: Option<Grid>) -> Self {
-        Self { neighbours: Neighbours::of_store(store), grid }
+impl<'a> Smoothing<'a> {
+    pub(crate) fn new(store: &'a MeshStore, grid: Option<Grid>) -> Self {
+        let around = VertexTriangles::of_store(store);
+        Self { triangles: store.triangles(), around, scratch: RefCell::default(), grid }
     }
 
-    /// The f64 mean of `v`'s neighbours in `positions`, `None` without neighbours.
+    /// The f64 mean of `v`'s distinct neighbours in `positions`, summed in ascending id
+    /// order as `laplacian-smoothing` does (so its bits are predicted exactly), `None`
+    /// without neighbours.
     pub(crate) fn mean(&self, positions: &[f32], v: u32) -> Option<[f64; 3]> {
-        let around = self.neighbours.of(v);
+        let mut around = self.scratch.borrow_mut();
+        around.clear();
+        for &t in self.around.of(v) {
+            let i = 3 * t as usize;
+            // A degenerate triangle may name the vertex itself: not a neighbour.
+            around.extend(self.triangles[i..i + 3].iter().filter(|&&n| n != v));
+        }
+        around.sort_unstable();
+        around.dedup();
         if around.is_empty() {
             return None;
         }
         let mut sum = [0.0f64; 3];
-        for &n in around {
+        for &n in around.iter() {
             let p = &positions[3 * n as usize..3 * n as usize + 3];
             for k in 0..3 {
                 sum[k] += f64::from(p[k]);

@@ -18,6 +18,10 @@ const INCREMENT: u32 = 32;
 const MAX_TOTAL: u32 = 1 << 16;
 /// The CDF is rebuilt after this many updates at most; early on it is rebuilt more often.
 const MAX_REBUILD_INTERVAL: u32 = 256;
+/// Decoding starts its search for a quantile's symbol at `lookup[quantile >> LOOKUP_SHIFT]`:
+/// a binary search over the CDF is a chain of dependent loads, and was most of the decode
+/// time; from the table, the symbol is usually found at once or one step on.
+const LOOKUP_SHIFT: usize = PRECISION - 8;
 
 /// A categorical distribution over `0..n` learnt from the symbols coded so far.
 #[derive(Clone, Debug)]
@@ -26,18 +30,21 @@ pub(crate) struct AdaptiveModel {
     total: u32,
     /// `cdf[s]` is the left cumulative of symbol `s`; `cdf[n] == 2^PRECISION`.
     cdf: Vec<u32>,
+    /// `lookup[j]` is the symbol whose interval holds quantile `j << LOOKUP_SHIFT`.
+    lookup: [u8; 1 << (PRECISION - LOOKUP_SHIFT)],
     until_rebuild: u32,
     interval: u32,
 }
 
 impl AdaptiveModel {
-    /// A uniform start over `symbols` symbols (2 ..= 4096).
+    /// A uniform start over `symbols` symbols (2 ..= 256).
     pub(crate) fn new(symbols: usize) -> Self {
-        debug_assert!((2..=4096).contains(&symbols));
+        debug_assert!((2..=256).contains(&symbols));
         let mut model = Self {
             counts: vec![1; symbols],
             total: symbols as u32,
             cdf: vec![0; symbols + 1],
+            lookup: [0; 1 << (PRECISION - LOOKUP_SHIFT)],
             until_rebuild: 1,
             interval: 1,
         };
@@ -88,6 +95,13 @@ impl AdaptiveModel {
             *cdf += remainder;
         }
         *self.cdf.last_mut().expect("n + 1 entries") = ONE;
+        let mut s = 0;
+        for (j, entry) in self.lookup.iter_mut().enumerate() {
+            while self.cdf[s + 1] <= (j << LOOKUP_SHIFT) as u32 {
+                s += 1;
+            }
+            *entry = s as u8;
+        }
     }
 }
 
@@ -110,8 +124,12 @@ impl EncoderModel<PRECISION> for AdaptiveModel {
 
 impl DecoderModel<PRECISION> for AdaptiveModel {
     fn quantile_function(&self, quantile: u32) -> (usize, u32, NonZeroU32) {
-        // The last cdf entry is 2^PRECISION > quantile, so the partition point is >= 1.
-        let s = self.cdf.partition_point(|&c| c <= quantile) - 1;
+        // `cdf[s] <= quantile` holds from the table on; the last entry, 2^PRECISION, does
+        // not, so the scan stops at a symbol.
+        let mut s = usize::from(self.lookup[(quantile >> LOOKUP_SHIFT) as usize]);
+        while self.cdf[s + 1] <= quantile {
+            s += 1;
+        }
         let (left, right) = (self.cdf[s], self.cdf[s + 1]);
         (s, left, NonZeroU32::new(right - left).expect("every symbol has probability >= 1"))
     }
@@ -134,5 +152,10 @@ mod tests {
         assert!(p1 > ONE / 10 * 9, "{p1}");
         assert!(m.left_cumulative_and_probability(0).is_some());
         assert!(m.left_cumulative_and_probability(5).is_none());
+        // The lookup table finds the same symbol a search of the CDF would.
+        for q in (0..ONE).step_by(997) {
+            let (s, left, p) = m.quantile_function(q);
+            assert!(m.cdf[s] == left && left <= q && q < left + p.get(), "{q}");
+        }
     }
 }
