@@ -5,68 +5,62 @@
 //! surface, so it is skipped, as are triangles with out-of-range ids. **A mesh without any
 //! non-degenerate triangle has no angles to measure: both checks then read 0.**
 //!
-//! Speed: no per-corner trigonometry. In a triangle with (unnormalised) normal `n`, the angle
-//! at a corner has cotangent `dot / |n|` (`dot` of the two edge vectors leaving the corner),
-//! and the cotangent decreases strictly over `(0°, 180°)`. So the smallest angle of the mesh
+//! Speed: no per-corner trigonometry, and no square root per triangle. In a triangle with
+//! (unnormalised) normal `n`, the angle at a corner has cotangent `dot / |n|` (`dot` of the two
+//! edge vectors leaving the corner), and the cotangent decreases strictly over `(0°, 180°)`,
+//! as does the signed square `cot |cot| = dot |dot| / |n|²`. So the smallest angle of the mesh
 //! belongs to the largest such ratio and the largest angle to the smallest; one pass finds
-//! those two triangles, and only their angles are then computed exactly.
+//! that triangle, and only its angle is then computed exactly.
 
-use meshflow_sdk::geometry::{self, Vec3, dot, norm, normal_of, sub};
+use meshflow_sdk::geometry::{self, cross, dot, sub};
 use meshflow_sdk::topology::is_proper_triangle;
 
 /// The smallest angle in degrees over the non-degenerate triangles, 0 if there is none. O(T).
 pub fn min_angle(positions: &[f32], triangles: &[u32]) -> f64 {
-    extreme_corners(positions, triangles).map_or(0.0, |e| angle(positions, triangles, e.min))
+    extreme_corner(positions, triangles, 1.0).map_or(0.0, |c| angle(positions, triangles, c))
 }
 
 /// The largest angle in degrees over the non-degenerate triangles, 0 if there is none. O(T).
 pub fn max_angle(positions: &[f32], triangles: &[u32]) -> f64 {
-    extreme_corners(positions, triangles).map_or(0.0, |e| angle(positions, triangles, e.max))
+    extreme_corner(positions, triangles, -1.0).map_or(0.0, |c| angle(positions, triangles, c))
 }
 
 /// A corner: triangle id and corner (0, 1, 2).
 type Corner = (u32, usize);
 
-/// Where the smallest and the largest angle of the mesh are.
-struct ExtremeCorners {
-    min: Corner,
-    max: Corner,
-}
-
-/// Finds the corners with the smallest and the largest angle over the non-degenerate
-/// triangles (the first one on ties), or `None` if there is no such triangle.
-fn extreme_corners(positions: &[f32], triangles: &[u32]) -> Option<ExtremeCorners> {
+/// Finds the corner with the largest `sign × cotangent` over the non-degenerate triangles
+/// (the first one on ties): the smallest angle for `sign = 1`, the largest for `sign = -1`.
+/// `None` if there is no such triangle.
+fn extreme_corner(positions: &[f32], triangles: &[u32], sign: f64) -> Option<Corner> {
     let vertex_count = positions.len() / 3;
-    // Largest and smallest cotangent seen so far, with their corners.
-    let mut sharpest: Option<(f64, Corner)> = None;
-    let mut widest: Option<(f64, Corner)> = None;
+    // Largest `sign × cot |cot|` seen so far, with its corner.
+    let mut best: Option<(f64, Corner)> = None;
     for t in 0..triangles.len() as u32 / 3 {
         if !is_proper_triangle(triangles, vertex_count, t) {
             continue;
         }
         let p = geometry::triangle_points(positions, triangles, t);
-        let area2 = norm(normal_of(&p));
+        // Edge vectors e[k] = p[k + 1] - p[k], shared by the normal and the corner dots
+        // (fewer float operations: each one costs a NaN check in the sandbox).
+        let e = [sub(p[1], p[0]), sub(p[2], p[1]), sub(p[0], p[2])];
+        let n = cross(e[2], e[0]);
+        let area2_squared = dot(n, n);
         // Zero area is degenerate; non-finite coordinates give no comparable angles.
-        if area2 == 0.0 || !area2.is_finite() {
+        if area2_squared == 0.0 || !area2_squared.is_finite() {
             continue;
         }
-        // cot = dot / area2 with area2 > 0: compare dots against cot × area2 instead of
-        // dividing three times per triangle.
-        let dots = corner_dots(&p);
-        let (hi, lo) = (argmax(&dots), argmin(&dots));
-        if sharpest.is_none_or(|(c, _)| dots[hi] > c * area2) {
-            sharpest = Some((dots[hi] / area2, (t, hi)));
-        }
-        if widest.is_none_or(|(c, _)| dots[lo] < c * area2) {
-            widest = Some((dots[lo] / area2, (t, lo)));
+        // Corner k lies between e[k] and -e[k - 1].
+        let dots = [dot(e[0], e[2]), dot(e[1], e[0]), dot(e[2], e[1])];
+        // `sign × dot` is largest where `-sign × dots` is smallest.
+        let k = if sign > 0.0 { argmin(&dots) } else { argmax(&dots) };
+        let d = -sign * dots[k];
+        // Compare `d |d|` against key × |n|² (|n|² > 0) instead of dividing per triangle.
+        let signed_square = d * d.abs();
+        if best.is_none_or(|(key, _)| signed_square > key * area2_squared) {
+            best = Some((signed_square / area2_squared, (t, k)));
         }
     }
-    Some(ExtremeCorners { min: sharpest?.1, max: widest?.1 })
-}
-
-/// The dot products of the two edge vectors leaving each corner of a triangle.
-fn corner_dots(p: &[Vec3; 3]) -> [f64; 3] {
-    [0, 1, 2].map(|k| dot(sub(p[(k + 1) % 3], p[k]), sub(p[(k + 2) % 3], p[k])))
+    Some(best?.1)
 }
 
 fn argmax(x: &[f64; 3]) -> usize {
