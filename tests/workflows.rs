@@ -182,7 +182,7 @@ async fn killed_mid_run(families: &[&[&str]], kill_when: impl Fn(&Json) -> bool)
     let data = tempfile::tempdir().unwrap();
     let mut hosts = Vec::new();
     for name in ["a", "b", "c"] {
-        hosts.push(HostProcess::start(&data.path().join(name)).await);
+        hosts.push(HostProcess::start(&data.path().join(name), &[]).await);
     }
     let urls: Vec<String> = hosts.iter().map(|h| h.url.clone()).collect();
     let cluster = Cluster::start_with(families, &urls).await;
@@ -215,6 +215,49 @@ async fn killed_mid_run(families: &[&[&str]], kill_when: impl Fn(&Json) -> bool)
     assert_ne!(steps(&record).last().unwrap()["host"], json!(victim));
     assert_eq!(executed(&record), expected.steps);
     assert_eq!(text(&record["result"]["hash"]), expected.hash());
+}
+
+/// The only host holding the run's mesh dies, and the host left cannot rebuild it: it lacks
+/// a service the run used. The run fails saying so; the engine serves the next run.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_lost_mesh_that_cannot_be_rebuilt_fails_the_run_clearly() {
+    let data = tempfile::tempdir().unwrap();
+    let mut holder = HostProcess::start(data.path(), &["cleanup", "smoothing", "checks"]).await;
+    let cluster = Cluster::start_with(&[&["smoothing", "checks"]], &[holder.url.clone()]).await;
+    let smoothing = json!({"run": "laplacian-smoothing", "params": {"iterations": 2}});
+    // Every task prefers the host already in the plan: all run on the holder.
+    let workflow = json!([
+        {"run": "remove-smallest-components"},
+        {"while": {"check": "vertex-count", "op": ">", "value": 0}, "do": [smoothing],
+         "max-iterations": 8}
+    ]);
+    let url = cluster.upload(&Input::scan(150_000, 13)).await;
+    let id = cluster.submit(&workflow, &url).await;
+    loop {
+        let record = cluster.record(&id).await;
+        if steps(&record).iter().any(|s| s["service"] == "laplacian-smoothing") {
+            break;
+        }
+        assert_eq!(record["status"], "running", "{record:#}");
+        tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+    }
+    holder.kill();
+
+    let record = cluster.finished(&id).await;
+    assert_eq!(record["status"], "failed", "{record:#}");
+    let error = text(&record["error"]);
+    let replacement = &cluster.hosts[0].url;
+    assert!(
+        error.contains(replacement.as_str())
+            && error.contains("cannot rebuild it from the input")
+            && error.contains("does not offer remove-smallest-components"),
+        "{error}"
+    );
+    let smooth_only = json!([smoothing]);
+    let bunny = Input::bunny();
+    let after = cluster.run(&smooth_only, &cluster.upload(&bunny).await).await;
+    assert_eq!(after["status"], "completed", "{}", after["error"]);
+    assert_eq!(text(&after["result"]["hash"]), locally(&smooth_only, &bunny).hash());
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

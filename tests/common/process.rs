@@ -16,13 +16,17 @@ pub struct HostProcess {
 }
 
 impl HostProcess {
-    /// Starts `meshflow host` on a free loopback port with its data under `data`, and waits
-    /// until it answers `/health`.
-    pub async fn start(data: &Path) -> Self {
+    /// Starts `meshflow host` on a free loopback port with its data under `data`, offering
+    /// the built-in plugin `families` (all of them when empty), and waits until it answers
+    /// `/health`.
+    pub async fn start(data: &Path, families: &[&str]) -> Self {
         let port = free_port();
-        let child = Command::new(env!("CARGO_BIN_EXE_meshflow"))
-            .args(["host", "--listen", &format!("127.0.0.1:{port}"), "--data"])
-            .arg(data)
+        let mut command = Command::new(env!("CARGO_BIN_EXE_meshflow"));
+        command.args(["host", "--listen", &format!("127.0.0.1:{port}"), "--data"]).arg(data);
+        if !families.is_empty() {
+            command.args(["--builtin", &families.join(",")]);
+        }
+        let child = command
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
