@@ -2,9 +2,9 @@
 //! starting from the same state on both sides.
 
 use super::coding::corners::CornerCoder;
-use super::coding::integer::int_model;
+use super::coding::integer::{BUCKETS, int_model};
 use super::coding::model::AdaptiveModel;
-use super::coding::residual::ResidualCoder;
+use super::coding::residual::{CLASSES, ResidualCoder};
 use super::lists::{ElementCoder, IdListCoder};
 use crate::quantize::Grid;
 use crate::store::OpKind;
@@ -29,8 +29,9 @@ pub(super) struct Models {
     pub(super) count: AdaptiveModel,
     pub(super) has_point: AdaptiveModel,
     pub(super) extend_vertex: AdaptiveModel,
-    /// A `set-positions` vertex's [`motion`] symbol, in the context of the previous vertex's.
-    pub(super) motion: [AdaptiveModel; 3],
+    /// A `set-positions` vertex's [`motion`] symbol, in the [`motion`] context of the
+    /// previous vertex.
+    pub(super) motion: [AdaptiveModel; motion::CONTEXTS],
     pub(super) elements: ElementCoder,
     pub(super) lists: IdListCoder,
     pub(super) corners: CornerCoder,
@@ -51,7 +52,7 @@ impl Models {
             count: int_model(),
             has_point: AdaptiveModel::new(2),
             extend_vertex: int_model(),
-            motion: std::array::from_fn(|_| AdaptiveModel::new(3)),
+            motion: std::array::from_fn(|_| AdaptiveModel::new(motion::SYMBOLS)),
             elements: ElementCoder::new(),
             lists: IdListCoder::new(),
             corners: CornerCoder::new(),
@@ -70,12 +71,20 @@ pub(super) fn kind_symbol(kind: OpKind) -> usize {
 }
 
 /// How a vertex fared under `set-positions`: one symbol covers the common cases, so an
-/// exactly predicted smoothing step costs one cheap symbol per vertex, not four.
+/// exactly predicted smoothing step costs one cheap symbol per vertex, and a residual's
+/// first bucket is that symbol too (three per vertex, not four).
 pub(super) mod motion {
+    use super::{BUCKETS, CLASSES};
+
     /// The vertex kept its position.
     pub(crate) const STILL: usize = 0;
     /// The vertex is exactly where the smoothing prediction puts it.
     pub(crate) const PREDICTED: usize = 1;
-    /// A residual from the prediction follows.
+    /// This and the symbols after it: a residual from the prediction follows, the symbol
+    /// less `RESIDUAL` being the bucket of its first axis.
     pub(crate) const RESIDUAL: usize = 2;
+    pub(crate) const SYMBOLS: usize = RESIDUAL + BUCKETS;
+    /// The previous vertex's symbol, still or predicted, else `RESIDUAL` plus the magnitude
+    /// class of its last residual.
+    pub(crate) const CONTEXTS: usize = RESIDUAL + CLASSES;
 }

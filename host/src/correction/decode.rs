@@ -1,5 +1,6 @@
 //! Replaying a correction: decode each op against the state before it, apply it, repeat.
 
+use std::collections::VecDeque;
 use std::sync::mpsc;
 
 use crate::MeshData;
@@ -7,6 +8,7 @@ use crate::store::{MeshStore, Op, OpKind};
 
 use super::CorrectionError;
 use super::codec::{END, Models, Sections, motion};
+use super::coding::residual::{ResidualCoder, Residuals};
 use super::coding::stream::{CorruptStream, SymbolReader};
 use super::header::{Correction, KindCount, kind_index};
 use super::predict::{self, NewVertexNeighbours, Smoothing};
@@ -235,15 +237,15 @@ impl Decoder {
     }
 
     /// The mirror of the encoder's `set_positions`. The predictions (neighbour means, most of
-    /// the work) are made on a second thread, a chunk of vertices ahead of the decoding,
-    /// which only needs them to restore residuals.
+    /// the work) are made on a second thread. The symbols do not depend on them, so the
+    /// decoding runs ahead (while that thread indexes the triangles, at first) and restores
+    /// each chunk of vertices when its predictions have arrived.
     fn set_positions(&mut self) -> Result<Vec<f32>, CorruptStream> {
         self.take(OpKind::SetPositions, u64::from(self.store.vertex_slots()))?;
         let (store, grid) = (&self.store, self.models.grid);
         let (m, input) = (&mut self.models, &mut self.input);
         let lambda = input.geometry.f32_bits()?;
         let (current, slots) = (store.positions(), store.vertex_slots());
-        let mut xyz = current.to_vec();
         std::thread::scope(|s| {
             let (send, predictions) = mpsc::sync_channel(2);
             s.spawn(move || {
@@ -265,25 +267,62 @@ impl Decoder {
                     }
                 }
             });
-            let mut previous = motion::STILL;
-            for (first, chunk) in (0..slots).step_by(CHUNK as usize).zip(predictions) {
-                for (v, predicted) in (first..).zip(chunk) {
-                    if !store.is_vertex_live(v) {
-                        continue;
-                    }
-                    let state = input.geometry.symbol(&mut m.motion[previous])?;
-                    previous = state;
-                    let q = match state {
-                        motion::STILL => continue,
-                        motion::PREDICTED => predicted,
-                        _ => m.smoothing.read(&mut input.geometry, predicted)?,
+            let mut xyz = current.to_vec();
+            // Decoded chunks whose predictions have not arrived, oldest first.
+            let mut waiting = VecDeque::new();
+            let mut context = motion::STILL;
+            for first in (0..slots).step_by(CHUNK as usize) {
+                // Each moved vertex, with its residuals unless exactly predicted.
+                let mut moved = Vec::new();
+                for v in (first..slots.min(first + CHUNK)).filter(|&v| store.is_vertex_live(v)) {
+                    let symbol = input.geometry.symbol(&mut m.motion[context])?;
+                    context = match symbol {
+                        motion::STILL => symbol,
+                        motion::PREDICTED => {
+                            moved.push((v, None));
+                            symbol
+                        }
+                        _ => {
+                            let bucket = symbol - motion::RESIDUAL;
+                            let residuals =
+                                m.smoothing.read_residuals_after(&mut input.geometry, bucket)?;
+                            moved.push((v, Some(residuals)));
+                            motion::RESIDUAL + m.smoothing.class()
+                        }
                     };
-                    let i = 3 * v as usize;
-                    xyz[i..i + 3].copy_from_slice(&q);
                 }
+                waiting.push_back((first, moved));
+                while !waiting.is_empty()
+                    && let Ok(predicted) = predictions.try_recv()
+                {
+                    let (first, moved) = waiting.pop_front().expect("not empty");
+                    place(&mut xyz, &m.smoothing, first, &moved, &predicted);
+                }
+            }
+            for (first, moved) in waiting {
+                let predicted =
+                    predictions.recv().expect("the predicting thread sends every chunk");
+                place(&mut xyz, &m.smoothing, first, &moved, &predicted);
             }
             Ok(xyz)
         })
+    }
+}
+
+/// Writes the moved vertices of the chunk starting at vertex `first` into `xyz`, from the
+/// chunk's `predicted` positions.
+fn place(
+    xyz: &mut [f32],
+    coder: &ResidualCoder,
+    first: u32,
+    moved: &[(u32, Option<Residuals>)],
+    predicted: &[[f32; 3]],
+) {
+    for &(v, residuals) in moved {
+        let p = predicted[(v - first) as usize];
+        let q = residuals.map_or(p, |r| coder.restore(r, p));
+        let i = 3 * v as usize;
+        xyz[i..i + 3].copy_from_slice(&q);
     }
 }
 

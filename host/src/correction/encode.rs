@@ -215,23 +215,22 @@ impl Encoder {
         let lambda = moved.best_lambda();
         let (m, out) = (&mut self.models, &mut self.out);
         out.geometry.f32_bits(lambda);
-        let mut previous = motion::STILL;
+        let mut context = motion::STILL;
         for v in (0..store.vertex_slots()).filter(|&v| store.is_vertex_live(v)) {
             let (p, q) = (at(current, v), at(xyz, v));
             let predicted = smoothing.predict(p, means[v as usize], lambda);
             // "Predicted" first: on a grid, many small moves snap back to the old position,
             // and one symbol for all of them keeps the runs long.
-            let state = if same_bits(q, predicted) {
-                motion::PREDICTED
+            let model = &mut m.motion[context];
+            if same_bits(q, predicted) {
+                out.geometry.symbol(model, motion::PREDICTED);
+                context = motion::PREDICTED;
             } else if same_bits(q, p) {
-                motion::STILL
+                out.geometry.symbol(model, motion::STILL);
+                context = motion::STILL;
             } else {
-                motion::RESIDUAL
-            };
-            out.geometry.symbol(&mut m.motion[previous], state);
-            previous = state;
-            if state == motion::RESIDUAL {
-                m.smoothing.write(&mut out.geometry, q, predicted);
+                m.smoothing.write_joint(&mut out.geometry, q, predicted, model, motion::RESIDUAL);
+                context = motion::RESIDUAL + m.smoothing.class();
             }
         }
     }

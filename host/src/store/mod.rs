@@ -148,8 +148,12 @@ impl MeshStore {
             Op::Transform { matrix } => self.transform(matrix).map(|_| None)?,
             Op::Clear => self.clear().map(|_| None)?,
         };
+        // Removed slots keep their positions whatever the op said, and the log records what
+        // they hold; with none removed the op's values are the positions, kept as they came.
         let op = match op {
-            Op::SetPositions { .. } => Op::SetPositions { xyz: self.positions.clone() },
+            Op::SetPositions { .. } if self.removed_vertex_count > 0 => {
+                Op::SetPositions { xyz: self.positions.clone() }
+            }
             op => op,
         };
         self.record(op);

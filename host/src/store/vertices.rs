@@ -50,6 +50,11 @@ impl MeshStore {
         if let Some((v, p)) = bad {
             check_finite(p, &format!("set-positions, vertex {v}"))?;
         }
+        if self.removed_vertex_count == 0 {
+            // Every slot takes its value: one copy, no per-vertex check.
+            self.positions.copy_from_slice(xyz);
+            return Ok(());
+        }
         for (v, p) in xyz.chunks_exact(3).enumerate() {
             if !self.vertex_removed[v] {
                 self.positions[3 * v..3 * v + 3].copy_from_slice(p);

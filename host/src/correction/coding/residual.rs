@@ -10,12 +10,13 @@
 //! correlated in size: a vertex that moved far on x likely moved far on y.
 
 use super::float::{residual, restore};
-use super::integer::{int_model, split, unzigzag, zigzag};
+use super::integer::{int_model, join, raw_bits, split, unzigzag, zigzag};
 use super::model::AdaptiveModel;
 use super::stream::{CorruptStream, SymbolReader, SymbolWriter};
 use crate::quantize::Grid;
 
-const CLASSES: usize = 4;
+/// Magnitude classes of a residual, the context of the next one.
+pub(crate) const CLASSES: usize = 4;
 /// The grid residual `i32::MIN` (zigzag `u32::MAX`) is never coded: it announces raw bits.
 const ESCAPE: u32 = u32::MAX;
 
@@ -31,23 +32,53 @@ impl ResidualCoder {
     }
 
     pub(crate) fn write(&mut self, w: &mut SymbolWriter, actual: [f32; 3], predicted: [f32; 3]) {
+        self.write_axes(w, actual, predicted, None);
+    }
+
+    /// Like [`write`](Self::write), with the first axis's bucket coded as symbol
+    /// `offset + bucket` of `joint`, a model the caller shares with its own symbols: one
+    /// symbol per point fewer to code and decode.
+    pub(crate) fn write_joint(
+        &mut self,
+        w: &mut SymbolWriter,
+        actual: [f32; 3],
+        predicted: [f32; 3],
+        joint: &mut AdaptiveModel,
+        offset: usize,
+    ) {
+        self.write_axes(w, actual, predicted, Some((joint, offset)));
+    }
+
+    fn write_axes(
+        &mut self,
+        w: &mut SymbolWriter,
+        actual: [f32; 3],
+        predicted: [f32; 3],
+        mut joint: Option<(&mut AdaptiveModel, usize)>,
+    ) {
         for k in 0..3 {
-            let model = &mut self.models[k * CLASSES + self.class];
             let z = match &self.grid {
                 None => zigzag(residual(actual[k], predicted[k])),
-                Some(grid) => match grid_residual(grid, k, actual[k], predicted[k]) {
-                    Some(r) => zigzag(r),
-                    None => {
-                        w.uint(model, ESCAPE);
-                        w.f32_bits(actual[k]);
-                        self.class = class_of(ESCAPE);
-                        continue;
-                    }
-                },
+                Some(grid) => {
+                    grid_residual(grid, k, actual[k], predicted[k]).map_or(ESCAPE, zigzag)
+                }
             };
-            w.uint(model, z);
+            let (bucket, bits, raw) = split(z);
+            match joint.as_mut().filter(|_| k == 0) {
+                Some((model, offset)) => w.symbol(model, *offset + bucket),
+                None => w.symbol(&mut self.models[k * CLASSES + self.class], bucket),
+            }
+            w.raw(bits, raw);
+            if self.grid.is_some() && z == ESCAPE {
+                w.f32_bits(actual[k]);
+            }
             self.class = class_of(z);
         }
+    }
+
+    /// The magnitude class of the last residual coded.
+    pub(crate) fn class(&self) -> usize {
+        self.class
     }
 
     pub(crate) fn read(
@@ -55,19 +86,58 @@ impl ResidualCoder {
         r: &mut SymbolReader,
         predicted: [f32; 3],
     ) -> Result<[f32; 3], CorruptStream> {
-        let mut point = [0.0; 3];
-        for k in 0..3 {
-            let z = r.uint(&mut self.models[k * CLASSES + self.class])?;
-            self.class = class_of(z);
-            point[k] = match (&self.grid, z) {
-                (None, _) => restore(predicted[k], unzigzag(z)),
-                (Some(_), ESCAPE) => r.f32_bits()?,
-                (Some(grid), _) => from_grid(grid, k, predicted[k], unzigzag(z)),
+        let residuals = self.read_residuals(r)?;
+        Ok(self.restore(residuals, predicted))
+    }
+
+    /// The residuals of a point, which do not depend on its prediction: they can be read
+    /// before it is known.
+    pub(crate) fn read_residuals(
+        &mut self,
+        r: &mut SymbolReader,
+    ) -> Result<Residuals, CorruptStream> {
+        let bucket = r.symbol(&mut self.models[self.class])?;
+        self.read_residuals_after(r, bucket)
+    }
+
+    /// The counterpart of [`write_joint`](Self::write_joint), once the caller has read the
+    /// first axis's `bucket` (below `BUCKETS`) from its model.
+    pub(crate) fn read_residuals_after(
+        &mut self,
+        r: &mut SymbolReader,
+        bucket: usize,
+    ) -> Result<Residuals, CorruptStream> {
+        let mut residuals = Residuals([(0, 0); 3]);
+        for (k, (z, escaped)) in residuals.0.iter_mut().enumerate() {
+            let bucket = match k {
+                0 => bucket,
+                _ => r.symbol(&mut self.models[k * CLASSES + self.class])?,
             };
+            *z = join(bucket, r.raw(raw_bits(bucket))?);
+            self.class = class_of(*z);
+            if self.grid.is_some() && *z == ESCAPE {
+                *escaped = r.f32_bits()?.to_bits();
+            }
         }
-        Ok(point)
+        Ok(residuals)
+    }
+
+    /// The point `residuals` (read by this coder) code from `predicted`.
+    pub(crate) fn restore(&self, residuals: Residuals, predicted: [f32; 3]) -> [f32; 3] {
+        std::array::from_fn(|k| {
+            let (z, escaped) = residuals.0[k];
+            match (&self.grid, z) {
+                (None, _) => restore(predicted[k], unzigzag(z)),
+                (Some(_), ESCAPE) => f32::from_bits(escaped),
+                (Some(grid), _) => from_grid(grid, k, predicted[k], unzigzag(z)),
+            }
+        })
     }
 }
+
+/// Per axis, the coded residual and, for an escaped one, the exact bits that follow it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Residuals([(u32, u32); 3]);
 
 /// Grid steps from `predicted` (snapped) to `actual`, when decoding them gives back
 /// `actual`'s exact bits.
