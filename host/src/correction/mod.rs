@@ -39,8 +39,8 @@ pub use encode::encode;
 pub use error::CorrectionError;
 pub use header::{Correction, KindCount, SECTIONS, VERSION};
 
-use crate::MeshData;
 use crate::store::Op;
+use crate::{ContentHash, MeshData};
 
 /// Reads and checks a correction's header (magic, version, checksum, section sizes),
 /// without the base mesh.
@@ -68,13 +68,41 @@ pub fn replay(base: &MeshData, bytes: &[u8]) -> Result<(MeshData, Vec<Op>), Corr
     // ops replay; on a mismatch the replay is discarded.
     let (found, replayed) = std::thread::scope(|s| {
         let hash = s.spawn(|| base.content_hash());
-        let replayed = decode::replay(&header, sections, base.clone());
+        let replayed = replay_checked(&header, sections, base.clone());
         (hash.join().expect("hashing does not panic"), replayed)
     });
     if found != header.base {
         return Err(CorrectionError::BaseMismatch { expected: header.base, found });
     }
-    let (mesh, log) = replayed?;
+    replayed
+}
+
+/// Like [`apply`], for a caller that knows `base`'s hash and the result it was promised (a
+/// host updating a session): a correction for another base or result is refused before any
+/// replay, and `base` is not hashed again.
+pub fn apply_known(
+    base: &MeshData,
+    base_hash: ContentHash,
+    bytes: &[u8],
+    result: ContentHash,
+) -> Result<MeshData, CorrectionError> {
+    let (header, sections) = header::read(bytes)?;
+    if header.base != base_hash {
+        return Err(CorrectionError::BaseMismatch { expected: header.base, found: base_hash });
+    }
+    if header.result != result {
+        return Err(CorrectionError::ResultMismatch { expected: result, found: header.result });
+    }
+    replay_checked(&header, sections, base.clone()).map(|(mesh, _)| mesh)
+}
+
+/// Replays the ops on `base` and checks the result's hash against the header.
+fn replay_checked(
+    header: &Correction,
+    sections: [&[u8]; 4],
+    base: MeshData,
+) -> Result<(MeshData, Vec<Op>), CorrectionError> {
+    let (mesh, log) = decode::replay(header, sections, base)?;
     let found = mesh.content_hash();
     if found != header.result {
         return Err(CorrectionError::ResultMismatch { expected: header.result, found });

@@ -12,6 +12,7 @@ use super::meshes::{self, MeshEncoding};
 use super::rebuild::hashed;
 use super::sessions::CurrentMesh;
 use super::state::Host;
+use crate::ContentHash;
 use crate::MeshData;
 use crate::api::{
     BlobRef, CheckResult, FilterResult, FullRef, RunRequest, RunResult, Transfer, Update, Updated,
@@ -27,7 +28,6 @@ pub async fn update(
     ApiJson(update): ApiJson<Update>,
 ) -> Result<Json<Updated>, ApiError> {
     let session = host.sessions.begin(&id)?;
-    let base = session.current.mesh.clone();
     let _writing = host.blobs.writing().await;
     let mut downloaded = 0;
     let mut download_ms = 0.0;
@@ -35,7 +35,8 @@ pub async fn update(
         (Transfer::Full, _) => None,
         (Transfer::Correction, None) => Some("no correction was given".to_owned()),
         (Transfer::Correction, Some(correction)) => {
-            let attempt = replay_correction(&host, base, correction, &update.full.hash).await;
+            let attempt =
+                replay_correction(&host, &session.current, correction, &update.full.hash).await;
             downloaded += attempt.bytes;
             download_ms += attempt.download_ms;
             match attempt.result {
@@ -103,7 +104,7 @@ struct Attempt {
 
 async fn replay_correction(
     host: &Host,
-    base: Arc<MeshData>,
+    base: &CurrentMesh,
     correction: &BlobRef,
     expected: &str,
 ) -> Attempt {
@@ -120,18 +121,15 @@ async fn replay_correction(
     let started = Instant::now();
     let url = correction.url.clone();
     let expected = expected.to_owned();
+    let (mesh, base_hash) = (base.mesh.clone(), base.hash.clone());
     let applied = tokio::task::spawn_blocking(move || {
-        // The header names the result; a wrong one is refused before any replay, and `apply`
-        // checks the replayed mesh against it, so the result need not be hashed again.
-        let header = correction::decode(&bytes).map_err(|e| format!("{url}: {e}"))?;
-        let hash = header.result.to_hex();
-        if !hash.eq_ignore_ascii_case(&expected) {
-            return Err(format!(
-                "{url}: the correction gives mesh {hash}, not the announced {expected}"
-            ));
-        }
-        let mesh = correction::apply(&base, &bytes).map_err(|e| format!("{url}: {e}"))?;
-        Ok((CurrentMesh { mesh: Arc::new(mesh), hash }, bytes))
+        let hash = |hex: &str| {
+            ContentHash::from_hex(hex).ok_or_else(|| format!("{hex:?} is not a content hash"))
+        };
+        // The session's hash is known: the base is not hashed again.
+        let mesh = correction::apply_known(&mesh, hash(&base_hash)?, &bytes, hash(&expected)?)
+            .map_err(|e| format!("{url}: {e}"))?;
+        Ok((CurrentMesh { mesh: Arc::new(mesh), hash: expected.to_ascii_lowercase() }, bytes))
     })
     .await
     .unwrap_or_else(|e| Err(e.to_string()));
