@@ -6,9 +6,9 @@ use std::collections::{BTreeMap, BTreeSet};
 use meshflow_sdk::geometry;
 use meshflow_sdk::topology::halfedge::{next, origin, target};
 use meshflow_sdk::topology::{
-    EdgeKind, HalfEdges, NONE, TriangleComponents, VertexNeighbours, VertexTriangles,
-    boundary_loops, is_edge_manifold, is_orientable, is_oriented, non_manifold_vertices,
-    orientation_flips,
+    EdgeBuckets, EdgeKind, EdgeLookup, HalfEdges, NONE, TriangleComponents, VertexNeighbours,
+    VertexTriangles, boundary_loops, is_edge_manifold, is_orientable, is_oriented,
+    non_manifold_vertices, orientation_flips,
 };
 use proptest::prelude::*;
 
@@ -244,6 +244,16 @@ proptest! {
         prop_assert!(firsts.windows(2).all(|w| w[0] < w[1]));
         // Deterministic.
         prop_assert_eq!(boundary_loops(&t, &he), loops);
+    }
+
+    #[test]
+    fn edge_bucket_lookups_match_half_edges((v, t) in any_mesh()) {
+        let (he, buckets) = (HalfEdges::new(v, &t), EdgeBuckets::new(v, &t));
+        for h in 0..he.len() as u32 {
+            prop_assert_eq!(EdgeLookup::kind(&buckets, h), he.kind(h), "kind of {}", h);
+            prop_assert_eq!(EdgeLookup::opposite(&buckets, h), he.opposite(h), "twin of {}", h);
+        }
+        prop_assert_eq!(boundary_loops(&t, &buckets), boundary_loops(&t, &he));
     }
 
     #[test]

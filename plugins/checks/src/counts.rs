@@ -5,9 +5,8 @@
 //! they are counted as the SDK's [`topology`](meshflow_sdk::topology) module documents,
 //! never rejected.
 
-use meshflow_sdk::topology::{HalfEdges, boundary_loops};
+use meshflow_sdk::topology::{EdgeBuckets, Members, boundary_loops};
 
-use crate::edges::{EdgeBuckets, Members};
 use crate::forest::ParityForest;
 
 /// The number of distinct undirected edges `{a, b}` of the proper triangles (three distinct
@@ -34,9 +33,10 @@ pub fn component_count(vertex_count: usize, triangles: &[u32]) -> usize {
 
 /// The number of boundary loops (holes, the outer border of an open surface included); a
 /// closed surface has none. Loops are separated at bow-tie vertices, so two holes touching
-/// at a vertex count twice. O(V + T).
+/// at a vertex count twice. O(V + T); the loop walk looks twins up in the edge buckets, as
+/// it visits only the boundary, rather than building every half-edge's twin.
 pub fn hole_count(vertex_count: usize, triangles: &[u32]) -> usize {
-    boundary_loops(triangles, &HalfEdges::new(vertex_count, triangles)).len()
+    boundary_loops(triangles, &EdgeBuckets::new(vertex_count, triangles)).len()
 }
 
 #[cfg(test)]

@@ -6,7 +6,6 @@
 
 pub mod angles;
 pub mod counts;
-pub mod edges;
 pub mod forest;
 pub mod normals;
 pub mod topology;

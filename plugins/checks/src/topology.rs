@@ -4,9 +4,8 @@
 //! repeated or out-of-range id neither breaks nor establishes manifoldness or orientation.
 //! Zero-area triangles with distinct ids are proper and count like any other.
 
-use meshflow_sdk::topology::{HalfEdges, manifold};
+use meshflow_sdk::topology::{EdgeBuckets, HalfEdges, manifold};
 
-use crate::edges::EdgeBuckets;
 use crate::forest::ParityForest;
 
 /// Whether the mesh is edge-manifold (no edge has three or more triangles) and

@@ -2,7 +2,7 @@
 //! and for each: triangulate, refine, fair. Returns the new vertices and triangles for the
 //! caller to add in bulk.
 
-use meshflow_sdk::geometry::{Vec3, distance, point, triangle_unit_normal};
+use meshflow_sdk::geometry::{Vec3, distance, larger, point, smaller, triangle_unit_normal};
 use meshflow_sdk::topology::boundary::{BoundaryLoop, boundary_loops};
 use meshflow_sdk::topology::halfedge::{HalfEdges, triangle_of};
 
@@ -141,7 +141,7 @@ fn near_hole(rim: &[Vec3]) -> impl Fn(Vec3) -> bool + use<> {
     let (mut lo, mut hi) = ([f64::MAX; 3], [f64::MIN; 3]);
     for q in rim {
         for k in 0..3 {
-            (lo[k], hi[k]) = (lo[k].min(q[k]), hi[k].max(q[k]));
+            (lo[k], hi[k]) = (smaller(lo[k], q[k]), larger(hi[k], q[k]));
         }
     }
     let margin = distance(lo, hi);

@@ -5,7 +5,7 @@
 //! triangle `t` to corner `(k + 1) % 3`, as in the mesh. A half-edge on the hole's loop has
 //! no twin: the triangle across it belongs to the mesh, and the patch never changes it.
 
-use meshflow_sdk::geometry::{Vec3, angle_between, cross, dot, sub};
+use meshflow_sdk::geometry::{Vec3, angle_between, cross, dot, norm, sub};
 use meshflow_sdk::topology::NONE;
 use meshflow_sdk::topology::halfedge::{next, prev};
 
@@ -128,9 +128,18 @@ impl Patch {
         }
         let (a, b) = (self.point(self.origin(h)), self.point(self.target(h)));
         let (c, d) = (self.point(self.apex(h)), self.point(self.apex(g)));
-        let facing = angle_between(sub(a, c), sub(b, c)) + angle_between(sub(a, d), sub(b, d));
-        // The margin keeps cocircular quads (e.g. squares) from swapping back and forth.
-        facing > std::f64::consts::PI + 1e-9
+        let (ca, cb, da, db) = (sub(a, c), sub(b, c), sub(a, d), sub(b, d));
+        // With the facing angles α at c and β at d, sin(α + β) scaled by the four edge
+        // lengths is `|ca × cb| (da · db) + (ca · cb) |da × db|`; away from zero its sign
+        // alone says whether α + β > π, with no `atan2` (software in wasm, the hot spot).
+        let sine = norm(cross(ca, cb)) * dot(da, db) + dot(ca, cb) * norm(cross(da, db));
+        let lengths = (dot(ca, ca) * dot(cb, cb) * dot(da, da) * dot(db, db)).sqrt();
+        if sine.abs() > 1e-6 * lengths {
+            return sine < 0.0;
+        }
+        // Near π (or 2π), the angles themselves; the margin keeps cocircular quads (e.g.
+        // squares) from swapping back and forth.
+        angle_between(ca, cb) + angle_between(da, db) > std::f64::consts::PI + 1e-9
     }
 
     /// Replaces the two triangles on edge `h` by the two on the other diagonal, unless that

@@ -5,7 +5,7 @@
 //! lexicographically. The dihedral angles include those with the mesh triangles on the
 //! hole's rim, so the patch continues the surface instead of cutting across it.
 
-use meshflow_sdk::geometry::{Vec3, cross, dot, norm, scale, sub};
+use meshflow_sdk::geometry::{Vec3, cross, dot, norm, scale, smaller, sub};
 
 /// Cosines closer than this count as the same dihedral angle, so area decides between
 /// triangulations whose worst angles differ only by rounding (planar holes).
@@ -88,7 +88,7 @@ pub fn triangulate(
             let mut best = empty;
             for m in i + 1..k {
                 let (left, right) = (table[i * n + m], table[m * n + k]);
-                let inherited = left.weight.worst_cos.min(right.weight.worst_cos);
+                let inherited = smaller(left.weight.worst_cos, right.weight.worst_cos);
                 // Infeasible halves, or halves already bending worse than the best so far:
                 // this apex cannot win, skip its geometry (most candidates on real holes).
                 if !inherited.is_finite()
@@ -102,16 +102,19 @@ pub fn triangulate(
                 let length = norm(twice_normal);
                 let (normal, mut worst) = if length > 0.0 && length.is_finite() {
                     let u = scale(twice_normal, 1.0 / length);
-                    (u, bend(u, left.normal).min(bend(u, right.normal)))
+                    (u, smaller(bend(u, left.normal), bend(u, right.normal)))
                 } else {
                     // A degenerate triangle folds the patch as badly as anything can.
                     ([0.0; 3], -1.0)
                 };
                 if closing {
-                    worst = worst.min(bend(normal, polygon.rim_normals[n - 1]));
+                    worst = smaller(worst, bend(normal, polygon.rim_normals[n - 1]));
                 }
                 let weight = Weight {
-                    worst_cos: worst.min(left.weight.worst_cos).min(right.weight.worst_cos),
+                    worst_cos: smaller(
+                        smaller(worst, left.weight.worst_cos),
+                        right.weight.worst_cos,
+                    ),
                     area: left.weight.area + right.weight.area + 0.5 * length,
                 };
                 if weight.is_better_than(best.weight) {

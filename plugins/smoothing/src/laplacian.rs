@@ -1,6 +1,6 @@
 //! Laplacian smoothing: every free vertex moves to the weighted average of its neighbours.
 
-use meshflow_sdk::geometry::cotangent_weights;
+use meshflow_sdk::geometry::{cotangent_weights, larger};
 use meshflow_sdk::topology::adjacency::VertexNeighbours;
 use meshflow_sdk::topology::boundary::boundary_vertices;
 use meshflow_sdk::topology::halfedge::HalfEdges;
@@ -53,7 +53,7 @@ pub fn smooth(
             Weights::Uniform => step(&current, &mut next, &neighbours, &pinned, |_| 1.0),
             Weights::Cotangent => {
                 let cot = cotangent_weights(&current, triangles, &neighbours);
-                step(&current, &mut next, &neighbours, &pinned, |i| cot[i].max(0.0) as f64);
+                step(&current, &mut next, &neighbours, &pinned, |i| larger(f64::from(cot[i]), 0.0));
             }
         }
         std::mem::swap(&mut current, &mut next);

@@ -1,7 +1,7 @@
 //! Boundary loops (holes) and boundary vertices.
 
 use super::NONE;
-use super::halfedge::{EdgeKind, HalfEdges, next, origin, prev, target};
+use super::halfedge::{EdgeKind, EdgeLookup, HalfEdges, next, origin, prev, target};
 
 /// One boundary loop: a cycle (rarely an open chain, see [`boundary_loops`]) of boundary
 /// half-edges, each sharing its end vertex with the start of the next.
@@ -51,15 +51,17 @@ impl BoundaryLoop {
 /// continues with the smallest unused boundary half-edge at `v`, and if there is none the loop
 /// ends open (`closed == false`). Every boundary half-edge ends up in exactly one loop.
 ///
-/// `half_edges` must have been built from the same `triangles`.
-pub fn boundary_loops(triangles: &[u32], half_edges: &HalfEdges) -> Vec<BoundaryLoop> {
-    let mut used = vec![0u64; half_edges.len().div_ceil(64)];
+/// `half_edges` must have been built from the same `triangles`: a [`HalfEdges`], or when only
+/// the loops are needed, the cheaper [`EdgeBuckets::new`](super::EdgeBuckets::new).
+pub fn boundary_loops(triangles: &[u32], half_edges: &impl EdgeLookup) -> Vec<BoundaryLoop> {
+    let mut used = vec![0u64; half_edges.half_edge_count().div_ceil(64)];
     let is_used = |used: &[u64], h: u32| used[h as usize / 64] >> (h % 64) & 1 == 1;
     let set_used = |used: &mut [u64], h: u32| used[h as usize / 64] |= 1 << (h % 64);
     // (vertex, boundary half-edge) pairs for the fallback rule, built on first need.
     let mut at_vertex: Option<Vec<(u32, u32)>> = None;
     let mut loops = Vec::new();
-    for h0 in half_edges.boundary_half_edges() {
+    let boundary = half_edges.sorted_boundary_half_edges();
+    for &h0 in &boundary {
         if is_used(&used, h0) {
             continue;
         }
@@ -84,7 +86,7 @@ pub fn boundary_loops(triangles: &[u32], half_edges: &HalfEdges) -> Vec<Boundary
                 lp.closed = true;
                 break;
             } else {
-                let list = at_vertex.get_or_insert_with(|| boundary_ends(triangles, half_edges));
+                let list = at_vertex.get_or_insert_with(|| boundary_ends(triangles, &boundary));
                 let first = list.partition_point(|&(w, _)| w < v);
                 match list[first..]
                     .iter()
@@ -110,7 +112,7 @@ pub fn boundary_loops(triangles: &[u32], half_edges: &HalfEdges) -> Vec<Boundary
 
 /// From boundary half-edge `cur` incident to `v`, turns through the fan around `v` over
 /// interior edges to the next boundary half-edge, or [`NONE`] at a non-manifold edge.
-fn fan_successor(triangles: &[u32], half_edges: &HalfEdges, cur: u32, v: u32) -> u32 {
+fn fan_successor(triangles: &[u32], half_edges: &impl EdgeLookup, cur: u32, v: u32) -> u32 {
     // The other half-edge of g's triangle that touches v (g touches v).
     let other_at = |g: u32| {
         if origin(triangles, g) == v { prev(g) } else { next(g) }
@@ -118,7 +120,7 @@ fn fan_successor(triangles: &[u32], half_edges: &HalfEdges, cur: u32, v: u32) ->
     let mut e = other_at(cur);
     // A fan walk from a boundary edge visits each triangle at most once; the bound only
     // guards against misuse (half-edges built from other triangles).
-    for _ in 0..=half_edges.len() / 3 {
+    for _ in 0..=half_edges.half_edge_count() / 3 {
         match half_edges.kind(e) {
             EdgeKind::Boundary => return e,
             EdgeKind::Interior | EdgeKind::InteriorInconsistent => {
@@ -131,10 +133,10 @@ fn fan_successor(triangles: &[u32], half_edges: &HalfEdges, cur: u32, v: u32) ->
 }
 
 /// Every boundary half-edge listed under both endpoints, sorted by (vertex, half-edge).
-fn boundary_ends(triangles: &[u32], half_edges: &HalfEdges) -> Vec<(u32, u32)> {
-    let mut ends: Vec<(u32, u32)> = half_edges
-        .boundary_half_edges()
-        .flat_map(|h| [(origin(triangles, h), h), (target(triangles, h), h)])
+fn boundary_ends(triangles: &[u32], boundary: &[u32]) -> Vec<(u32, u32)> {
+    let mut ends: Vec<(u32, u32)> = boundary
+        .iter()
+        .flat_map(|&h| [(origin(triangles, h), h), (target(triangles, h), h)])
         .collect();
     ends.sort_unstable();
     ends

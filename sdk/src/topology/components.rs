@@ -1,6 +1,6 @@
 //! Connected components of triangles.
 
-use super::edges::for_each_edge;
+use super::edges::{EdgeBuckets, Members};
 
 /// A component label for every triangle, plus the size of every component.
 ///
@@ -25,9 +25,9 @@ impl TriangleComponents {
     /// O(V + T log d) (edge grouping by bucket sort, then union-find with path halving).
     pub fn new(vertex_count: usize, triangles: &[u32]) -> Self {
         let mut forest = Forest::new(triangles.len() / 3);
-        for_each_edge(vertex_count, triangles, false, |group, _, _| {
+        EdgeBuckets::of(vertex_count, triangles, Members::AnyEdge).for_each_edge(|_, group| {
             for w in group.windows(2) {
-                forest.union(w[0].half_edge() / 3, w[1].half_edge() / 3);
+                forest.union(w[0].triangle(), w[1].triangle());
             }
         });
         Self::from_roots(triangles.len() / 3, |t| forest.find(t))

@@ -6,7 +6,7 @@
 
 use super::NONE;
 use super::csr::Csr;
-use super::edges::for_each_edge;
+use super::edges::EdgeBuckets;
 
 /// The half-edge id of corner `k` (0, 1 or 2) of triangle `t`: `3 * t + k`. O(1).
 #[inline]
@@ -86,6 +86,38 @@ impl EdgeKind {
     }
 }
 
+/// Twin and edge-kind answers per half-edge, from either a [`HalfEdges`] (arrays built once,
+/// O(1) per answer) or an [`EdgeBuckets`] (one bucket search per answer, no arrays): what
+/// walks such as [`boundary_loops`](super::boundary_loops) need.
+pub trait EdgeLookup {
+    /// The kind of edge `h` lies on (see [`HalfEdges::kind`]).
+    fn kind(&self, h: u32) -> EdgeKind;
+    /// The twin of `h` on a manifold-interior edge, else [`NONE`].
+    fn opposite(&self, h: u32) -> u32;
+    /// The boundary half-edges in ascending order.
+    fn sorted_boundary_half_edges(&self) -> Vec<u32>;
+    /// The number of half-edges, `3 * triangle_count`.
+    fn half_edge_count(&self) -> usize;
+}
+
+impl EdgeLookup for HalfEdges {
+    fn kind(&self, h: u32) -> EdgeKind {
+        HalfEdges::kind(self, h)
+    }
+
+    fn opposite(&self, h: u32) -> u32 {
+        HalfEdges::opposite(self, h)
+    }
+
+    fn sorted_boundary_half_edges(&self) -> Vec<u32> {
+        self.boundary_half_edges().collect()
+    }
+
+    fn half_edge_count(&self) -> usize {
+        self.len()
+    }
+}
+
 /// Twins and edge classification for every half-edge of a triangle array.
 ///
 /// - `opposite(h)` is the other half-edge on the same undirected edge when the edge is
@@ -122,7 +154,8 @@ impl HalfEdges {
         let mut nm_offsets = vec![0u32];
         let mut nm_items = Vec::new();
         let (mut edges, mut boundary, mut interior, mut inconsistent) = (0, 0, 0, 0);
-        for_each_edge(vertex_count, triangles, true, |group, _, _| {
+        let buckets = EdgeBuckets::new(vertex_count, triangles);
+        buckets.for_each_edge(|a, group| {
             edges += 1;
             match *group {
                 [e] => {
@@ -133,7 +166,7 @@ impl HalfEdges {
                     let (g, h) = (e.half_edge(), f.half_edge());
                     opposite[g as usize] = h;
                     opposite[h as usize] = g;
-                    let kind = if e.forward() != f.forward() {
+                    let kind = if buckets.runs_up(a, e) != buckets.runs_up(a, f) {
                         EdgeKind::Interior
                     } else {
                         inconsistent += 1;

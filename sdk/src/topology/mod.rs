@@ -25,6 +25,7 @@
 //! |----------------------------------------|------------------------------------|-----------------|
 //! | triangles around a vertex              | [`VertexTriangles::new`]           | O(V + T)        |
 //! | neighbour vertices (e.g. Laplacian)    | [`VertexNeighbours::new`]          | O(V + T·log d)  |
+//! | one pass over the edges, few lookups   | [`EdgeBuckets::new`]               | O(V + T·log d)  |
 //! | twins, edge kinds, edge count          | [`HalfEdges::new`]                 | O(V + T·log d)  |
 //! | holes                                  | [`boundary_loops`]                 | O(boundary)     |
 //! | connected components                   | [`TriangleComponents::new`]        | O(V + T·log d)  |
@@ -36,7 +37,7 @@ pub mod adjacency;
 pub mod boundary;
 pub mod components;
 mod csr;
-mod edges;
+pub mod edges;
 pub mod halfedge;
 pub mod manifold;
 
@@ -44,7 +45,8 @@ pub use adjacency::{VertexNeighbours, VertexTriangles, unreferenced_vertices};
 pub use boundary::{BoundaryLoop, boundary_loops, boundary_vertices};
 pub use components::TriangleComponents;
 pub use csr::Csr;
-pub use halfedge::{EdgeKind, HalfEdges};
+pub use edges::{EdgeBuckets, Members};
+pub use halfedge::{EdgeKind, EdgeLookup, HalfEdges};
 pub use manifold::{
     is_edge_manifold, is_manifold, is_orientable, is_oriented, is_vertex_manifold,
     non_manifold_vertices, orientation_flips,
