@@ -83,7 +83,9 @@ fn laplacian_rows(mesh: &MeshData) {
     let plugin = runtime.load(wasm).expect("the smoothing plugin");
     let params = [("iterations".to_owned(), Value::Integer(1))];
     let (sandboxed, output) = best(RUNS, || {
-        runtime.run(&plugin, "laplacian-smoothing", mesh, &params).expect("a Laplacian step")
+        runtime
+            .run(&plugin, "laplacian-smoothing", mesh.clone(), &params)
+            .expect("a Laplacian step")
     });
     assert_eq!(output.mesh.expect("a filter returns a mesh").positions, expected);
     row("Laplacian step, native (same code, plain function)", native, "");

@@ -12,6 +12,7 @@
 
 mod common;
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use common::{SCAN_1M, best, meshlab_available, meshlab_time, ms, ratio};
@@ -152,7 +153,8 @@ struct Row {
 }
 
 fn main() {
-    let mesh = scan(&SCAN_1M);
+    // Shared, as a host's session mesh is: a check reads it in place, a filter copies it.
+    let mesh = Arc::new(scan(&SCAN_1M));
     let dir = tempfile::tempdir().expect("a temporary directory");
     let ply = dir.path().join("scan.ply");
     io::save(&ply, &mesh).expect("saving the scan");
@@ -200,14 +202,15 @@ fn load(runtime: &Runtime, plugin: &str) -> meshflow_host::runtime::Plugin {
 
 fn filter_row(
     runtime: &Runtime,
-    mesh: &MeshData,
+    mesh: &Arc<MeshData>,
     filter: &Filter,
     meshlab_here: Option<Duration>,
 ) -> Row {
     let plugin = load(runtime, filter.plugin);
     let (native, expected) = best(RUNS, || (filter.native)(mesh));
-    let (wasm, output) =
-        best(RUNS, || runtime.run(&plugin, filter.service, mesh, &[]).expect("a filter run"));
+    let (wasm, output) = best(RUNS, || {
+        runtime.run(&plugin, filter.service, Arc::clone(mesh), &[]).expect("a filter run")
+    });
     let result = output.mesh.expect("a filter returns a mesh");
     assert_eq!(result.triangle_count(), expected.triangles, "{}: triangle count", filter.service);
     if let Some(positions) = expected.positions {
@@ -227,14 +230,15 @@ fn filter_row(
     }
 }
 
-fn check_rows(runtime: &Runtime, mesh: &MeshData, meshlab_here: Option<Duration>) -> Vec<Row> {
+fn check_rows(runtime: &Runtime, mesh: &Arc<MeshData>, meshlab_here: Option<Duration>) -> Vec<Row> {
     let plugin = load(runtime, "checks");
     let mut rows = Vec::new();
     let (mut native_total, mut wasm_total) = (Duration::ZERO, Duration::ZERO);
     for (service, native) in CHECKS {
         let (native_time, expected) = best(RUNS, || native(mesh));
-        let (wasm_time, out) =
-            best(RUNS, || runtime.run(&plugin, service, mesh, &[]).expect("a check run"));
+        let (wasm_time, out) = best(RUNS, || {
+            runtime.run(&plugin, service, Arc::clone(mesh), &[]).expect("a check run")
+        });
         let value = out.value.expect("a check value");
         // Reals may differ in the last bits: wasm links its own libm.
         let agree = match (&value, &expected) {

@@ -116,7 +116,7 @@ fn local_filter(
     }
     let (plugin, _) = catalog.find(service).unwrap();
     let params: Vec<_> = params.iter().map(|(k, v)| (k.to_string(), v.clone())).collect();
-    runtime.run(plugin, service, mesh, &params).unwrap().mesh.unwrap()
+    runtime.run(plugin, service, mesh.clone(), &params).unwrap().mesh.unwrap()
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

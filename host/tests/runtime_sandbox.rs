@@ -35,14 +35,14 @@ fn builtin(runtime: &Runtime, name: &str) -> Plugin {
 /// The sandbox is usable after a failure: a real service runs and gives the right answer.
 fn assert_still_works(runtime: &Runtime) {
     let checks = builtin(runtime, "checks");
-    let out = runtime.run(&checks, "vertex-count", &octahedron(), &[]).expect("a normal run");
+    let out = runtime.run(&checks, "vertex-count", octahedron(), &[]).expect("a normal run");
     assert_eq!(out.value, Some(Value::Integer(6)));
 }
 
 fn run_hostile(runtime: &Runtime, service: &str) -> RunError {
     let hostile = runtime.load(fixture("hostile")).expect("the hostile fixture loads");
     let started = Instant::now();
-    let error = runtime.run(&hostile, service, &octahedron(), &[]).expect_err(service);
+    let error = runtime.run(&hostile, service, octahedron(), &[]).expect_err(service);
     assert!(started.elapsed() < Duration::from_secs(20), "{service} was not stopped in time");
     error
 }
@@ -98,7 +98,7 @@ fn an_invalid_edit_is_refused_with_the_reason() {
 fn refused_edits_leave_no_trace_in_the_mesh_or_the_log() {
     let runtime = runtime_with(quick_limits());
     let hostile = runtime.load(fixture("hostile")).unwrap();
-    let out = runtime.run(&hostile, "ignore-bad-edits", &octahedron(), &[]).expect("runs");
+    let out = runtime.run(&hostile, "ignore-bad-edits", octahedron(), &[]).expect("runs");
     assert_eq!(out.report, "every invalid edit was refused");
     assert_eq!(out.log, vec![Op::FlipTriangles { ids: vec![0] }]);
     let mut expected = octahedron();
@@ -148,7 +148,7 @@ fn a_service_error_is_passed_on() {
 fn unknown_services_and_bad_parameters_list_what_is_accepted() {
     let runtime = runtime_with(quick_limits());
     let smoothing = builtin(&runtime, "smoothing");
-    let error = runtime.run(&smoothing, "smooth", &octahedron(), &[]).unwrap_err();
+    let error = runtime.run(&smoothing, "smooth", octahedron(), &[]).unwrap_err();
     assert!(error.to_string().contains("laplacian-smoothing"), "{error}");
     for (name, value, problem) in [
         ("iterations", Value::Integer(0), "out of range [1, 1000]"),
@@ -157,7 +157,7 @@ fn unknown_services_and_bad_parameters_list_what_is_accepted() {
         ("speed", Value::Integer(1), "unknown parameter `speed`"),
     ] {
         let params = [(name.to_owned(), value)];
-        let error = runtime.run(&smoothing, "laplacian-smoothing", &octahedron(), &params);
+        let error = runtime.run(&smoothing, "laplacian-smoothing", octahedron(), &params);
         let text = error.unwrap_err().to_string();
         assert!(text.contains(problem), "{text}");
         assert!(text.contains("iterations (an integer, default 1, range [1, 1000])"), "{text}");
@@ -189,7 +189,7 @@ fn every_edit_of_a_plugin_is_in_the_log() {
         ("iterations".to_owned(), Value::Integer(3)),
         ("keep-boundary".to_owned(), Value::Boolean(false)),
     ];
-    let out = runtime.run(&smoothing, "laplacian-smoothing", &octahedron(), &params).unwrap();
+    let out = runtime.run(&smoothing, "laplacian-smoothing", octahedron(), &params).unwrap();
     let result = out.mesh.unwrap();
     assert_ne!(result.content_hash(), octahedron().content_hash(), "smoothing moved nothing");
     // Replaying the log alone reproduces the plugin's result bit for bit.
@@ -209,8 +209,7 @@ fn runs_are_deterministic_and_concurrent_runs_agree() {
         let handles: Vec<_> = (0..4)
             .map(|_| {
                 scope.spawn(|| {
-                    let out =
-                        runtime.run(&smoothing, "laplacian-smoothing", &octahedron(), &params);
+                    let out = runtime.run(&smoothing, "laplacian-smoothing", octahedron(), &params);
                     out.unwrap().mesh.unwrap().content_hash()
                 })
             })

@@ -61,7 +61,7 @@ impl Checks {
     }
 
     fn run(&self, service: &str, mesh: &MeshData) -> Value {
-        let out = self.runtime.run(&self.plugin, service, mesh, &[]).expect(service);
+        let out = self.runtime.run(&self.plugin, service, mesh.clone(), &[]).expect(service);
         assert!(out.log.is_empty() && out.mesh.is_none(), "{service} changed the mesh");
         out.value.unwrap_or_else(|| panic!("{service} returned no value"))
     }

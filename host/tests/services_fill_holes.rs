@@ -17,7 +17,7 @@ fn fill(mesh: &MeshData, params: &[(&str, Value)]) -> RunOutput {
     let plugin = runtime.load(wasm).expect("the plugin loads");
     let params: Vec<(String, Value)> =
         params.iter().map(|(name, value)| (name.to_string(), value.clone())).collect();
-    runtime.run(&plugin, "fill-holes", mesh, &params).expect("fill-holes runs")
+    runtime.run(&plugin, "fill-holes", mesh.clone(), &params).expect("fill-holes runs")
 }
 
 /// A closed unit sphere of latitude rings (outward normals), poles included.

@@ -26,7 +26,9 @@ fn run(plugin: &str, service: &str, mesh: &MeshData, params: &[(&str, Value)]) -
     let plugin = builtin(&runtime, plugin);
     let params: Vec<(String, Value)> =
         params.iter().map(|(name, value)| (name.to_string(), value.clone())).collect();
-    runtime.run(&plugin, service, mesh, &params).unwrap_or_else(|e| panic!("{service}: {e}"))
+    runtime
+        .run(&plugin, service, mesh.clone(), &params)
+        .unwrap_or_else(|e| panic!("{service}: {e}"))
 }
 
 fn small_scan(seed: u64) -> MeshData {

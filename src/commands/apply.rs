@@ -50,7 +50,7 @@ pub fn run(args: &ApplyArgs) -> anyhow::Result<()> {
     let grid = args.quantize.map(|bits| quantize::quantize(&mut mesh, bits)).transpose()?;
     let load_time = started.elapsed();
 
-    let output = runtime.run(plugin, &args.service, &mesh, &params)?;
+    let output = runtime.run(plugin, &args.service, mesh.clone(), &params)?;
     let result = output.mesh.expect("a filter returns a mesh");
     // The plugin computes freely; the step's result goes back onto the grid here.
     let (result, log) = match &grid {

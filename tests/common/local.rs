@@ -97,7 +97,7 @@ impl Local {
     fn service(&self, task: &Task, mesh: &MeshData) -> RunOutput {
         let (plugin, info) = self.catalog.find(&task.service).expect("a built-in service");
         let params = params_from_json(info, &task.params).expect("valid parameters");
-        self.runtime.run(plugin, &task.service, mesh, &params).expect("the service runs")
+        self.runtime.run(plugin, &task.service, mesh.clone(), &params).expect("the service runs")
     }
 }
 

@@ -22,6 +22,7 @@ pub use params::{describe_params, resolve as resolve_params, value_text};
 pub use plugin::{Plugin, digest};
 
 use std::path::Path;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use wasmtime::component::{HasSelf, Linker, Resource};
@@ -92,7 +93,7 @@ impl Runtime {
         let pre = bindings::PluginPre::new(instance_pre)
             .map_err(|e| PluginError::World(format!("{e:#}")))?;
         let services = self
-            .call(&pre, "describe", MeshData::default(), true, |store, plugin, _| {
+            .call(&pre, "describe", Arc::default(), true, |store, plugin, _| {
                 plugin.meshflow_geometry_service().call_describe(store)
             })
             .map(|(services, _)| services)
@@ -101,13 +102,14 @@ impl Runtime {
         Ok(Plugin { digest, services, pre })
     }
 
-    /// Runs `service` of `plugin` on a copy of `mesh`. Parameters are checked against the
-    /// service's description first; a check runs read-only.
+    /// Runs `service` of `plugin` on `mesh`. Parameters are checked against the service's
+    /// description first; a check runs read-only. A shared mesh (`Arc`) is copied only if
+    /// the service edits it, so a check on a session's mesh copies nothing.
     pub fn run(
         &self,
         plugin: &Plugin,
         service: &str,
-        mesh: &MeshData,
+        mesh: impl Into<Arc<MeshData>>,
         params: &[(String, Value)],
     ) -> Result<RunOutput, RunError> {
         let info = plugin.service(service).ok_or_else(|| RunError::UnknownService {
@@ -123,7 +125,7 @@ impl Runtime {
         let is_check = info.kind == ServiceKind::Check;
         let started = Instant::now();
         let (outcome, state) =
-            self.call(&plugin.pre, service, mesh.clone(), is_check, |store, p, mesh| {
+            self.call(&plugin.pre, service, mesh.into(), is_check, |store, p, mesh| {
                 p.meshflow_geometry_service().call_run(store, service, mesh, &params)
             })?;
         let outcome =
@@ -148,7 +150,7 @@ impl Runtime {
         &self,
         pre: &bindings::PluginPre<RunState>,
         service: &str,
-        mesh: MeshData,
+        mesh: Arc<MeshData>,
         read_only: bool,
         f: impl FnOnce(
             &mut Store<RunState>,

@@ -175,9 +175,8 @@ pub async fn run(
     let digest = plugin.digest.clone();
     let service = request.service.clone();
     let mesh = input.mesh.clone();
-    let output =
-        tokio::task::spawn_blocking(move || runtime.run(&plugin, &service, &mesh, &params))
-            .await??;
+    let output = tokio::task::spawn_blocking(move || runtime.run(&plugin, &service, mesh, &params))
+        .await??;
     let compute_ms = millis(output.duration);
     let (service, plugin) = (request.service, digest);
     if info.kind == ServiceKind::Check {

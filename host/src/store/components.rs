@@ -7,7 +7,7 @@ impl MeshStore {
     fn component_of(&mut self, seed: u32) -> Vec<u32> {
         self.incidence();
         let (incidence, triangles) =
-            (self.incidence.as_ref().expect("built above"), &self.triangles);
+            (self.incidence.as_ref().expect("built above"), &self.mesh.triangles);
         let corners = |t: u32| &triangles[3 * t as usize..3 * t as usize + 3];
         let mut in_component = vec![false; triangles.len() / 3];
         in_component[seed as usize] = true;
@@ -87,7 +87,7 @@ impl MeshStore {
             check_finite(p, &format!("{op}: image of vertex {v}"))?;
         }
         for (&v, p) in vertices.iter().zip(images) {
-            self.positions[3 * v as usize..3 * v as usize + 3].copy_from_slice(&p);
+            self.positions_mut()[3 * v as usize..3 * v as usize + 3].copy_from_slice(&p);
         }
         Ok(())
     }

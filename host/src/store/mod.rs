@@ -36,6 +36,8 @@ mod vertices;
 pub use error::{EditError, EditErrorKind};
 pub use op::{Affine, Op, OpKind};
 
+use std::sync::Arc;
+
 use crate::MeshData;
 use incidence::Incidence;
 
@@ -43,9 +45,10 @@ use incidence::Incidence;
 pub const REMOVED: u32 = u32::MAX;
 
 pub struct MeshStore {
-    positions: Vec<f32>,
-    /// Corners per triangle slot; a removed triangle holds `REMOVED` three times.
-    triangles: Vec<u32>,
+    /// Positions, and corners per triangle slot (a removed triangle holds `REMOVED` three
+    /// times). Shared with the caller until the first edit, so a read-only run (a check)
+    /// never copies the mesh.
+    mesh: Arc<MeshData>,
     vertex_removed: Vec<bool>,
     removed_vertex_count: usize,
     removed_triangle_count: usize,
@@ -55,11 +58,12 @@ pub struct MeshStore {
 }
 
 impl MeshStore {
-    pub fn new(mesh: MeshData) -> Self {
+    /// A store over `mesh`; an `Arc` is shared, and copied only on the first edit.
+    pub fn new(mesh: impl Into<Arc<MeshData>>) -> Self {
+        let mesh = mesh.into();
         let vertex_slots = mesh.vertex_count();
         Self {
-            positions: mesh.positions,
-            triangles: mesh.triangles,
+            mesh,
             vertex_removed: vec![false; vertex_slots],
             removed_vertex_count: 0,
             removed_triangle_count: 0,
@@ -75,7 +79,7 @@ impl MeshStore {
     }
 
     pub fn triangle_slots(&self) -> u32 {
-        (self.triangles.len() / 3) as u32
+        (self.mesh.triangles.len() / 3) as u32
     }
 
     pub fn vertex_count(&self) -> u32 {
@@ -83,17 +87,17 @@ impl MeshStore {
     }
 
     pub fn triangle_count(&self) -> u32 {
-        (self.triangles.len() / 3 - self.removed_triangle_count) as u32
+        (self.mesh.triangles.len() / 3 - self.removed_triangle_count) as u32
     }
 
     /// `x y z` per vertex slot; removed vertices keep their last position.
     pub fn positions(&self) -> &[f32] {
-        &self.positions
+        &self.mesh.positions
     }
 
     /// `a b c` per triangle slot; removed triangles read `REMOVED` three times.
     pub fn triangles(&self) -> &[u32] {
-        &self.triangles
+        &self.mesh.triangles
     }
 
     pub fn removed_vertices(&self) -> Vec<u32> {
@@ -105,7 +109,7 @@ impl MeshStore {
     }
 
     pub fn is_triangle_live(&self, triangle: u32) -> bool {
-        self.triangles.get(3 * triangle as usize).is_some_and(|&a| a != REMOVED)
+        self.mesh.triangles.get(3 * triangle as usize).is_some_and(|&a| a != REMOVED)
     }
 
     pub fn position(&self, vertex: u32) -> Result<[f32; 3], EditError> {
@@ -152,7 +156,7 @@ impl MeshStore {
         // they hold; with none removed the op's values are the positions, kept as they came.
         let op = match op {
             Op::SetPositions { .. } if self.removed_vertex_count > 0 => {
-                Op::SetPositions { xyz: self.positions.clone() }
+                Op::SetPositions { xyz: self.mesh.positions.clone() }
             }
             op => op,
         };
@@ -174,23 +178,33 @@ impl MeshStore {
     /// Ends the step: the compacted mesh and the log of everything applied.
     pub fn finish(self) -> (MeshData, Vec<Op>) {
         let mesh = if self.removed_vertex_count == 0 && self.removed_triangle_count == 0 {
-            MeshData::new(self.positions, self.triangles)
+            Arc::unwrap_or_clone(self.mesh)
         } else {
-            compact::compact(&self.positions, &self.triangles, &self.vertex_removed)
+            compact::compact(&self.mesh.positions, &self.mesh.triangles, &self.vertex_removed)
         };
         (mesh, self.log)
     }
 
     // ---- shared helpers for the edit modules ---------------------------------------------
 
+    /// The positions, to edit: the first edit of a run copies a shared mesh.
+    fn positions_mut(&mut self) -> &mut Vec<f32> {
+        &mut Arc::make_mut(&mut self.mesh).positions
+    }
+
+    /// The corners, to edit; see [`positions_mut`](Self::positions_mut).
+    fn triangles_mut(&mut self) -> &mut Vec<u32> {
+        &mut Arc::make_mut(&mut self.mesh).triangles
+    }
+
     fn point(&self, vertex: u32) -> [f32; 3] {
         let i = 3 * vertex as usize;
-        [self.positions[i], self.positions[i + 1], self.positions[i + 2]]
+        [self.mesh.positions[i], self.mesh.positions[i + 1], self.mesh.positions[i + 2]]
     }
 
     fn corners(&self, triangle: u32) -> [u32; 3] {
         let i = 3 * triangle as usize;
-        [self.triangles[i], self.triangles[i + 1], self.triangles[i + 2]]
+        [self.mesh.triangles[i], self.mesh.triangles[i + 1], self.mesh.triangles[i + 2]]
     }
 
     fn check_vertex(&self, vertex: u32) -> Result<(), EditError> {
@@ -242,13 +256,13 @@ impl MeshStore {
     }
 
     fn incidence(&mut self) -> &mut Incidence {
-        let (slots, triangles) = (self.vertex_removed.len(), &self.triangles);
+        let (slots, triangles) = (self.vertex_removed.len(), &self.mesh.triangles);
         self.incidence.get_or_insert_with(|| Incidence::build(slots, triangles))
     }
 
     fn push_vertex(&mut self, p: [f32; 3]) -> u32 {
         let id = self.vertex_slots();
-        self.positions.extend_from_slice(&p);
+        self.positions_mut().extend_from_slice(&p);
         self.vertex_removed.push(false);
         if let Some(incidence) = &mut self.incidence {
             incidence.add_vertex();
@@ -258,7 +272,7 @@ impl MeshStore {
 
     fn push_triangle(&mut self, corners: [u32; 3]) -> u32 {
         let id = self.triangle_slots();
-        self.triangles.extend_from_slice(&corners);
+        self.triangles_mut().extend_from_slice(&corners);
         if let Some(incidence) = &mut self.incidence {
             incidence.add_triangle(id, corners);
         }
@@ -272,7 +286,7 @@ impl MeshStore {
             incidence.add_triangle(triangle, corners);
         }
         let i = 3 * triangle as usize;
-        self.triangles[i..i + 3].copy_from_slice(&corners);
+        self.triangles_mut()[i..i + 3].copy_from_slice(&corners);
     }
 
     fn kill_triangle(&mut self, triangle: u32) {
@@ -281,7 +295,7 @@ impl MeshStore {
             incidence.remove_triangle(triangle, old);
         }
         let i = 3 * triangle as usize;
-        self.triangles[i..i + 3].fill(REMOVED);
+        self.triangles_mut()[i..i + 3].fill(REMOVED);
         self.removed_triangle_count += 1;
     }
 

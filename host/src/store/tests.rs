@@ -37,10 +37,11 @@ fn kind_of(result: Result<Option<u32>, EditError>) -> EditErrorKind {
 fn assert_refused(op: Op, expected: EditErrorKind) {
     let mut s = store();
     s.apply(Op::MoveVertices { ids: vec![0], xyz: vec![0.5, 0.5, 0.5] }).unwrap();
-    let (positions, triangles, log) = (s.positions.clone(), s.triangles.clone(), s.log.clone());
+    let (positions, triangles, log) =
+        (s.positions().to_vec(), s.triangles().to_vec(), s.log.clone());
     assert_eq!(kind_of(s.apply(op.clone())), expected, "{op:?}");
-    assert_eq!(s.positions, positions, "{op:?} changed positions");
-    assert_eq!(s.triangles, triangles, "{op:?} changed triangles");
+    assert_eq!(s.positions(), positions, "{op:?} changed positions");
+    assert_eq!(s.triangles(), triangles, "{op:?} changed triangles");
     assert_eq!(s.log, log, "{op:?} was logged");
 }
 
@@ -282,4 +283,19 @@ fn degenerate_input_triangles_load_but_cannot_be_created() {
     // Removing the vertex takes the degenerate triangle with it exactly once.
     s.apply(Op::RemoveVertices { ids: vec![0] }).unwrap();
     assert_eq!(s.triangle_count(), 0);
+}
+
+#[test]
+fn a_shared_mesh_is_read_in_place_and_copied_on_the_first_edit() {
+    let shared = Arc::new(sample());
+    let reader = MeshStore::new(Arc::clone(&shared));
+    assert!(std::ptr::eq(reader.positions(), &shared.positions[..]), "reads copy nothing");
+    assert_eq!(reader.finish().0, *shared);
+
+    let mut editor = MeshStore::new(Arc::clone(&shared));
+    editor.apply(Op::RemoveTriangles { ids: vec![3] }).unwrap();
+    editor.apply(Op::MoveVertices { ids: vec![0], xyz: vec![0.5, 0.5, 0.5] }).unwrap();
+    let (edited, _) = editor.finish();
+    assert_eq!(edited.triangle_count(), 3);
+    assert_eq!(*shared, sample(), "the caller's mesh is untouched by the edits");
 }

@@ -33,7 +33,7 @@ impl MeshStore {
         for &t in ids {
             let i = 3 * t as usize;
             // Same vertex set, so the incidence lists stay valid.
-            self.triangles.swap(i + 1, i + 2);
+            self.triangles_mut().swap(i + 1, i + 2);
         }
         Ok(())
     }

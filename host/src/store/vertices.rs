@@ -1,5 +1,7 @@
 //! Vertex edits: add, move, move all, remove.
 
+use std::sync::Arc;
+
 use super::{EditError, MeshStore, check_distinct, check_finite, check_triples};
 
 impl MeshStore {
@@ -26,9 +28,10 @@ impl MeshStore {
         for &v in ids {
             self.check_vertex(v)?;
         }
+        let positions = self.positions_mut();
         for (&v, p) in ids.iter().zip(xyz.chunks_exact(3)) {
             let i = 3 * v as usize;
-            self.positions[i..i + 3].copy_from_slice(p);
+            positions[i..i + 3].copy_from_slice(p);
         }
         Ok(())
     }
@@ -36,7 +39,7 @@ impl MeshStore {
     /// Removed slots keep their positions whatever `xyz` says there; `apply` records the
     /// positions as they are afterwards, so the log never carries ignored values.
     pub(super) fn set_positions(&mut self, xyz: &[f32]) -> Result<(), EditError> {
-        let expected = self.positions.len();
+        let expected = self.mesh.positions.len();
         if xyz.len() != expected {
             return Err(EditError::argument(format!(
                 "set-positions: expected {expected} values (3 per vertex slot), got {}",
@@ -52,12 +55,13 @@ impl MeshStore {
         }
         if self.removed_vertex_count == 0 {
             // Every slot takes its value: one copy, no per-vertex check.
-            self.positions.copy_from_slice(xyz);
+            self.positions_mut().copy_from_slice(xyz);
             return Ok(());
         }
+        let positions = &mut Arc::make_mut(&mut self.mesh).positions;
         for (v, p) in xyz.chunks_exact(3).enumerate() {
             if !self.vertex_removed[v] {
-                self.positions[3 * v..3 * v + 3].copy_from_slice(p);
+                positions[3 * v..3 * v + 3].copy_from_slice(p);
             }
         }
         Ok(())

@@ -78,7 +78,7 @@ impl<'a> EdgeBuckets<'a> {
         ends.pop();
         let mut begin = 0;
         for &end in &ends {
-            sort_bucket(&mut sides[begin..end as usize]);
+            sides[begin..end as usize].sort_unstable();
             begin = end as usize;
         }
         Self { triangles, ends, sides }
@@ -171,25 +171,6 @@ impl EdgeLookup for EdgeBuckets<'_> {
 
     fn half_edge_count(&self) -> usize {
         self.triangles.len() / 3 * 3
-    }
-}
-
-/// Sorts one bucket (about twice the vertex degree entries): inlined insertion sort, as the
-/// library sort's out-of-line call per bucket cost more than the sorting in wasm.
-#[inline(always)]
-fn sort_bucket(bucket: &mut [Side]) {
-    if bucket.len() > 32 {
-        bucket.sort_unstable();
-        return;
-    }
-    for i in 1..bucket.len() {
-        let x = bucket[i];
-        let mut j = i;
-        while j > 0 && bucket[j - 1] > x {
-            bucket[j] = bucket[j - 1];
-            j -= 1;
-        }
-        bucket[j] = x;
     }
 }
 
