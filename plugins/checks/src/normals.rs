@@ -11,22 +11,39 @@ use meshflow_sdk::topology::{EdgeBuckets, is_proper_triangle};
 /// and the seam of a non-orientable strip does too. Edges next to a zero-area triangle are
 /// skipped (it has no normal). Each triangle's unit normal is computed once in `f64` (rather
 /// than for each of its three edges: the 24 bytes per triangle cost less), and each angle
-/// without `atan2` where possible, to about 1e-15 relative (see [`angle_between_unit`]). The
-/// sum is `f64` in ascending edge order, so the result is deterministic. O(V + T).
+/// without `atan2` where possible, to about 1e-15 relative (see [`small_angles_sum`]). The
+/// sum is `f64` in a fixed order (ascending edges, small angles in batches), so the result is
+/// deterministic. O(V + T).
 pub fn normal_instability(positions: &[f32], triangles: &[u32]) -> f64 {
     let normals = unit_normals(positions, triangles);
     let (mut sum, mut edges) = (0.0f64, 0u64);
+    // Small angles wait in a batch and are summed by a loop the compiler vectorises.
+    let mut small = Vec::with_capacity(BATCH);
     EdgeBuckets::new(positions.len() / 3, triangles).for_each_edge(|_, sides| {
         if let [x, y] = sides {
             let (u, v) = (normals[x.triangle() as usize], normals[y.triangle() as usize]);
             if !u[0].is_nan() && !v[0].is_nan() {
-                sum += angle_between_unit(u, v);
+                let d = sub(u, v);
+                let half_chord_squared = 0.25 * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+                if half_chord_squared <= SERIES_LIMIT {
+                    small.push(half_chord_squared);
+                    if small.len() == BATCH {
+                        sum += small_angles_sum(&small);
+                        small.clear();
+                    }
+                } else {
+                    sum += angle_between(u, v);
+                }
                 edges += 1;
             }
         }
     });
+    sum += small_angles_sum(&small);
     if edges == 0 { 0.0 } else { (sum / edges as f64).to_degrees() }
 }
+
+/// Small angles summed per batch.
+const BATCH: usize = 1024;
 
 /// The unit normal of every triangle, or NaNs where it has none: an improper triangle (never
 /// on an edge of [`EdgeBuckets::new`]), zero area, or a non-finite corner.
@@ -56,26 +73,33 @@ const ASIN_SERIES: [f64; 8] = [
     143.0 / 10240.0,
 ];
 
-/// The angle in radians between unit vectors `u` and `v`.
+/// Half chords `s` up to this squared (`s ≤ 1/8`, angles up to about 14°) take the series.
+const SERIES_LIMIT: f64 = 1.0 / 64.0;
+
+/// The sum of the angles whose squared half chords are `half_chords_squared` (each at most
+/// [`SERIES_LIMIT`]), in two lanes so it vectorises; deterministic for a given order.
 ///
 /// Neighbouring normals of a scan mostly differ by a few degrees, where `atan2` (software in
-/// wasm) dominated the check. Half the chord `s = |u - v| / 2` is `sin(θ / 2)`, and for
-/// `θ ≤ 2 asin(1/8)` ≈ 14° the `asin` series gives `θ` from it with only multiplications
-/// (accurate also for tiny angles, unlike `acos` of the dot product); wider angles take
-/// `atan2`.
-fn angle_between_unit(u: Vec3, v: Vec3) -> f64 {
-    let d = sub(u, v);
-    let s2 = 0.25 * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    if s2 <= 1.0 / 64.0 {
+/// wasm) dominated the check. Half the chord `s = |u - v| / 2` between unit normals is
+/// `sin(θ / 2)`, and for `s ≤ 1/8` the `asin` series gives `θ` from it with only
+/// multiplications (accurate also for tiny angles, unlike `acos` of the dot product).
+fn small_angles_sum(half_chords_squared: &[f64]) -> f64 {
+    let angle = |x: f64| {
         // Estrin's scheme: short dependency chains, the terms evaluate in parallel.
         let c = ASIN_SERIES;
-        let (x, x2) = (s2, s2 * s2);
+        let x2 = x * x;
         let low = (c[0] + c[1] * x) + x2 * (c[2] + c[3] * x);
         let high = (c[4] + c[5] * x) + x2 * (c[6] + c[7] * x);
-        2.0 * s2.sqrt() * (low + x2 * x2 * high)
-    } else {
-        angle_between(u, v)
+        2.0 * x.sqrt() * (low + x2 * x2 * high)
+    };
+    let mut lanes = [0.0f64; 2];
+    let pairs = half_chords_squared.chunks_exact(2);
+    let rest = pairs.remainder();
+    for pair in pairs {
+        lanes[0] += angle(pair[0]);
+        lanes[1] += angle(pair[1]);
     }
+    lanes[0] + lanes[1] + rest.iter().map(|&x| angle(x)).sum::<f64>()
 }
 
 #[cfg(test)]
@@ -133,14 +157,26 @@ mod tests {
     }
 
     #[test]
-    fn unit_angles_match_atan2_on_both_sides_of_the_series_limit() {
+    fn series_angles_match_atan2_up_to_the_series_limit() {
+        let (mut fast_sum, mut exact_sum) = (Vec::new(), 0.0);
         for i in 0..=2000 {
             let theta = std::f64::consts::PI * (i as f64 / 2000.0).powi(3);
             let v = [theta.cos(), theta.sin(), 0.0];
+            let d = sub([1.0, 0.0, 0.0], v);
+            let half_chord_squared = 0.25 * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            if half_chord_squared > SERIES_LIMIT {
+                assert!(theta > 0.24, "the series covers angles up to about 14°: {theta}");
+                continue;
+            }
             let (fast, exact) =
-                (angle_between_unit([1.0, 0.0, 0.0], v), angle_between([1.0, 0.0, 0.0], v));
+                (small_angles_sum(&[half_chord_squared]), angle_between([1.0, 0.0, 0.0], v));
             assert!((fast - exact).abs() <= 4e-15 * exact.max(1e-3), "{theta}: {fast} vs {exact}");
+            fast_sum.push(half_chord_squared);
+            exact_sum += exact;
         }
+        // Summed in lanes, odd lengths included.
+        let fast = small_angles_sum(&fast_sum);
+        assert!((fast - exact_sum).abs() <= 1e-12 * exact_sum, "{fast} vs {exact_sum}");
     }
 
     #[test]
