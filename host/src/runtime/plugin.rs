@@ -76,8 +76,9 @@ pub(crate) fn validate_description(services: &[ServiceInfo]) -> Result<(), Plugi
                     type_name(p.ty)
                 ));
             }
+            // Also refuses a NaN bound, which compares as neither.
             if let (Some(min), Some(max)) = (p.min, p.max)
-                && !(min <= max)
+                && min.partial_cmp(&max).is_none_or(|order| order.is_gt())
             {
                 return bad(format!("`{name}`: parameter `{}` has range [{min}, {max}]", p.name));
             }
@@ -100,4 +101,38 @@ fn is_service_name(name: &str) -> bool {
         && name.split('-').all(|w| {
             !w.is_empty() && w.bytes().all(|b| b.is_ascii_lowercase() || b.is_ascii_digit())
         })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::runtime::bindings::ParamInfo;
+
+    fn filter_with_range(min: f64, max: f64) -> Vec<ServiceInfo> {
+        vec![ServiceInfo {
+            name: "scale".into(),
+            kind: ServiceKind::Filter,
+            doc: String::new(),
+            params: vec![ParamInfo {
+                name: "factor".into(),
+                doc: String::new(),
+                ty: ValueType::Real,
+                default: Value::Real(1.0),
+                min: Some(min),
+                max: Some(max),
+                choices: vec![],
+            }],
+            result_type: None,
+        }]
+    }
+
+    #[test]
+    fn a_range_must_be_ordered_and_bounds_numbers() {
+        assert!(validate_description(&filter_with_range(0.0, 2.0)).is_ok());
+        assert!(validate_description(&filter_with_range(1.0, 1.0)).is_ok());
+        for (min, max) in [(2.0, 0.0), (f64::NAN, 2.0), (0.0, f64::NAN)] {
+            let error = validate_description(&filter_with_range(min, max)).unwrap_err();
+            assert!(error.to_string().contains("has range"), "[{min}, {max}]: {error}");
+        }
+    }
 }

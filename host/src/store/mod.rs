@@ -323,7 +323,7 @@ fn check_finite(values: &[f32], what: &str) -> Result<(), EditError> {
 }
 
 fn check_triples(len: usize, what: &str) -> Result<(), EditError> {
-    if len % 3 == 0 {
+    if len.is_multiple_of(3) {
         Ok(())
     } else {
         Err(EditError::argument(format!("{what}: {len} values is not a multiple of 3")))
