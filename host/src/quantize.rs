@@ -43,26 +43,70 @@ pub enum QuantizeError {
     NotFinite,
 }
 
-/// A grid per axis: values are integer multiples of `2^exponents[axis]`.
+/// A grid per axis: binary (values are integer multiples of `2^exponents[axis]`, what
+/// `--quantize` makes) or decimal (values are the `f32`s nearest `index / 10^digits[axis]`,
+/// what text formats with a fixed number of decimals give, e.g. OBJ files).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Grid {
-    exponents: [i32; 3],
+    spacing: Spacing,
 }
+
+/// How a [`Grid`]'s values are spaced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Spacing {
+    /// Step exponents per axis: values `index × 2^e`, each an exact `f32`.
+    Binary([i32; 3]),
+    /// Decimal digits per axis: values `(index / 10^d)` rounded to `f32`.
+    Decimal([u8; 3]),
+}
+
+/// The most decimal digits a decimal grid has (`10^-12` is below the `f32` resolution of
+/// any coordinate above `2^-16`).
+pub const MAX_DIGITS: u8 = 12;
 
 impl Grid {
     /// A grid from step exponents, `None` when one is outside `-149..=127`.
     pub fn from_exponents(exponents: [i32; 3]) -> Option<Self> {
         let valid = exponents.iter().all(|e| (MIN_EXPONENT..=MAX_EXPONENT).contains(e));
-        valid.then_some(Self { exponents })
+        valid.then_some(Self { spacing: Spacing::Binary(exponents) })
     }
 
-    pub fn exponents(&self) -> [i32; 3] {
-        self.exponents
+    /// A decimal grid from digit counts, `None` when one exceeds [`MAX_DIGITS`].
+    pub fn from_digits(digits: [u8; 3]) -> Option<Self> {
+        digits
+            .iter()
+            .all(|&d| d <= MAX_DIGITS)
+            .then_some(Self { spacing: Spacing::Decimal(digits) })
     }
 
-    /// The step of `axis` (0, 1, 2).
+    pub fn spacing(&self) -> Spacing {
+        self.spacing
+    }
+
+    /// The step of `axis` (0, 1, 2); a decimal step as the nearest `f64`.
     pub fn step(&self, axis: usize) -> f64 {
-        power_of_two(self.exponents[axis])
+        match self.spacing {
+            Spacing::Binary(e) => power_of_two(e[axis]),
+            Spacing::Decimal(d) => 1.0 / power_of_ten(d[axis]),
+        }
+    }
+
+    /// The grid index of `x` on `axis`: exact (maybe fractional) on a binary grid, rounded
+    /// on a decimal one (check with [`value`](Self::value) whether it gives `x` back).
+    pub fn index(&self, axis: usize, x: f32) -> f64 {
+        match self.spacing {
+            Spacing::Binary(e) => f64::from(x) / power_of_two(e[axis]),
+            Spacing::Decimal(d) => (f64::from(x) * power_of_ten(d[axis])).round(),
+        }
+    }
+
+    /// The grid value of an integer `index` on `axis` (infinite when out of `f32` range).
+    pub fn value(&self, axis: usize, index: f64) -> f32 {
+        let value = match self.spacing {
+            Spacing::Binary(e) => index * power_of_two(e[axis]),
+            Spacing::Decimal(d) => index / power_of_ten(d[axis]),
+        };
+        value as f32 + 0.0
     }
 
     /// The grid of at most `2^bits` cells per axis over the mesh's bounding box.
@@ -82,17 +126,18 @@ impl Grid {
             let cells = if extent > 0.0 { ceil_log2(extent) - bits as i32 } else { MIN_EXPONENT };
             cells.max(resolution).clamp(MIN_EXPONENT, MAX_EXPONENT)
         });
-        Ok(Self { exponents })
+        Ok(Self { spacing: Spacing::Binary(exponents) })
     }
 
     /// The coarsest grid every given position lies on, if it is coarser than the `f32`
     /// resolution of the largest coordinate on each axis (so grid indices are cheaper than
-    /// float residuals); `None` for ordinary float data or a `-0.0`.
-    pub fn detect<'a>(position_sets: impl IntoIterator<Item = &'a [f32]>) -> Option<Self> {
+    /// float residuals): a binary grid, else a decimal one (one digit count for all axes);
+    /// `None` for ordinary float data or a `-0.0`.
+    pub fn detect<'a>(position_sets: impl IntoIterator<Item = &'a [f32]> + Clone) -> Option<Self> {
         // Per axis: the lowest set bit's exponent over all values, the largest ulp exponent.
         let mut lowest = [i32::MAX; 3];
         let mut resolution = [MIN_EXPONENT; 3];
-        for positions in position_sets {
+        for positions in position_sets.clone() {
             for p in positions.chunks_exact(3) {
                 for k in 0..3 {
                     let bits = p[k].to_bits();
@@ -116,17 +161,25 @@ impl Grid {
             low => low.min(MAX_EXPONENT),
         });
         let coarser = (0..3).all(|k| lowest[k] == i32::MAX || exponents[k] > resolution[k]);
-        coarser.then_some(Self { exponents })
+        if coarser {
+            return Some(Self { spacing: Spacing::Binary(exponents) });
+        }
+        // Decimal: the fewest digits that hold every value, while a step is still coarser
+        // than the resolution. Float data fails each try at its first value or so.
+        let finest = (0..3).map(|k| power_of_two(resolution[k])).fold(0.0, f64::max);
+        (1..=MAX_DIGITS)
+            .map(|d| Self { spacing: Spacing::Decimal([d; 3]) })
+            .take_while(|grid| grid.step(0) > finest)
+            .find(|grid| position_sets.clone().into_iter().all(|p| grid.holds(p)))
     }
 
-    /// The grid value nearest `x` on `axis` (ties away from zero); never `-0.0`. A value too
-    /// large to round up without overflowing rounds down instead.
+    /// The grid value nearest `x` on `axis` (ties away from zero on a binary grid); never
+    /// `-0.0`. A value too large to round up without overflowing rounds down instead.
     pub fn snap(&self, axis: usize, x: f32) -> f32 {
-        let step = self.step(axis);
-        let m = (f64::from(x) / step).round();
-        match (m * step) as f32 {
-            s if s.is_finite() => s + 0.0,
-            _ => ((m - m.signum()) * step) as f32 + 0.0,
+        let m = self.index(axis, x).round();
+        match self.value(axis, m) {
+            s if s.is_finite() => s,
+            _ => self.value(axis, m - m.signum()),
         }
     }
 
@@ -210,6 +263,13 @@ impl Grid {
     }
 }
 
+fn power_of_ten(digits: u8) -> f64 {
+    // Literals, exact (below 2^53), the same on every host.
+    const POWERS: [f64; MAX_DIGITS as usize + 1] =
+        [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12];
+    POWERS[usize::from(digits)]
+}
+
 fn power_of_two(exponent: i32) -> f64 {
     // Exact for every exponent a grid allows (f64 normals reach 2^-1022).
     f64::from_bits(((exponent + 1023) as u64) << 52)
@@ -285,7 +345,8 @@ mod tests {
 
     #[test]
     fn detection_finds_a_quantised_grid_and_refuses_float_data() {
-        let mut m = mesh(vec![0.1, 0.2, 0.3, 1.7, -0.4, 2.9, -3.3, 0.0, 0.123]);
+        let float_data: Vec<f32> = (1..10).map(|i| (i as f32 * 0.7).sin() * 3.0).collect();
+        let mut m = mesh(float_data);
         assert_eq!(Grid::detect([&m.positions[..]]), None);
         let grid = quantize(&mut m, 10).unwrap();
         let found = Grid::detect([&m.positions[..]]).expect("on a grid");
@@ -294,6 +355,26 @@ mod tests {
             assert!(found.step(k) >= grid.step(k));
         }
         assert_eq!(Grid::detect([&[1.0f32, -0.0, 2.0][..]]), None);
+    }
+
+    #[test]
+    fn text_coordinates_with_fixed_decimals_are_a_decimal_grid() {
+        // As parsed from an OBJ with up to three decimals.
+        let text = ["0.1", "-2.25", "3.125", "1.7", "-0.4", "2.9", "-3.3", "0", "0.123"];
+        let positions: Vec<f32> = text.iter().map(|t| t.parse().unwrap()).collect();
+        let grid = Grid::detect([&positions[..]]).expect("a decimal grid");
+        assert_eq!(grid.spacing(), Spacing::Decimal([3; 3]));
+        for (k, &x) in positions.iter().enumerate() {
+            let index = grid.index(k % 3, x);
+            assert_eq!(grid.value(k % 3, index).to_bits(), x.to_bits(), "{x}");
+            assert_eq!(grid.snap(k % 3, x).to_bits(), x.to_bits(), "{x} is on the grid");
+        }
+        // One more decimal anywhere needs the next digit; -0.0 is on no grid.
+        let finer = [&positions[..], &[0.0625f32, 0.5, 0.25][..]];
+        assert_eq!(Grid::detect(finer).map(|g| g.spacing()), Some(Spacing::Decimal([4; 3])));
+        assert_eq!(Grid::detect([&[0.1f32, -0.0, 0.2][..]]), None);
+        // Decimals finer than f32 can tell apart are no grid: plain float residuals.
+        assert_eq!(Grid::detect([&[1234.5678f32, 2345.6789, 3456.7891][..]]), None);
     }
 
     #[test]

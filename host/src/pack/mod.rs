@@ -37,7 +37,7 @@ use predict::{VertexTriangles, predict};
 
 const MAGIC: [u8; 4] = *b"MFM\x1a";
 /// The format version this build writes and reads.
-pub const VERSION: u16 = 2;
+pub const VERSION: u16 = 3;
 const CHECKSUM_LEN: usize = 16;
 const CHECKSUM_AT: usize = 6;
 /// Declared counts may exceed the file size by at most this factor (the adaptive models'

@@ -1,7 +1,7 @@
 //! Plain byte-level framing: fixed-width integers and LEB128 varints, read with bounds checks.
 
 use super::integer::{unzigzag, zigzag};
-use crate::quantize::Grid;
+use crate::quantize::{Grid, Spacing};
 
 /// The data ended early, a varint was longer than its type, or a grid was invalid.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -19,11 +19,19 @@ pub(crate) fn put_varint(out: &mut Vec<u8>, mut value: u64) {
     out.push(value as u8);
 }
 
-/// An optional grid: a flag varint, then the zigzagged step exponent of each axis.
+/// An optional grid: a varint 0 (none), 1 (binary: then the zigzagged step exponent of each
+/// axis) or 2 (decimal: then the digit count of each axis).
 pub(crate) fn put_grid(out: &mut Vec<u8>, grid: Option<Grid>) {
-    put_varint(out, u64::from(grid.is_some()));
-    for e in grid.iter().flat_map(Grid::exponents) {
-        put_varint(out, u64::from(zigzag(e)));
+    match grid.map(|g| g.spacing()) {
+        None => put_varint(out, 0),
+        Some(Spacing::Binary(exponents)) => {
+            put_varint(out, 1);
+            exponents.iter().for_each(|&e| put_varint(out, u64::from(zigzag(e))));
+        }
+        Some(Spacing::Decimal(digits)) => {
+            put_varint(out, 2);
+            digits.iter().for_each(|&d| put_varint(out, u64::from(d)));
+        }
     }
 }
 
@@ -77,16 +85,24 @@ impl<'a> ByteReader<'a> {
 
     /// What [`put_grid`] wrote.
     pub(crate) fn grid(&mut self) -> Result<Option<Grid>, FramingError> {
-        match self.varint()? {
+        let flag = self.varint()?;
+        let mut axes = [0u32; 3];
+        if flag == 1 || flag == 2 {
+            for axis in &mut axes {
+                *axis = u32::try_from(self.varint()?).map_err(|_| FramingError::BadGrid)?;
+            }
+        }
+        let grid = match flag {
             0 => return Ok(None),
-            1 => {}
-            _ => return Err(FramingError::BadGrid),
-        }
-        let mut exponents = [0i32; 3];
-        for e in &mut exponents {
-            *e = unzigzag(u32::try_from(self.varint()?).map_err(|_| FramingError::BadGrid)?);
-        }
-        Grid::from_exponents(exponents).map(Some).ok_or(FramingError::BadGrid)
+            1 => Grid::from_exponents(axes.map(unzigzag)),
+            2 => axes
+                .iter()
+                .all(|&d| d <= 255)
+                .then(|| axes.map(|d| d as u8))
+                .and_then(Grid::from_digits),
+            _ => None,
+        };
+        grid.map(Some).ok_or(FramingError::BadGrid)
     }
 }
 
@@ -114,12 +130,13 @@ mod tests {
 
     #[test]
     fn grids_round_trip_and_refuse_bad_flags_and_steps() {
-        for grid in [None, Grid::from_exponents([-149, 0, 127])] {
+        for grid in [None, Grid::from_exponents([-149, 0, 127]), Grid::from_digits([0, 6, 12])] {
             let mut out = Vec::new();
             put_grid(&mut out, grid);
             assert_eq!(ByteReader::new(&out).grid(), Ok(grid));
         }
-        assert_eq!(ByteReader::new(&[2]).grid(), Err(FramingError::BadGrid));
+        assert_eq!(ByteReader::new(&[3]).grid(), Err(FramingError::BadGrid));
+        assert_eq!(ByteReader::new(&[2, 6, 6, 13]).grid(), Err(FramingError::BadGrid));
         assert_eq!(ByteReader::new(&[1, 0, 0, 0xfe, 3]).grid(), Err(FramingError::BadGrid));
     }
 }

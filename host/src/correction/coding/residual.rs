@@ -142,16 +142,13 @@ pub(crate) struct Residuals([(u32, u32); 3]);
 /// Grid steps from `predicted` (snapped) to `actual`, when decoding them gives back
 /// `actual`'s exact bits.
 fn grid_residual(grid: &Grid, axis: usize, actual: f32, predicted: f32) -> Option<i32> {
-    let step = grid.step(axis);
-    let r = f64::from(actual) / step - f64::from(grid.snap(axis, predicted)) / step;
+    let r = grid.index(axis, actual) - grid.index(axis, grid.snap(axis, predicted));
     let r = (r.fract() == 0.0 && r.abs() < f64::from(i32::MAX)).then_some(r as i32)?;
     (from_grid(grid, axis, predicted, r).to_bits() == actual.to_bits()).then_some(r)
 }
 
 fn from_grid(grid: &Grid, axis: usize, predicted: f32, r: i32) -> f32 {
-    let step = grid.step(axis);
-    let index = f64::from(grid.snap(axis, predicted)) / step + f64::from(r);
-    (index * step) as f32 + 0.0
+    grid.value(axis, grid.index(axis, grid.snap(axis, predicted)) + f64::from(r))
 }
 
 fn class_of(z: u32) -> usize {
