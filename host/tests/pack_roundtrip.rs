@@ -104,8 +104,10 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(256))]
 
     #[test]
-    fn resealed_damage_never_panics(seed in 0u64..8, at in any::<usize>(), value in any::<u8>()) {
-        let mesh = grid(6, 5, 2, &mut Rng(seed));
+    fn resealed_damage_never_panics(seed in 0u64..9, at in any::<usize>(), value in any::<u8>()) {
+        // Row-ordered grids, and the bunny (seed 8), whose triangles come in no local order
+        // (most of them then name their shared edge through the recency list).
+        let mesh = if seed == 8 { bunny() } else { grid(6, 5, 2, &mut Rng(seed)) };
         let mut bytes = pack::encode(&mesh).unwrap();
         let i = 54 + at % (bytes.len() - 54);
         bytes[i] = value;

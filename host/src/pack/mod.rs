@@ -3,13 +3,15 @@
 //! ```text
 //! magic "MFM\x1a" | version u16 LE | checksum [16] (BLAKE3 of every byte after it)
 //! content hash [32] of the mesh, checked after decoding
-//! varints: vertex count, triangle count, grid flag (0, or 1 and then the zigzagged step
-//!          exponent of each axis), connectivity bytes, geometry bytes
+//! varints: vertex count, triangle count, grid (0 none; 1 binary, then the zigzagged step
+//!          exponent of each axis; 2 decimal, then the digits of each axis), connectivity
+//!          bytes, geometry bytes
 //! connectivity section | geometry section (range coded, ending exactly at the end)
 //! ```
 //!
-//! Connectivity: triangles in order, each corner coded against a cache of recently used
-//! vertices, or as "the next unseen vertex", or as a delta ([`CornerCoder`]). Geometry:
+//! Connectivity: triangles in order, each through the open edge it completes, its third
+//! corner among the vertices that close the fan there ([`AdjacencyCoder`]); corners
+//! without such an edge by recency, as the next unseen vertex, or explicitly. Geometry:
 //! vertices in id order, each an exact f32 residual from a parallelogram prediction over
 //! already decoded neighbours, or on a mesh whose coordinates all lie on a coarse grid
 //! ([`Grid::detect`], e.g. after `--quantize`), in grid steps from the snapped prediction.
@@ -22,17 +24,19 @@
 //! assert_eq!(pack::decode(&pack::encode(&mesh).unwrap()).unwrap(), mesh);
 //! ```
 
+mod adjacency;
 mod error;
+mod open_edges;
 mod predict;
 
 pub use error::PackError;
 
 use crate::correction::coding::bytes::{ByteReader, put_grid, put_varint};
-use crate::correction::coding::corners::CornerCoder;
 use crate::correction::coding::residual::ResidualCoder;
 use crate::correction::coding::stream::{SymbolReader, SymbolWriter};
 use crate::quantize::Grid;
 use crate::{ContentHash, MeshData};
+use adjacency::AdjacencyCoder;
 use predict::{VertexTriangles, predict};
 
 const MAGIC: [u8; 4] = *b"MFM\x1a";
@@ -50,11 +54,7 @@ const ELEMENT_SLACK: u64 = 1 << 16;
 pub fn encode(mesh: &MeshData) -> Result<Vec<u8>, PackError> {
     validate(mesh)?;
     let vertex_count = mesh.vertex_count();
-    let mut connectivity = SymbolWriter::new();
-    let mut corners = CornerCoder::new();
-    for t in mesh.triangles.chunks_exact(3) {
-        corners.write(&mut connectivity, [t[0], t[1], t[2]]);
-    }
+    let connectivity = encode_connectivity(mesh);
     let around = VertexTriangles::new(vertex_count, &mesh.triangles);
     let grid = Grid::detect([&mesh.positions[..]]);
     let mut geometry = SymbolWriter::new();
@@ -63,7 +63,7 @@ pub fn encode(mesh: &MeshData) -> Result<Vec<u8>, PackError> {
         let predicted = predict(v as u32, &mesh.positions, &mesh.triangles, &around);
         residuals.write(&mut geometry, [p[0], p[1], p[2]], predicted);
     }
-    let (connectivity, geometry) = (connectivity.finish(), geometry.finish());
+    let geometry = geometry.finish();
     let mut out = Vec::with_capacity(64 + connectivity.len() + geometry.len());
     out.extend_from_slice(&MAGIC);
     out.extend_from_slice(&VERSION.to_le_bytes());
@@ -118,14 +118,10 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, PackError> {
 
     let bad_connectivity = |_| PackError::Corrupt("connectivity");
     let mut input = SymbolReader::new(connectivity).map_err(bad_connectivity)?;
-    let mut corners = CornerCoder::new();
+    let mut coder = AdjacencyCoder::new(vertex_count as u32);
     let mut triangles = Vec::new();
     for _ in 0..triangle_count {
-        let t = corners.read(&mut input).map_err(bad_connectivity)?;
-        if t.iter().any(|&v| u64::from(v) >= vertex_count) {
-            return Err(PackError::Corrupt("connectivity"));
-        }
-        triangles.extend(t);
+        triangles.extend(coder.read(&mut input).map_err(bad_connectivity)?);
     }
 
     let bad_geometry = |_| PackError::Corrupt("geometry");
@@ -143,6 +139,16 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, PackError> {
         return Err(PackError::HashMismatch { expected, found });
     }
     Ok(mesh)
+}
+
+/// Codes the triangles through the edges they share.
+fn encode_connectivity(mesh: &MeshData) -> Vec<u8> {
+    let mut out = SymbolWriter::new();
+    let mut coder = AdjacencyCoder::new(mesh.vertex_count() as u32);
+    for t in mesh.triangles.chunks_exact(3) {
+        coder.write(&mut out, [t[0], t[1], t[2]]);
+    }
+    out.finish()
 }
 
 fn validate(mesh: &MeshData) -> Result<(), PackError> {
