@@ -23,13 +23,11 @@ const RECENT: usize = 256;
 /// "Which corner starts the shared edge" symbol for a triangle sharing none.
 const NOT_SHARED: usize = 3;
 
-/// How a vertex is named when no edge predicts it.
-#[derive(Clone, Copy)]
-enum Named {
-    Recent = 0,
-    NextNew = 1,
-    Explicit = 2,
-}
+/// How a vertex is named when no edge predicts it: by recency rank, as the next unseen id,
+/// or explicitly.
+const BY_RECENCY: usize = 0;
+const NEXT_NEW: usize = 1;
+const EXPLICIT: usize = 2;
 
 /// How a third corner is named: closing the fan on both sides of the shared edge, on one
 /// side, or otherwise.
@@ -176,12 +174,12 @@ impl AdjacencyCoder {
         let role = role as usize;
         match self.recency_rank(v) {
             Some(rank) => {
-                w.symbol(&mut self.named[role], Named::Recent as usize);
+                w.symbol(&mut self.named[role], BY_RECENCY);
                 w.uint(&mut self.rank[role], rank as u32);
             }
-            None if v == self.next_new => w.symbol(&mut self.named[role], Named::NextNew as usize),
+            None if v == self.next_new => w.symbol(&mut self.named[role], NEXT_NEW),
             None => {
-                w.symbol(&mut self.named[role], Named::Explicit as usize);
+                w.symbol(&mut self.named[role], EXPLICIT);
                 w.int(&mut self.delta, v.wrapping_sub(self.last) as i32);
             }
         }
@@ -190,8 +188,10 @@ impl AdjacencyCoder {
     fn read_vertex(&mut self, r: &mut SymbolReader, role: Role) -> Result<u32, CorruptStream> {
         let role = role as usize;
         let v = match r.symbol(&mut self.named[role])? {
-            0 => *self.recent.get(r.uint(&mut self.rank[role])? as usize).ok_or(CorruptStream)?,
-            1 => self.next_new,
+            BY_RECENCY => {
+                *self.recent.get(r.uint(&mut self.rank[role])? as usize).ok_or(CorruptStream)?
+            }
+            NEXT_NEW => self.next_new,
             _ => self.last.wrapping_add(r.int(&mut self.delta)? as u32),
         };
         if v >= self.vertex_count {
