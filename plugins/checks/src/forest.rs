@@ -1,5 +1,6 @@
-//! Union-find over triangles with a parity bit per link: connectivity, and whether "same or
-//! opposite orientation" constraints between triangles can all be met.
+//! Union-find over triangles with a parity bit per link: whether "same or opposite
+//! orientation" constraints between triangles can all be met. (Plain connectivity uses the
+//! SDK's [`UnionFind`](meshflow_sdk::topology::UnionFind).)
 
 /// A disjoint-set forest whose links remember whether a node's orientation is the same as
 /// (0) or opposite to (1) its parent's.
@@ -46,11 +47,6 @@ impl ParityForest {
         self.parity[child as usize] = pa ^ pb ^ relation;
         true
     }
-
-    /// The number of trees.
-    pub fn roots(&self) -> usize {
-        self.parent.iter().enumerate().filter(|&(i, &p)| p == i as u32).count()
-    }
 }
 
 #[cfg(test)]
@@ -61,7 +57,7 @@ mod tests {
     fn parities_compose_and_contradictions_are_found() {
         let mut forest = ParityForest::new(4);
         assert!(forest.union(0, 1, 1) && forest.union(1, 2, 1) && forest.union(3, 2, 0));
-        assert_eq!(forest.roots(), 1);
+        assert_eq!(forest.find(3).0, forest.find(0).0, "one tree");
         assert!(forest.union(0, 2, 0), "opposite of opposite is the same");
         assert!(!forest.union(0, 3, 1), "3 is like 2, so like 0");
     }

@@ -24,7 +24,7 @@ impl TriangleComponents {
     ///
     /// O(V + T log d) (edge grouping by bucket sort, then union-find with path halving).
     pub fn new(vertex_count: usize, triangles: &[u32]) -> Self {
-        let mut forest = Forest::new(triangles.len() / 3);
+        let mut forest = UnionFind::new(triangles.len() / 3);
         EdgeBuckets::of(vertex_count, triangles, Members::AnyEdge).for_each_edge(|_, group| {
             for w in group.windows(2) {
                 forest.union(w[0].triangle(), w[1].triangle());
@@ -37,7 +37,7 @@ impl TriangleComponents {
     /// `< vertex_count` (a bow-tie is one component). Out-of-range ids connect nothing.
     /// O(V + T) with union-find over vertices.
     pub fn vertex_connected(vertex_count: usize, triangles: &[u32]) -> Self {
-        let mut forest = Forest::new(vertex_count);
+        let mut forest = UnionFind::new(vertex_count);
         let in_range = |v: u32| (v as usize) < vertex_count;
         for c in triangles.chunks_exact(3) {
             let mut corners = c.iter().copied().filter(|&v| in_range(v));
@@ -128,18 +128,20 @@ impl TriangleComponents {
     }
 }
 
-/// Union-find whose roots are always the smallest element of their set (deterministic),
-/// with path halving.
-struct Forest {
+/// Union-find over `0..n` with path halving; the smaller root wins a union, so on meshes
+/// stored in order trees stay shallow and roots are each set's smallest member.
+pub struct UnionFind {
     parent: Vec<u32>,
 }
 
-impl Forest {
-    fn new(n: usize) -> Self {
+impl UnionFind {
+    /// `n` singletons.
+    pub fn new(n: usize) -> Self {
         Self { parent: (0..n as u32).collect() }
     }
 
-    fn find(&mut self, mut x: u32) -> u32 {
+    /// The root of `x`'s set.
+    pub fn find(&mut self, mut x: u32) -> u32 {
         while self.parent[x as usize] != x {
             let grand = self.parent[self.parent[x as usize] as usize];
             self.parent[x as usize] = grand;
@@ -148,12 +150,18 @@ impl Forest {
         x
     }
 
-    fn union(&mut self, a: u32, b: u32) {
+    /// Joins the sets of `a` and `b`.
+    pub fn union(&mut self, a: u32, b: u32) {
         let (ra, rb) = (self.find(a), self.find(b));
         if ra != rb {
             let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
             self.parent[hi as usize] = lo;
         }
+    }
+
+    /// The number of sets.
+    pub fn sets(&self) -> usize {
+        self.parent.iter().enumerate().filter(|&(i, &p)| p == i as u32).count()
     }
 }
 

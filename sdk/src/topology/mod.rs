@@ -43,7 +43,7 @@ pub mod manifold;
 
 pub use adjacency::{VertexNeighbours, VertexTriangles, unreferenced_vertices};
 pub use boundary::{BoundaryLoop, boundary_loops, boundary_vertices};
-pub use components::TriangleComponents;
+pub use components::{TriangleComponents, UnionFind};
 pub use csr::Csr;
 pub use edges::{EdgeBuckets, Members};
 pub use halfedge::{EdgeKind, EdgeLookup, HalfEdges};
