@@ -10,16 +10,22 @@ use crate::forest::ParityForest;
 
 /// Whether the mesh is edge-manifold (no edge has three or more triangles) and
 /// vertex-manifold (the triangles around every vertex form a single fan, so no bow-tie).
-/// O(V + T).
+/// O(V + T); twins are built only when every edge is manifold.
 pub fn is_manifold(vertex_count: usize, triangles: &[u32]) -> bool {
-    let half_edges = HalfEdges::new(vertex_count, triangles);
-    manifold::is_manifold(vertex_count, triangles, &half_edges)
+    let edges = EdgeBuckets::new(vertex_count, triangles);
+    let mut edge_manifold = true;
+    edges.for_each_edge(|_, sides| edge_manifold &= sides.len() <= 2);
+    edge_manifold
+        && manifold::is_vertex_manifold(vertex_count, triangles, &HalfEdges::from_buckets(&edges))
 }
 
 /// Whether every interior (two-triangle) edge is traversed in opposite directions by its two
 /// triangles. Boundary and non-manifold edges impose nothing. O(V + T).
 pub fn is_oriented(vertex_count: usize, triangles: &[u32]) -> bool {
-    let edges = EdgeBuckets::new(vertex_count, triangles);
+    oriented(&EdgeBuckets::new(vertex_count, triangles))
+}
+
+fn oriented(edges: &EdgeBuckets) -> bool {
     let mut oriented = true;
     edges.for_each_edge(|a, sides| {
         if let [x, y] = sides {
@@ -30,9 +36,12 @@ pub fn is_oriented(vertex_count: usize, triangles: &[u32]) -> bool {
 }
 
 /// Whether flipping some triangles would make the mesh oriented (false for a Möbius strip).
-/// O(V + T).
+/// O(V + T); an oriented mesh is its own witness, so the union-find runs only on others.
 pub fn is_orientable(vertex_count: usize, triangles: &[u32]) -> bool {
     let edges = EdgeBuckets::new(vertex_count, triangles);
+    if oriented(&edges) {
+        return true;
+    }
     // Two triangles running along their edge the same way must end up flipped relative to
     // each other (parity 1); a cycle of constraints with odd parity cannot be met.
     let mut forest = ParityForest::new(triangles.len() / 3);

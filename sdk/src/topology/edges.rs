@@ -46,6 +46,7 @@ pub enum Members {
 /// Half-edges bucketed by the smaller endpoint of their edge.
 pub struct EdgeBuckets<'a> {
     triangles: &'a [u32],
+    members: Members,
     /// `ends[a]`: one past the last entry of bucket `a` (bucket `a` starts at `ends[a - 1]`).
     ends: Vec<u32>,
     /// Per bucket, sorted: grouped by edge, half-edges ascending within a group.
@@ -81,7 +82,7 @@ impl<'a> EdgeBuckets<'a> {
             sides[begin..end as usize].sort_unstable();
             begin = end as usize;
         }
-        Self { triangles, ends, sides }
+        Self { triangles, members, ends, sides }
     }
 
     /// Calls `group(a, sides)` for every undirected edge `{a, b}` with `a < b`, in ascending
@@ -95,6 +96,11 @@ impl<'a> EdgeBuckets<'a> {
                 group(a as u32, edge);
             }
         }
+    }
+
+    /// Which half-edges take part.
+    pub fn members(&self) -> Members {
+        self.members
     }
 
     /// Whether a half-edge of edge `{a, b}` (`a < b`) runs from `a` to `b`.

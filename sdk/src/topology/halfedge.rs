@@ -6,7 +6,7 @@
 
 use super::NONE;
 use super::csr::Csr;
-use super::edges::EdgeBuckets;
+use super::edges::{EdgeBuckets, Members};
 
 /// The half-edge id of corner `k` (0, 1 or 2) of triangle `t`: `3 * t + k`. O(1).
 #[inline]
@@ -148,13 +148,19 @@ impl HalfEdges {
     /// improper triangles). O(V + T log d) time with `d` the vertex degree (a bucket sort on
     /// the smaller endpoint, then a tiny sort per vertex); no hashing; deterministic.
     pub fn new(vertex_count: usize, triangles: &[u32]) -> Self {
-        let n = triangles.len() / 3 * 3;
+        Self::from_buckets(&EdgeBuckets::new(vertex_count, triangles))
+    }
+
+    /// The same from edge buckets already built with [`EdgeBuckets::new`] (a check that
+    /// looked at the edges first need not group them again).
+    pub fn from_buckets(buckets: &EdgeBuckets) -> Self {
+        assert!(buckets.members() == Members::ProperTriangles, "twins need proper triangles");
+        let n = buckets.half_edge_count();
         let mut opposite = vec![NONE; n];
         let mut kinds = vec![EdgeKind::Degenerate; n];
         let mut nm_offsets = vec![0u32];
         let mut nm_items = Vec::new();
         let (mut edges, mut boundary, mut interior, mut inconsistent) = (0, 0, 0, 0);
-        let buckets = EdgeBuckets::new(vertex_count, triangles);
         buckets.for_each_edge(|a, group| {
             edges += 1;
             match *group {
