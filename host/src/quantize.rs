@@ -374,7 +374,8 @@ mod tests {
         assert_eq!(Grid::detect(finer).map(|g| g.spacing()), Some(Spacing::Decimal([4; 3])));
         assert_eq!(Grid::detect([&[0.1f32, -0.0, 0.2][..]]), None);
         // Decimals finer than f32 can tell apart are no grid: plain float residuals.
-        assert_eq!(Grid::detect([&[1234.5678f32, 2345.6789, 3456.7891][..]]), None);
+        let too_fine = ["1234.5678", "2345.6789", "3456.7891"].map(|t| t.parse::<f32>().unwrap());
+        assert_eq!(Grid::detect([&too_fine[..]]), None);
     }
 
     #[test]
