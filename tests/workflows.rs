@@ -196,15 +196,12 @@ async fn killed_mid_run(families: &[&[&str]], kill_when: impl Fn(&Json) -> bool)
     let expected = locally(&workflow, &input);
     let id = cluster.submit(&workflow, &cluster.upload(&input).await).await;
 
-    let (victim, done) = loop {
-        let record = cluster.record(&id).await;
-        let produced = steps(&record).iter().find(|s| s["kind"] == "filter");
-        if let Some(step) = produced.filter(|step| kill_when(step)) {
-            break (text(&step["host"]).to_owned(), steps(&record).len());
-        }
-        assert_eq!(record["status"], "running", "{record:#}");
-        tokio::time::sleep(std::time::Duration::from_millis(20)).await;
+    let produced = |record: &Json| {
+        steps(record).iter().find(|s| s["kind"] == "filter").filter(|step| kill_when(step)).cloned()
     };
+    let record = cluster.under_way_until(&id, |record| produced(record).is_some()).await;
+    let victim = text(&produced(&record).unwrap()["host"]).to_owned();
+    let done = steps(&record).len();
     hosts.iter_mut().find(|h| h.url == victim).unwrap().kill();
 
     assert!(done < expected.steps.len(), "the run was over before the kill");
@@ -233,14 +230,9 @@ async fn a_lost_mesh_that_cannot_be_rebuilt_fails_the_run_clearly() {
     ]);
     let url = cluster.upload(&Input::scan(150_000, 13)).await;
     let id = cluster.submit(&workflow, &url).await;
-    loop {
-        let record = cluster.record(&id).await;
-        if steps(&record).iter().any(|s| s["service"] == "laplacian-smoothing") {
-            break;
-        }
-        assert_eq!(record["status"], "running", "{record:#}");
-        tokio::time::sleep(std::time::Duration::from_millis(20)).await;
-    }
+    let smoothed =
+        |record: &Json| steps(record).iter().any(|s| s["service"] == "laplacian-smoothing");
+    cluster.under_way_until(&id, smoothed).await;
     holder.kill();
 
     let record = cluster.finished(&id).await;

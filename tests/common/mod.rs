@@ -138,6 +138,22 @@ impl Cluster {
         }
     }
 
+    /// Polls the run until `reached` holds for its record, which it returns; the run must be
+    /// queued (waiting for a worker on a loaded machine) or running until then.
+    pub async fn under_way_until(&self, id: &str, reached: impl Fn(&Json) -> bool) -> Json {
+        let deadline = tokio::time::Instant::now() + RUN_TIMEOUT;
+        loop {
+            let record = self.record(id).await;
+            if reached(&record) {
+                return record;
+            }
+            let status = record["status"].as_str().unwrap_or_default();
+            assert!(status == "queued" || status == "running", "{record:#}");
+            assert!(tokio::time::Instant::now() < deadline, "run {id} never got there: {record:#}");
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+    }
+
     /// Submits and waits for the end.
     pub async fn run(&self, workflow: &Json, input: &str) -> Json {
         let id = self.submit(workflow, input).await;
