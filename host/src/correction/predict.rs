@@ -3,8 +3,10 @@
 
 use std::cell::RefCell;
 
+use meshflow_sdk::topology::VertexTriangles;
+
 use crate::quantize::Grid;
-use crate::store::{MeshStore, REMOVED};
+use crate::store::MeshStore;
 
 /// `(a + b + c) / 3` of a live triangle, `None` for an invalid id (the store will refuse it).
 pub(crate) fn centroid(store: &MeshStore, triangle: u32) -> Option<[f32; 3]> {
@@ -42,40 +44,6 @@ pub(crate) fn mean(points: impl Iterator<Item = [f32; 3]>) -> Option<[f32; 3]> {
     (n > 0).then(|| sum.map(|s| (s / f64::from(n)) as f32))
 }
 
-/// The live triangles at every vertex slot (CSR); a corner repeated in a degenerate
-/// triangle is listed as often as it appears.
-struct VertexTriangles {
-    start: Vec<u32>,
-    around: Vec<u32>,
-}
-
-impl VertexTriangles {
-    fn of_store(store: &MeshStore) -> Self {
-        let slots = store.vertex_slots() as usize;
-        let triangles = store.triangles();
-        let mut start = vec![0u32; slots + 1];
-        for &v in triangles.iter().filter(|&&v| v != REMOVED) {
-            start[v as usize + 1] += 1;
-        }
-        for i in 0..slots {
-            start[i + 1] += start[i];
-        }
-        let mut fill = start[..slots].to_vec();
-        let mut around = vec![0u32; start[slots] as usize];
-        for (t, corners) in triangles.chunks_exact(3).enumerate().filter(|(_, c)| c[0] != REMOVED) {
-            for &v in corners {
-                around[fill[v as usize] as usize] = t as u32;
-                fill[v as usize] += 1;
-            }
-        }
-        Self { start, around }
-    }
-
-    fn of(&self, v: u32) -> &[u32] {
-        &self.around[self.start[v as usize] as usize..self.start[v as usize + 1] as usize]
-    }
-}
-
 /// One step of uniform Laplacian smoothing as both sides predict `set-positions`: a live
 /// vertex with neighbours goes to `λ·mean + (1−λ)·p` per axis in f64 (for λ = 1 exactly the
 /// neighbour mean, the bits `laplacian-smoothing` produces), snapped to the grid if any;
@@ -94,7 +62,9 @@ pub(crate) struct Smoothing<'a> {
 
 impl<'a> Smoothing<'a> {
     pub(crate) fn new(store: &'a MeshStore, grid: Option<Grid>) -> Self {
-        let around = VertexTriangles::of_store(store);
+        // Removed triangles hold [`REMOVED`](crate::store::REMOVED), an id past every slot:
+        // they are left out.
+        let around = VertexTriangles::new(store.vertex_slots() as usize, store.triangles());
         Self { triangles: store.triangles(), around, scratch: RefCell::default(), grid }
     }
 

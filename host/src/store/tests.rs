@@ -298,4 +298,12 @@ fn a_shared_mesh_is_read_in_place_and_copied_on_the_first_edit() {
     let (edited, _) = editor.finish();
     assert_eq!(edited.triangle_count(), 3);
     assert_eq!(*shared, sample(), "the caller's mesh is untouched by the edits");
+
+    // Moving every vertex at once replaces the shared positions rather than editing them.
+    let mut smoother = MeshStore::new(Arc::clone(&shared));
+    let moved: Vec<f32> = shared.positions.iter().map(|x| x + 1.0).collect();
+    smoother.apply(Op::SetPositions { xyz: moved.clone() }).unwrap();
+    let (smoothed, _) = smoother.finish();
+    assert_eq!((smoothed.positions, smoothed.triangles), (moved, shared.triangles.clone()));
+    assert_eq!(*shared, sample(), "the caller's mesh is untouched by set-positions");
 }

@@ -3,6 +3,7 @@
 use std::sync::Arc;
 
 use super::{EditError, MeshStore, check_distinct, check_finite, check_triples};
+use crate::MeshData;
 
 impl MeshStore {
     pub(super) fn add_vertices(&mut self, xyz: &[f32]) -> Result<u32, EditError> {
@@ -54,8 +55,15 @@ impl MeshStore {
             check_finite(p, &format!("set-positions, vertex {v}"))?;
         }
         if self.removed_vertex_count == 0 {
-            // Every slot takes its value: one copy, no per-vertex check.
-            self.positions_mut().copy_from_slice(xyz);
+            // Every slot takes its value: one copy, no per-vertex check, and a mesh still
+            // shared with the caller is not copied first only to be overwritten.
+            match Arc::get_mut(&mut self.mesh) {
+                Some(mesh) => mesh.positions.copy_from_slice(xyz),
+                None => {
+                    let triangles = self.mesh.triangles.clone();
+                    self.mesh = Arc::new(MeshData::new(xyz.to_vec(), triangles));
+                }
+            }
             return Ok(());
         }
         let positions = &mut Arc::make_mut(&mut self.mesh).positions;

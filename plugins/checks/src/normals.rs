@@ -1,6 +1,6 @@
 //! Normal instability: how much the surface turns from triangle to triangle.
 
-use meshflow_sdk::geometry::{Vec3, angle_between, normalize, sub, triangle_normal};
+use meshflow_sdk::geometry::{Vec3, angle_between, dot, normalize, sub, triangle_normal};
 use meshflow_sdk::topology::{EdgeBuckets, is_proper_triangle};
 
 /// The mean angle in degrees between the normals of the two triangles of each interior
@@ -24,7 +24,7 @@ pub fn normal_instability(positions: &[f32], triangles: &[u32]) -> f64 {
             let (u, v) = (normals[x.triangle() as usize], normals[y.triangle() as usize]);
             if !u[0].is_nan() && !v[0].is_nan() {
                 let d = sub(u, v);
-                let half_chord_squared = 0.25 * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+                let half_chord_squared = 0.25 * dot(d, d);
                 if half_chord_squared <= SERIES_LIMIT {
                     small.push(half_chord_squared);
                     if small.len() == BATCH {
@@ -163,7 +163,7 @@ mod tests {
             let theta = std::f64::consts::PI * (i as f64 / 2000.0).powi(3);
             let v = [theta.cos(), theta.sin(), 0.0];
             let d = sub([1.0, 0.0, 0.0], v);
-            let half_chord_squared = 0.25 * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+            let half_chord_squared = 0.25 * dot(d, d);
             if half_chord_squared > SERIES_LIMIT {
                 assert!(theta > 0.24, "the series covers angles up to about 14°: {theta}");
                 continue;

@@ -1,13 +1,12 @@
 //! Half-edges grouped by undirected edge, lean in memory: the base of [`HalfEdges`], and
 //! enough on its own for one pass over the edges or for a few twin lookups.
 //!
-//! In a sandboxed run every byte touched is a fresh page of the instance's memory, so
-//! memory is time. This keeps one
-//! `u64` per half-edge (its other endpoint and id, bucketed by the smaller endpoint of its
-//! edge, a counting sort) plus one `u32` per vertex, and no twin or kind arrays. Storing the
-//! other endpoint costs 4 bytes per half-edge but measured faster than reading it back from
-//! the triangles on every pass; each bucket (≈ 6 half-edges) is sorted once, in place. No
-//! hashing; groups come in ascending `(a, b)` order.
+//! In a sandboxed run every byte touched is a fresh page of the instance's memory, so memory
+//! is time. This keeps one `u64` per half-edge (its other endpoint and id, bucketed by the
+//! smaller endpoint of its edge, a counting sort) plus one `u32` per vertex, and no twin or
+//! kind arrays. Storing the other endpoint costs 4 bytes per half-edge but measured faster
+//! than reading it back from the triangles on every pass; each bucket (≈ 6 half-edges) is
+//! sorted once, in place. No hashing; groups come in ascending `(a, b)` order.
 //!
 //! [`HalfEdges`]: super::HalfEdges
 
@@ -192,7 +191,7 @@ fn for_each_half_edge(
     for (t, c) in triangles.chunks_exact(3).enumerate() {
         let [x, y, z] = [c[0], c[1], c[2]];
         let h = 3 * t as u32;
-        if x != y && y != z && x != z && in_range(x) && in_range(y) && in_range(z) {
+        if super::proper([x, y, z], vertex_count) {
             f(x.min(y), x.max(y), h);
             f(y.min(z), y.max(z), h + 1);
             f(z.min(x), z.max(x), h + 2);
