@@ -16,6 +16,7 @@
 use super::open_edges::OpenEdges;
 use crate::correction::coding::integer::int_model;
 use crate::correction::coding::model::AdaptiveModel;
+use crate::correction::coding::recent::RecentVertices;
 use crate::correction::coding::stream::{CorruptStream, SymbolReader, SymbolWriter};
 
 /// Recently used vertices remembered, most recent first.
@@ -54,11 +55,7 @@ const LOOSE: [Role; 3] = [Role::Loose0, Role::Loose1, Role::Loose2];
 pub(super) struct AdjacencyCoder {
     vertex_count: u32,
     open: OpenEdges,
-    recent: Vec<u32>,
-    /// Per vertex: whether it is in `recent` (most lookups are misses: new vertices).
-    in_recent: Vec<bool>,
-    next_new: u32,
-    last: u32,
+    recent: RecentVertices,
     shared: AdaptiveModel,
     twin: AdaptiveModel,
     apex: AdaptiveModel,
@@ -78,10 +75,8 @@ impl AdjacencyCoder {
         Self {
             vertex_count,
             open: OpenEdges::new(vertex_count as usize),
-            recent: Vec::with_capacity(RECENT),
-            in_recent: vec![false; vertex_count as usize],
-            next_new: 0,
-            last: 0,
+            // Flagged: most lookups are misses (new vertices), known without a scan.
+            recent: RecentVertices::flagged(RECENT, vertex_count as usize),
             shared: AdaptiveModel::new(NOT_SHARED + 1),
             twin: int_model(),
             apex: AdaptiveModel::new(ELSEWHERE + 1),
@@ -104,7 +99,7 @@ impl AdjacencyCoder {
             None => {
                 for (k, v) in t.into_iter().enumerate() {
                     self.write_vertex(w, LOOSE[k], v);
-                    self.saw(v);
+                    self.recent.saw(v);
                 }
             }
             Some(k) => {
@@ -113,8 +108,8 @@ impl AdjacencyCoder {
                 self.open.sources_into(u, &mut self.twins);
                 let i = self.twins.iter().position(|&x| x == v).expect("the shared edge is open");
                 w.uint(&mut self.twin, i as u32);
-                self.saw(u);
-                self.saw(v);
+                self.recent.saw(u);
+                self.recent.saw(v);
                 self.fan_closers(u, v);
                 if let Some(i) = self.both.iter().position(|&x| x == apex) {
                     w.symbol(&mut self.apex, FAN_BOTH);
@@ -126,7 +121,7 @@ impl AdjacencyCoder {
                     w.symbol(&mut self.apex, ELSEWHERE);
                     self.write_vertex(w, Role::Apex, apex);
                 }
-                self.saw(apex);
+                self.recent.saw(apex);
             }
         }
         self.open.add_triangle(t);
@@ -139,7 +134,7 @@ impl AdjacencyCoder {
                 let mut t = [0; 3];
                 for (k, corner) in t.iter_mut().enumerate() {
                     *corner = self.read_vertex(r, LOOSE[k])?;
-                    self.saw(*corner);
+                    self.recent.saw(*corner);
                 }
                 t
             }
@@ -148,8 +143,8 @@ impl AdjacencyCoder {
                 let i = r.uint(&mut self.twin)? as usize;
                 self.open.sources_into(u, &mut self.twins);
                 let v = *self.twins.get(i).ok_or(CorruptStream)?;
-                self.saw(u);
-                self.saw(v);
+                self.recent.saw(u);
+                self.recent.saw(v);
                 self.fan_closers(u, v);
                 let apex = match r.symbol(&mut self.apex)? {
                     FAN_BOTH => {
@@ -160,7 +155,7 @@ impl AdjacencyCoder {
                     }
                     _ => self.read_vertex(r, Role::Apex)?,
                 };
-                self.saw(apex);
+                self.recent.saw(apex);
                 let mut t = [0; 3];
                 (t[k], t[(k + 1) % 3], t[(k + 2) % 3]) = (u, v, apex);
                 t
@@ -172,15 +167,15 @@ impl AdjacencyCoder {
 
     fn write_vertex(&mut self, w: &mut SymbolWriter, role: Role, v: u32) {
         let role = role as usize;
-        match self.recency_rank(v) {
+        match self.recent.rank(v) {
             Some(rank) => {
                 w.symbol(&mut self.named[role], BY_RECENCY);
                 w.uint(&mut self.rank[role], rank as u32);
             }
-            None if v == self.next_new => w.symbol(&mut self.named[role], NEXT_NEW),
+            None if v == self.recent.next_new() => w.symbol(&mut self.named[role], NEXT_NEW),
             None => {
                 w.symbol(&mut self.named[role], EXPLICIT);
-                w.int(&mut self.delta, v.wrapping_sub(self.last) as i32);
+                w.int(&mut self.delta, v.wrapping_sub(self.recent.last()) as i32);
             }
         }
     }
@@ -189,10 +184,10 @@ impl AdjacencyCoder {
         let role = role as usize;
         let v = match r.symbol(&mut self.named[role])? {
             BY_RECENCY => {
-                *self.recent.get(r.uint(&mut self.rank[role])? as usize).ok_or(CorruptStream)?
+                self.recent.get(r.uint(&mut self.rank[role])? as usize).ok_or(CorruptStream)?
             }
-            NEXT_NEW => self.next_new,
-            _ => self.last.wrapping_add(r.int(&mut self.delta)? as u32),
+            NEXT_NEW => self.recent.next_new(),
+            _ => self.recent.last().wrapping_add(r.int(&mut self.delta)? as u32),
         };
         if v >= self.vertex_count {
             return Err(CorruptStream);
@@ -202,31 +197,6 @@ impl AdjacencyCoder {
 
     fn fan_closers(&mut self, u: u32, v: u32) {
         self.open.fan_closers((u, v), &mut self.both, &mut self.one, &mut self.scratch);
-    }
-
-    fn recency_rank(&self, v: u32) -> Option<usize> {
-        if !self.in_recent[v as usize] {
-            return None;
-        }
-        self.recent.iter().position(|&x| x == v)
-    }
-
-    /// Moves `v` to the front of the recency list.
-    fn saw(&mut self, v: u32) {
-        match self.recency_rank(v) {
-            Some(i) => self.recent[..=i].rotate_right(1),
-            None => {
-                if self.recent.len() == RECENT
-                    && let Some(evicted) = self.recent.pop()
-                {
-                    self.in_recent[evicted as usize] = false;
-                }
-                self.recent.insert(0, v);
-                self.in_recent[v as usize] = true;
-            }
-        }
-        self.next_new = self.next_new.max(v.saturating_add(1));
-        self.last = v;
     }
 }
 

@@ -6,6 +6,7 @@
 
 use super::integer::int_model;
 use super::model::AdaptiveModel;
+use super::recent::RecentVertices;
 use super::stream::{CorruptStream, SymbolReader, SymbolWriter};
 
 /// Recently used vertices remembered, most recent first.
@@ -20,10 +21,7 @@ pub(crate) struct CornerCoder {
     /// One model per corner slot: the first corner of a triangle behaves unlike the others.
     slot: [AdaptiveModel; 3],
     delta: AdaptiveModel,
-    recent: [u32; CACHE],
-    recent_len: usize,
-    next_new: u32,
-    last: u32,
+    recent: RecentVertices,
 }
 
 impl CornerCoder {
@@ -31,32 +29,27 @@ impl CornerCoder {
         Self {
             slot: std::array::from_fn(|_| AdaptiveModel::new(CACHE + 2)),
             delta: int_model(),
-            recent: [0; CACHE],
-            recent_len: 0,
-            next_new: 0,
-            last: 0,
+            recent: RecentVertices::new(CACHE),
         }
     }
 
     /// Starts a new run of triangles, keeping what the models learnt; `first_new` is the
     /// lowest vertex id no earlier triangle of the run can have used.
     pub(crate) fn restart(&mut self, first_new: u32) {
-        self.recent_len = 0;
-        self.next_new = first_new;
-        self.last = first_new.saturating_sub(1);
+        self.recent.restart(first_new);
     }
 
     pub(crate) fn write(&mut self, w: &mut SymbolWriter, corners: [u32; 3]) {
         for (k, v) in corners.into_iter().enumerate() {
-            match self.recent[..self.recent_len].iter().position(|&r| r == v) {
+            match self.recent.rank(v) {
                 Some(i) => w.symbol(&mut self.slot[k], i),
-                None if v == self.next_new => w.symbol(&mut self.slot[k], NEXT_NEW),
+                None if v == self.recent.next_new() => w.symbol(&mut self.slot[k], NEXT_NEW),
                 None => {
                     w.symbol(&mut self.slot[k], ESCAPE);
-                    w.int(&mut self.delta, v.wrapping_sub(self.last) as i32);
+                    w.int(&mut self.delta, v.wrapping_sub(self.recent.last()) as i32);
                 }
             }
-            self.saw(v);
+            self.recent.saw(v);
         }
     }
 
@@ -64,31 +57,14 @@ impl CornerCoder {
         let mut corners = [0; 3];
         for (k, corner) in corners.iter_mut().enumerate() {
             let v = match r.symbol(&mut self.slot[k])? {
-                NEXT_NEW => self.next_new,
-                ESCAPE => self.last.wrapping_add(r.int(&mut self.delta)? as u32),
-                i if i < self.recent_len => self.recent[i],
-                _ => return Err(CorruptStream),
+                NEXT_NEW => self.recent.next_new(),
+                ESCAPE => self.recent.last().wrapping_add(r.int(&mut self.delta)? as u32),
+                i => self.recent.get(i).ok_or(CorruptStream)?,
             };
-            self.saw(v);
+            self.recent.saw(v);
             *corner = v;
         }
         Ok(corners)
-    }
-
-    fn saw(&mut self, v: u32) {
-        let end = match self.recent[..self.recent_len].iter().position(|&r| r == v) {
-            Some(i) => i,
-            None => {
-                self.recent_len = (self.recent_len + 1).min(CACHE);
-                self.recent_len - 1
-            }
-        };
-        self.recent.copy_within(0..end, 1);
-        self.recent[0] = v;
-        if v >= self.next_new {
-            self.next_new = v.saturating_add(1);
-        }
-        self.last = v;
     }
 }
 
