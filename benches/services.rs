@@ -182,8 +182,8 @@ fn main() {
     }
     print_table(&rows);
     println!(
-        "\nwasm: the whole `Runtime::run` — the mesh copied into the run's store, a fresh \
-         instance (pool slot), the guest copying the arrays in, computing and sending its edits, \
+        "\nwasm: the whole `Runtime::run` — the run's store sharing the mesh (a filter copies it \
+         on its first edit), a fresh instance (pool slot), the guest copying the arrays in, computing and sending its edits, \
          the host checking, applying and logging them, and compaction — with the sandbox on \
          (epoch deadline, memory cap, NaN canonicalisation). native: the plugin crate's \
          function on the host's arrays, no copies. Best of {RUNS}: pool slots keep linear \
