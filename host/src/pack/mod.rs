@@ -12,7 +12,8 @@
 //! Connectivity: triangles in order, each through the open edge it completes, its third
 //! corner among the vertices that close the fan there ([`AdjacencyCoder`]); corners
 //! without such an edge by recency, as the next unseen vertex, or explicitly. Geometry:
-//! vertices in id order, each an exact f32 residual from a parallelogram prediction over
+//! vertices in an order grown over the connectivity ([`CodingOrder`]: next the vertex with
+//! the most known triangles), each an exact f32 residual from a parallelogram prediction over
 //! already decoded neighbours, or on a mesh whose coordinates all lie on a coarse grid
 //! ([`Grid::detect`], e.g. after `--quantize`), in grid steps from the snapped prediction.
 //! The format keeps vertex and triangle order, so unpacking
@@ -27,6 +28,7 @@
 mod adjacency;
 mod error;
 mod open_edges;
+mod order;
 mod predict;
 
 pub use error::PackError;
@@ -37,11 +39,13 @@ use crate::correction::coding::stream::{SymbolReader, SymbolWriter};
 use crate::quantize::Grid;
 use crate::{ContentHash, MeshData};
 use adjacency::AdjacencyCoder;
-use predict::{VertexTriangles, predict};
+use meshflow_sdk::topology::VertexTriangles;
+use order::CodingOrder;
+use predict::predict;
 
 const MAGIC: [u8; 4] = *b"MFM\x1a";
 /// The format version this build writes and reads.
-pub const VERSION: u16 = 3;
+pub const VERSION: u16 = 4;
 const CHECKSUM_LEN: usize = 16;
 const CHECKSUM_AT: usize = 6;
 /// Declared counts may exceed the file size by at most this factor (the adaptive models'
@@ -59,9 +63,13 @@ pub fn encode(mesh: &MeshData) -> Result<Vec<u8>, PackError> {
     let grid = Grid::detect([&mesh.positions[..]]);
     let mut geometry = SymbolWriter::new();
     let mut residuals = ResidualCoder::new(grid);
-    for (v, p) in mesh.positions.chunks_exact(3).enumerate() {
-        let predicted = predict(v as u32, &mesh.positions, &mesh.triangles, &around);
+    let (positions, triangles) = (&mesh.positions, &mesh.triangles);
+    let (mut order, mut previous) = (CodingOrder::new(&around, triangles), None);
+    while let Some(v) = order.next() {
+        let predicted = predict(v, previous, positions, order.decoded(), triangles, &around);
+        let p = &positions[3 * v as usize..3 * v as usize + 3];
         residuals.write(&mut geometry, [p[0], p[1], p[2]], predicted);
+        previous = Some(v);
     }
     let geometry = geometry.finish();
     let mut out = Vec::with_capacity(64 + connectivity.len() + geometry.len());
@@ -128,10 +136,13 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, PackError> {
     let around = VertexTriangles::new(vertex_count as usize, &triangles);
     let mut input = SymbolReader::new(geometry).map_err(bad_geometry)?;
     let mut residuals = ResidualCoder::new(grid);
-    let mut positions = Vec::new();
-    for v in 0..vertex_count as u32 {
-        let predicted = predict(v, &positions, &triangles, &around);
-        positions.extend(residuals.read(&mut input, predicted).map_err(bad_geometry)?);
+    let mut positions = vec![0.0; 3 * vertex_count as usize];
+    let (mut order, mut previous) = (CodingOrder::new(&around, &triangles), None);
+    while let Some(v) = order.next() {
+        let predicted = predict(v, previous, &positions, order.decoded(), &triangles, &around);
+        let p = residuals.read(&mut input, predicted).map_err(bad_geometry)?;
+        positions[3 * v as usize..3 * v as usize + 3].copy_from_slice(&p);
+        previous = Some(v);
     }
     let mesh = MeshData::new(positions, triangles);
     let found = mesh.content_hash();

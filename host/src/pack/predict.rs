@@ -1,50 +1,25 @@
-//! Vertex positions predicted from already decoded neighbours, in vertex id order.
+//! Vertex positions predicted from already decoded neighbours (in the order of
+//! [`CodingOrder`](super::order::CodingOrder)).
 //!
 //! A vertex whose triangle `(v, a, b)` has an edge `a b` shared with a triangle `(b, a, c)`
 //! of known vertices is predicted by the parallelogram rule `a + b - c` (the average of all
 //! such rules), which on a smooth surface sampled evenly misses by about the local
-//! curvature; otherwise by the mean of its known neighbours, otherwise by the previous
-//! vertex.
+//! curvature; otherwise by the mean of its known neighbours, otherwise by the vertex coded
+//! before it.
 
-/// The triangles around each vertex (CSR), built once from the whole connectivity.
-pub(super) struct VertexTriangles {
-    start: Vec<u32>,
-    triangles: Vec<u32>,
-}
+use meshflow_sdk::topology::VertexTriangles;
 
-impl VertexTriangles {
-    /// `triangles` must only name vertices below `vertex_count`.
-    pub(super) fn new(vertex_count: usize, triangles: &[u32]) -> Self {
-        let mut start = vec![0u32; vertex_count + 1];
-        for &v in triangles {
-            start[v as usize + 1] += 1;
-        }
-        for i in 0..vertex_count {
-            start[i + 1] += start[i];
-        }
-        let mut fill = start.clone();
-        let mut around = vec![0u32; triangles.len()];
-        for (t, corners) in triangles.chunks_exact(3).enumerate() {
-            for &v in corners {
-                around[fill[v as usize] as usize] = t as u32;
-                fill[v as usize] += 1;
-            }
-        }
-        Self { start, triangles: around }
-    }
-
-    fn of(&self, v: u32) -> &[u32] {
-        &self.triangles[self.start[v as usize] as usize..self.start[v as usize + 1] as usize]
-    }
-}
-
-/// The prediction for vertex `v`, reading only positions of vertices below `v`.
+/// The prediction for vertex `v`, reading only positions of `decoded` vertices; `previous`
+/// is the vertex coded last.
 pub(super) fn predict(
     v: u32,
+    previous: Option<u32>,
     positions: &[f32],
+    decoded: &[bool],
     triangles: &[u32],
     around: &VertexTriangles,
 ) -> [f32; 3] {
+    let known = |u: u32| decoded[u as usize];
     let corners = |t: u32| {
         let i = 3 * t as usize;
         [triangles[i], triangles[i + 1], triangles[i + 2]]
@@ -60,20 +35,20 @@ pub(super) fn predict(
         let Some(k) = c.iter().position(|&x| x == v) else { continue };
         let (a, b) = (c[(k + 1) % 3], c[(k + 2) % 3]);
         for n in [a, b] {
-            if n < v {
+            if known(n) {
                 let p = at(n);
                 (0..3).for_each(|i| near[i] += p[i]);
                 near_count += 1;
             }
         }
-        if a >= v || b >= v || a == b {
+        if !known(a) || !known(b) || a == b {
             continue;
         }
         // The triangle across edge a-b, with its third corner known.
         let opposite = around.of(a).iter().filter(|&&u| u != t).find_map(|&u| {
             let d = corners(u);
             let third = d.iter().copied().find(|&x| x != a && x != b)?;
-            (d.contains(&b) && third < v).then_some(third)
+            (d.contains(&b) && known(third)).then_some(third)
         });
         if let Some(o) = opposite {
             let (pa, pb, po) = (at(a), at(b), at(o));
@@ -85,9 +60,7 @@ pub(super) fn predict(
         rules.map(|s| (s / f64::from(rule_count)) as f32)
     } else if near_count > 0 {
         near.map(|s| (s / f64::from(near_count)) as f32)
-    } else if v > 0 {
-        at(v - 1).map(|x| x as f32)
     } else {
-        [0.0; 3]
+        previous.map_or([0.0; 3], |u| at(u).map(|x| x as f32))
     }
 }
