@@ -12,7 +12,7 @@
 //! belongs to the largest such ratio and the largest angle to the smallest; one pass finds
 //! that triangle, and only its angle is then computed exactly.
 
-use meshflow_sdk::geometry::{self, Vec3};
+use meshflow_sdk::geometry::{self, cross, dot, sub};
 use meshflow_sdk::topology::is_proper_triangle;
 
 /// The smallest angle in degrees over the non-degenerate triangles, 0 if there is none. O(T).
@@ -28,71 +28,39 @@ pub fn max_angle(positions: &[f32], triangles: &[u32]) -> f64 {
 /// A corner: triangle id and corner (0, 1, 2).
 type Corner = (u32, usize);
 
-/// Triangles screened side by side: the arithmetic below is written lane by lane so the
-/// compiler packs it into 128-bit vector operations (two `f64` each), which halves the float
-/// operations and the sandbox's NaN checks after each of them (min-angle in the sandbox on
-/// the 1M scan: 77 -> 68 ms).
-const LANES: usize = 4;
-
 /// Finds the corner with the largest `sign × cotangent` over the non-degenerate triangles
 /// (the first one on ties): the smallest angle for `sign = 1`, the largest for `sign = -1`.
 /// `None` if there is no such triangle.
 fn extreme_corner(positions: &[f32], triangles: &[u32], sign: f64) -> Option<Corner> {
     let vertex_count = positions.len() / 3;
-    let triangle_count = triangles.len() as u32 / 3;
-    // An improper triangle is screened as three points at the origin: zero area, skipped.
-    let points = |t: u32| {
-        if t < triangle_count && is_proper_triangle(triangles, vertex_count, t) {
-            geometry::triangle_points(positions, triangles, t)
-        } else {
-            [[0.0; 3]; 3]
-        }
-    };
     // Largest `sign × cot |cot|` seen so far, with its corner.
     let mut best: Option<(f64, Corner)> = None;
-    for first in (0..triangle_count).step_by(LANES) {
-        let (dots, area2_squared) = screen(std::array::from_fn(|l| points(first + l as u32)));
-        for l in 0..LANES {
-            let (t, dots, area2_squared) = (first + l as u32, dots[l], area2_squared[l]);
-            // Zero area is degenerate; non-finite coordinates give no comparable angles.
-            if area2_squared == 0.0 || !area2_squared.is_finite() {
-                continue;
-            }
-            // `sign × dot` is largest where `-sign × dots` is smallest.
-            let k = if sign > 0.0 { argmin(&dots) } else { argmax(&dots) };
-            let d = -sign * dots[k];
-            // Compare `d |d|` against key × |n|² (|n|² > 0) instead of dividing per triangle.
-            let signed_square = d * d.abs();
-            if best.is_none_or(|(key, _)| signed_square > key * area2_squared) {
-                best = Some((signed_square / area2_squared, (t, k)));
-            }
+    for t in 0..triangles.len() as u32 / 3 {
+        if !is_proper_triangle(triangles, vertex_count, t) {
+            continue;
+        }
+        let p = geometry::triangle_points(positions, triangles, t);
+        // Edge vectors e[k] = p[k + 1] - p[k], shared by the normal and the corner dots
+        // (fewer float operations: each one costs a NaN check in the sandbox).
+        let e = [sub(p[1], p[0]), sub(p[2], p[1]), sub(p[0], p[2])];
+        let n = cross(e[2], e[0]);
+        let area2_squared = dot(n, n);
+        // Zero area is degenerate; non-finite coordinates give no comparable angles.
+        if area2_squared == 0.0 || !area2_squared.is_finite() {
+            continue;
+        }
+        // Corner k lies between e[k] and -e[k - 1].
+        let dots = [dot(e[0], e[2]), dot(e[1], e[0]), dot(e[2], e[1])];
+        // `sign × dot` is largest where `-sign × dots` is smallest.
+        let k = if sign > 0.0 { argmin(&dots) } else { argmax(&dots) };
+        let d = -sign * dots[k];
+        // Compare `d |d|` against key × |n|² (|n|² > 0) instead of dividing per triangle.
+        let signed_square = d * d.abs();
+        if best.is_none_or(|(key, _)| signed_square > key * area2_squared) {
+            best = Some((signed_square / area2_squared, (t, k)));
         }
     }
     Some(best?.1)
-}
-
-/// For triangles `p` (one per lane): the dot products of the two edge vectors leaving each
-/// corner, and the squared length of the unnormalised normal (twice the area, squared).
-#[inline(always)]
-fn screen(p: [[Vec3; 3]; LANES]) -> ([[f64; 3]; LANES], [f64; LANES]) {
-    let lanes = |f: &dyn Fn(usize) -> f64| -> [f64; LANES] { std::array::from_fn(f) };
-    // Edge vectors e[k] = p[k + 1] - p[k] by axis, shared by the normal and the corner dots.
-    let e: [[[f64; LANES]; 3]; 3] = std::array::from_fn(|k| {
-        std::array::from_fn(|axis| lanes(&|l| p[l][(k + 1) % 3][axis] - p[l][k][axis]))
-    });
-    let dot = |a: [[f64; LANES]; 3], b: [[f64; LANES]; 3]| {
-        lanes(&|l| a[0][l] * b[0][l] + a[1][l] * b[1][l] + a[2][l] * b[2][l])
-    };
-    // n = e[2] × e[0].
-    let (a, b) = (e[2], e[0]);
-    let n = [
-        lanes(&|l| a[1][l] * b[2][l] - a[2][l] * b[1][l]),
-        lanes(&|l| a[2][l] * b[0][l] - a[0][l] * b[2][l]),
-        lanes(&|l| a[0][l] * b[1][l] - a[1][l] * b[0][l]),
-    ];
-    // Corner k lies between e[k] and -e[k - 1].
-    let dots = [dot(e[0], e[2]), dot(e[1], e[0]), dot(e[2], e[1])];
-    (std::array::from_fn(|l| [dots[0][l], dots[1][l], dots[2][l]]), dot(n, n))
 }
 
 fn argmax(x: &[f64; 3]) -> usize {
