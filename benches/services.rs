@@ -2,8 +2,9 @@
 //! spurious pieces, 400 holes), printed as one table. Run with `cargo bench --bench services`
 //! (release). Per service: the whole run inside the host (`Runtime::run`: array copies,
 //! sandbox with its default limits — deadline, memory cap — and the store applying the
-//! edits), the same code native (the plugin crate's plain function on the arrays), their
-//! ratio, MeshLab's figure from the issue and, when pymeshlab imports (`$PYMESHLAB_PYTHON`,
+//! edits), the same code native (the plugin crate's plain function on the arrays), for a
+//! filter the store's share (the run's edit log replayed natively into a fresh store and
+//! compacted: work any in-host plugin would cause), the ratios, MeshLab's figure from the issue and, when pymeshlab imports (`$PYMESHLAB_PYTHON`,
 //! default `python3`), MeshLab timed on the same mesh saved as binary PLY. Each figure is
 //! the best of a few runs, all side by side in this one run, as the machine is noisy.
 //!
@@ -19,6 +20,7 @@ use common::{SCAN_1M, best, meshlab_available, meshlab_time, ms, ratio};
 use meshflow_builtin_plugins::PLUGINS;
 use meshflow_host::generate::scan;
 use meshflow_host::runtime::{Limits, Runtime, Value};
+use meshflow_host::store::{MeshStore, Op};
 use meshflow_host::{MeshData, io};
 use meshflow_plugin_checks::{angles, counts, normals, topology};
 use meshflow_plugin_cleanup::components::{Keep, small_components};
@@ -146,6 +148,8 @@ const MESHLAB_CHECKS: &str = "ms.get_topological_measures(); \
 struct Row {
     service: String,
     native: Duration,
+    /// A filter's edits applied and compacted by the store, natively.
+    store: Option<Duration>,
     wasm: Duration,
     meshlab_issue: Option<Duration>,
     meshlab_here: Option<Duration>,
@@ -186,7 +190,9 @@ fn main() {
          on its first edit), a fresh instance (pool slot), the guest copying the arrays in, computing and sending its edits, \
          the host checking, applying and logging them, and compaction — with the sandbox on \
          (epoch deadline, memory cap, NaN canonicalisation). native: the plugin crate's \
-         function on the host's arrays, no copies. Best of {RUNS}: pool slots keep linear \
+         function on the host's arrays, no copies. store: a filter's edit log replayed \
+         natively into a fresh store and compacted, the host's work in any run; \
+         wasm/(nat+st) is what the sandbox adds to the same work in process. Best of {RUNS}: pool slots keep linear \
          memory resident between runs, so the first run of a process faults its pages in."
     );
     println!(
@@ -211,6 +217,7 @@ fn filter_row(
     let (wasm, output) = best(RUNS, || {
         runtime.run(&plugin, filter.service, Arc::clone(mesh), &[]).expect("a filter run")
     });
+    let store = replay_time(mesh, &output.log);
     let result = output.mesh.expect("a filter returns a mesh");
     assert_eq!(result.triangle_count(), expected.triangles, "{}: triangle count", filter.service);
     if let Some(positions) = expected.positions {
@@ -223,6 +230,7 @@ fn filter_row(
     Row {
         service: filter.service.into(),
         native,
+        store: Some(store),
         wasm,
         meshlab_issue: filter.meshlab_issue,
         meshlab_here,
@@ -251,6 +259,7 @@ fn check_rows(runtime: &Runtime, mesh: &Arc<MeshData>, meshlab_here: Option<Dura
         rows.push(Row {
             service: format!("{service} = {}", shown(&value)),
             native: native_time,
+            store: None,
             wasm: wasm_time,
             meshlab_issue: None,
             meshlab_here: None,
@@ -260,12 +269,30 @@ fn check_rows(runtime: &Runtime, mesh: &Arc<MeshData>, meshlab_here: Option<Dura
     rows.push(Row {
         service: "all checks".into(),
         native: native_total,
+        store: None,
         wasm: wasm_total,
         meshlab_issue: Some(Duration::from_millis(8000)),
         meshlab_here,
         goal: "≤ 800 ms".into(),
     });
     rows
+}
+
+/// The best time of a fresh store over `mesh` applying `log` and compacting, as the host
+/// does after a run (each run gets its own copy of the log, made untimed).
+fn replay_time(mesh: &Arc<MeshData>, log: &[Op]) -> Duration {
+    let mut fastest = Duration::MAX;
+    for _ in 0..RUNS {
+        let ops = log.to_vec();
+        let started = std::time::Instant::now();
+        let mut store = MeshStore::new(Arc::clone(mesh));
+        for op in ops {
+            store.apply(op).expect("the run's own edits apply");
+        }
+        std::hint::black_box(store.finish());
+        fastest = fastest.min(started.elapsed());
+    }
+    fastest
 }
 
 fn shown(value: &Value) -> String {
@@ -280,28 +307,33 @@ fn shown(value: &Value) -> String {
 fn print_table(rows: &[Row]) {
     let optional = |t: Option<Duration>| t.map_or("—".into(), |t| format!("{:.0}", ms(t)));
     println!(
-        "\n| {:<38} | {:>9} | {:>9} | {:>8} | {:>10} | {:>10} | {:>7} | {:<18} |",
+        "\n| {:<38} | {:>9} | {:>8} | {:>9} | {:>8} | {:>13} | {:>8} | {:>8} | {:>7} | {:<18} |",
         "service",
         "native ms",
+        "store ms",
         "wasm ms",
         "wasm/nat",
+        "wasm/(nat+st)",
         "ML issue",
         "ML here",
         "wasm/ML",
         "goal (wasm)"
     );
     println!(
-        "|{:-<40}|{:->11}|{:->11}|{:->10}|{:->12}|{:->12}|{:->9}|{:-<20}|",
-        "", "", "", "", "", "", "", ""
+        "|{:-<40}|{:->11}|{:->10}|{:->11}|{:->10}|{:->15}|{:->10}|{:->10}|{:->9}|{:-<20}|",
+        "", "", "", "", "", "", "", "", "", ""
     );
     for r in rows {
         let reference = r.meshlab_here.or(r.meshlab_issue);
+        let in_process = r.native + r.store.unwrap_or_default();
         println!(
-            "| {:<38} | {:>9.1} | {:>9.1} | {:>8.2} | {:>10} | {:>10} | {:>7} | {:<18} |",
+            "| {:<38} | {:>9.1} | {:>8} | {:>9.1} | {:>8.2} | {:>13} | {:>8} | {:>8} | {:>7} | {:<18} |",
             r.service,
             ms(r.native),
+            r.store.map_or("—".into(), |t| format!("{:.1}", ms(t))),
             ms(r.wasm),
             ratio(r.wasm, r.native),
+            r.store.map_or("—".into(), |_| format!("{:.2}", ratio(r.wasm, in_process))),
             optional(r.meshlab_issue),
             optional(r.meshlab_here),
             reference.map_or("—".into(), |m| format!("{:.2}", ratio(r.wasm, m))),
