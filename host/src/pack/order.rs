@@ -2,8 +2,9 @@
 //! decoder has it before the first position), so it costs nothing to transmit.
 //!
 //! Meshes from other tools number their vertices in no useful order (the bunny's OBJ: a
-//! vertex's nearest id among its neighbours is a median 42 away), so in id order a third of
-//! the vertices had no decoded neighbour to be predicted from. Here the next vertex is always
+//! vertex's nearest id among its neighbours is a median 42 away), so in id order 38 % of the
+//! bunny's vertices had no parallelogram to be predicted by (10 % not even a decoded
+//! neighbour); in this order all but a handful have one. Here the next vertex is always
 //! one with the most triangles whose two other corners are already decoded — each such
 //! triangle gives a parallelogram prediction or at least known neighbours — growing each
 //! connected piece from its lowest id like a front.
