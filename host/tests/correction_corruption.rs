@@ -2,10 +2,10 @@
 
 mod correction_common;
 
-use correction_common::{Rng, grid, random_edits};
+use correction_common::{Rng, grid, random_edits, smooth};
 use meshflow_host::MeshData;
 use meshflow_host::correction::{self, CorrectionError};
-use meshflow_host::store::MeshStore;
+use meshflow_host::store::{MeshStore, Op};
 use proptest::prelude::*;
 
 /// A small correction with ops of many kinds, and its base.
@@ -52,6 +52,29 @@ fn every_single_bit_flip_is_an_error() {
         damaged[bit / 8] ^= 1 << (bit % 8);
         assert!(correction::apply(&base, &damaged).is_err(), "bit {bit}");
     }
+}
+
+/// A smoothing step over 22,500 vertices is decoded in chunks while two threads predict
+/// them: damage anywhere in it is caught (never a wrong mesh), and a decoding that stops
+/// early stops the predicting threads too (the test would hang otherwise).
+#[test]
+fn damage_in_a_chunked_smoothing_step_is_caught() {
+    let base = grid(150, 150, 0, &mut Rng(5));
+    let mut store = MeshStore::new(base.clone());
+    store.apply(Op::SetPositions { xyz: smooth(&base, 0.5) }).unwrap();
+    let (result, log) = store.finish();
+    let bytes = correction::encode(&base, &log, &result).unwrap();
+    let body = correction::decode(&bytes).unwrap().header_bytes..bytes.len();
+    for i in (body.start..body.end).step_by(body.len() / 40) {
+        let mut damaged = bytes.clone();
+        damaged[i] ^= 0x5a;
+        reseal(&mut damaged);
+        match correction::apply(&base, &damaged) {
+            Ok(mesh) => assert_eq!(mesh.content_hash(), result.content_hash(), "byte {i}"),
+            Err(e) => assert!(!matches!(e, CorrectionError::ChecksumMismatch), "byte {i}: {e}"),
+        }
+    }
+    assert!(correction::apply(&base, &bytes[..body.end - body.len() / 2]).is_err());
 }
 
 #[test]

@@ -106,9 +106,10 @@ fn removing_150_components_costs_under_a_kilobyte() {
 
 /// One step of plain neighbour averaging (what `laplacian-smoothing` computes) is predicted
 /// exactly, so it costs about the "moved" flags; a different factor costs a little more.
+/// 22,500 vertices: several chunks for each of the decoder's two predicting threads.
 #[test]
 fn smoothing_steps_cost_few_bits_per_vertex() {
-    let base = grid(60, 60, 0, &mut Rng(4));
+    let base = grid(150, 150, 0, &mut Rng(4));
     for (lambda, max_bits) in [(1.0f64, 1.0), (0.5, 12.0)] {
         let xyz = smooth(&base, lambda);
         let mut store = MeshStore::new(base.clone());

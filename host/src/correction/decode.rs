@@ -237,9 +237,9 @@ impl Decoder {
     }
 
     /// The mirror of the encoder's `set_positions`. The predictions (neighbour means, most of
-    /// the work) are made on a second thread. The symbols do not depend on them, so the
-    /// decoding runs ahead (while that thread indexes the triangles, at first) and restores
-    /// each chunk of vertices when its predictions have arrived.
+    /// the work) are made on two more threads, alternate chunks each. The symbols do not
+    /// depend on them, so the decoding runs ahead (while the triangles are indexed, at
+    /// first) and restores each chunk of vertices when its predictions have arrived.
     fn set_positions(&mut self) -> Result<Vec<f32>, CorruptStream> {
         self.take(OpKind::SetPositions, u64::from(self.store.vertex_slots()))?;
         let (store, grid) = (&self.store, self.models.grid);
@@ -247,25 +247,31 @@ impl Decoder {
         let lambda = input.geometry.f32_bits()?;
         let (current, slots) = (store.positions(), store.vertex_slots());
         std::thread::scope(|s| {
-            let (send, predictions) = mpsc::sync_channel(2);
+            let (even, odd) = (mpsc::sync_channel(2), mpsc::sync_channel(2));
+            let predictions = [even.1, odd.1];
+            let (send_even, send_odd) = (even.0, odd.0);
             s.spawn(move || {
                 let smoothing = Smoothing::new(store, grid);
-                for first in (0..slots).step_by(CHUNK as usize) {
-                    let chunk: Vec<[f32; 3]> = (first..slots.min(first + CHUNK))
-                        .map(|v| {
+                let chunks = |parity: usize, send: mpsc::SyncSender<Vec<[f32; 3]>>| {
+                    let mut around = Vec::new();
+                    let firsts = (0..slots).step_by(CHUNK as usize).skip(parity).step_by(2);
+                    for first in firsts {
+                        let chunk = (first..slots.min(first + CHUNK)).map(|v| {
                             let p = predict::point(store, v);
-                            let live = store.is_vertex_live(v);
-                            if live {
-                                smoothing.predict(p, smoothing.mean(current, v), lambda)
-                            } else {
-                                p
+                            if !store.is_vertex_live(v) {
+                                return p;
                             }
-                        })
-                        .collect();
-                    if send.send(chunk).is_err() {
-                        return; // the decoding stopped at corrupt data
+                            smoothing.predict(p, smoothing.mean(current, v, &mut around), lambda)
+                        });
+                        if send.send(chunk.collect()).is_err() {
+                            return; // the decoding stopped at corrupt data
+                        }
                     }
-                }
+                };
+                std::thread::scope(|s| {
+                    s.spawn(|| chunks(1, send_odd));
+                    chunks(0, send_even);
+                });
             });
             let mut xyz = current.to_vec();
             // Decoded chunks whose predictions have not arrived, oldest first.
@@ -292,21 +298,27 @@ impl Decoder {
                     };
                 }
                 waiting.push_back((first, moved));
-                while !waiting.is_empty()
-                    && let Ok(predicted) = predictions.try_recv()
+                while let Some(&(first, _)) = waiting.front()
+                    && let Ok(predicted) = predictions[chunk_parity(first)].try_recv()
                 {
                     let (first, moved) = waiting.pop_front().expect("not empty");
                     place(&mut xyz, &m.smoothing, first, &moved, &predicted);
                 }
             }
             for (first, moved) in waiting {
-                let predicted =
-                    predictions.recv().expect("the predicting thread sends every chunk");
+                let predicted = predictions[chunk_parity(first)]
+                    .recv()
+                    .expect("the predicting threads send every chunk");
                 place(&mut xyz, &m.smoothing, first, &moved, &predicted);
             }
             Ok(xyz)
         })
     }
+}
+
+/// Which of the two predicting threads serves the chunk starting at vertex `first`.
+fn chunk_parity(first: u32) -> usize {
+    (first / CHUNK % 2) as usize
 }
 
 /// Writes the moved vertices of the chunk starting at vertex `first` into `xyz`, from the

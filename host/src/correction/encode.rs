@@ -210,7 +210,9 @@ impl Encoder {
         }
         let smoothing = Smoothing::new(store, self.models.grid);
         // Fitting λ and coding need each mean up to four times: gathered once.
-        let means: Vec<_> = (0..store.vertex_slots()).map(|v| smoothing.mean(current, v)).collect();
+        let mut around = Vec::new();
+        let means: Vec<_> =
+            (0..store.vertex_slots()).map(|v| smoothing.mean(current, v, &mut around)).collect();
         let moved = Moved { store, current, new: xyz, smoothing: &smoothing, means: &means };
         let lambda = moved.best_lambda();
         let (m, out) = (&mut self.models, &mut self.out);

@@ -1,8 +1,6 @@
 //! Predictions both sides compute from the mesh state before an op, so that only the
 //! difference between prediction and truth is coded.
 
-use std::cell::RefCell;
-
 use meshflow_sdk::topology::VertexTriangles;
 
 use crate::quantize::Grid;
@@ -55,8 +53,6 @@ pub(crate) fn mean(points: impl Iterator<Item = [f32; 3]>) -> Option<[f32; 3]> {
 pub(crate) struct Smoothing<'a> {
     triangles: &'a [u32],
     around: VertexTriangles,
-    /// The neighbours being gathered, kept to reuse its allocation.
-    scratch: RefCell<Vec<u32>>,
     grid: Option<Grid>,
 }
 
@@ -65,14 +61,18 @@ impl<'a> Smoothing<'a> {
         // Removed triangles hold [`REMOVED`](crate::store::REMOVED), an id past every slot:
         // they are left out.
         let around = VertexTriangles::new(store.vertex_slots() as usize, store.triangles());
-        Self { triangles: store.triangles(), around, scratch: RefCell::default(), grid }
+        Self { triangles: store.triangles(), around, grid }
     }
 
     /// The f64 mean of `v`'s distinct neighbours in `positions`, summed in ascending id
     /// order as `laplacian-smoothing` does (so its bits are predicted exactly), `None`
-    /// without neighbours.
-    pub(crate) fn mean(&self, positions: &[f32], v: u32) -> Option<[f64; 3]> {
-        let mut around = self.scratch.borrow_mut();
+    /// without neighbours. `around` is working space, reused from call to call.
+    pub(crate) fn mean(
+        &self,
+        positions: &[f32],
+        v: u32,
+        around: &mut Vec<u32>,
+    ) -> Option<[f64; 3]> {
         around.clear();
         for &t in self.around.of(v) {
             let i = 3 * t as usize;
