@@ -4,9 +4,10 @@
 //! sandbox with its default limits — deadline, memory cap — and the store applying the
 //! edits), the same code native (the plugin crate's plain function on the arrays), for a
 //! filter the store's share (the run's edit log replayed natively into a fresh store and
-//! compacted: work any in-host plugin would cause), the ratios, MeshLab's figure from the issue and, when pymeshlab imports (`$PYMESHLAB_PYTHON`,
-//! default `python3`), MeshLab timed on the same mesh saved as binary PLY. Each figure is
-//! the best of a few runs, all side by side in this one run, as the machine is noisy.
+//! compacted: work any in-host plugin would cause), the ratios, MeshLab's figure from the
+//! issue and, when pymeshlab imports (`$PYMESHLAB_PYTHON`, default `python3`), MeshLab
+//! timed on the same mesh saved as binary PLY. Each figure is the best of a few runs, all
+//! side by side in this one run, as the machine is noisy.
 //!
 //! Goals: each filter ≤ 0.5× MeshLab's figure, all checks together ≤ 800 ms in the sandbox,
 //! WASM ≤ 1.3× native.
