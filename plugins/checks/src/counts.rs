@@ -5,7 +5,7 @@
 //! they are counted as the SDK's [`topology`](meshflow_sdk::topology) module documents,
 //! never rejected.
 
-use meshflow_sdk::topology::{EdgeBuckets, Members, UnionFind, boundary_loops};
+use meshflow_sdk::topology::{EdgeBuckets, UnionFind, boundary_loops};
 
 /// The number of distinct undirected edges `{a, b}` of the proper triangles (three distinct
 /// in-range vertex ids); an edge shared by any number of triangles counts once. O(V + T).
@@ -19,13 +19,7 @@ pub fn edge_count(vertex_count: usize, triangles: &[u32]) -> usize {
 /// or not, whatever their orientations) are connected; triangles touching only at a vertex
 /// are not. Unreferenced vertices form no component. O(V + T).
 pub fn component_count(vertex_count: usize, triangles: &[u32]) -> usize {
-    let mut forest = UnionFind::new(triangles.len() / 3);
-    EdgeBuckets::of(vertex_count, triangles, Members::AnyEdge).for_each_edge(|_, sides| {
-        for pair in sides.windows(2) {
-            forest.union(pair[0].triangle(), pair[1].triangle());
-        }
-    });
-    forest.sets()
+    UnionFind::edge_connected(vertex_count, triangles).sets()
 }
 
 /// The number of boundary loops (holes, the outer border of an open surface included); a

@@ -24,12 +24,7 @@ impl TriangleComponents {
     ///
     /// O(V + T log d) (edge grouping by bucket sort, then union-find with path halving).
     pub fn new(vertex_count: usize, triangles: &[u32]) -> Self {
-        let mut forest = UnionFind::new(triangles.len() / 3);
-        EdgeBuckets::of(vertex_count, triangles, Members::AnyEdge).for_each_edge(|_, group| {
-            for w in group.windows(2) {
-                forest.union(w[0].triangle(), w[1].triangle());
-            }
-        });
+        let mut forest = UnionFind::edge_connected(vertex_count, triangles);
         Self::from_roots(triangles.len() / 3, |t| forest.find(t))
     }
 
@@ -138,6 +133,19 @@ impl UnionFind {
     /// `n` singletons.
     pub fn new(n: usize) -> Self {
         Self { parent: (0..n as u32).collect() }
+    }
+
+    /// The triangles of `triangles`, joined through every edge they share, as
+    /// [`TriangleComponents::new`] defines it (which labels the sets; this only groups them,
+    /// enough to count them). O(V + T log d).
+    pub fn edge_connected(vertex_count: usize, triangles: &[u32]) -> Self {
+        let mut forest = Self::new(triangles.len() / 3);
+        EdgeBuckets::of(vertex_count, triangles, Members::AnyEdge).for_each_edge(|_, group| {
+            for w in group.windows(2) {
+                forest.union(w[0].triangle(), w[1].triangle());
+            }
+        });
+        forest
     }
 
     /// The root of `x`'s set.
