@@ -24,7 +24,7 @@ fn base() -> MeshData {
 fuzz_target!(|data: &[u8]| {
     let base = base();
     let _ = correction::decode(data);
-    let _ = correction::apply(&base, data);
+    let _ = correction::apply(base.clone(), data);
     if let Some((&reseal, rest)) = data.split_first() {
         if reseal & 1 == 1 {
             // magic, version, checksum (filled below), base hash, then the fuzzed rest.
@@ -35,7 +35,7 @@ fuzz_target!(|data: &[u8]| {
             bytes.extend(rest);
             let sum = blake3::hash(&bytes[22..]);
             bytes[6..22].copy_from_slice(&sum.as_bytes()[..16]);
-            let _ = correction::apply(&base, &bytes);
+            let _ = correction::apply(base, &bytes);
         }
     }
 });

@@ -31,7 +31,7 @@ fn reseal(bytes: &mut [u8]) {
 fn every_truncation_is_an_error() {
     let (base, bytes) = sample(1);
     for len in 0..bytes.len() {
-        let error = correction::apply(&base, &bytes[..len]).unwrap_err();
+        let error = correction::apply(base.clone(), &bytes[..len]).unwrap_err();
         assert!(
             matches!(
                 error,
@@ -50,7 +50,7 @@ fn every_single_bit_flip_is_an_error() {
     for bit in 0..8 * bytes.len() {
         let mut damaged = bytes.clone();
         damaged[bit / 8] ^= 1 << (bit % 8);
-        assert!(correction::apply(&base, &damaged).is_err(), "bit {bit}");
+        assert!(correction::apply(base.clone(), &damaged).is_err(), "bit {bit}");
     }
 }
 
@@ -69,12 +69,12 @@ fn damage_in_a_chunked_smoothing_step_is_caught() {
         let mut damaged = bytes.clone();
         damaged[i] ^= 0x5a;
         reseal(&mut damaged);
-        match correction::apply(&base, &damaged) {
+        match correction::apply(base.clone(), &damaged) {
             Ok(mesh) => assert_eq!(mesh.content_hash(), result.content_hash(), "byte {i}"),
             Err(e) => assert!(!matches!(e, CorrectionError::ChecksumMismatch), "byte {i}: {e}"),
         }
     }
-    assert!(correction::apply(&base, &bytes[..body.end - body.len() / 2]).is_err());
+    assert!(correction::apply(base.clone(), &bytes[..body.end - body.len() / 2]).is_err());
 }
 
 #[test]
@@ -82,7 +82,7 @@ fn wrong_version_magic_and_base_are_named() {
     let (base, bytes) = sample(3);
     let mut next = bytes.clone();
     next[4..6].copy_from_slice(&(correction::VERSION + 1).to_le_bytes());
-    let error = correction::apply(&base, &next).unwrap_err();
+    let error = correction::apply(base.clone(), &next).unwrap_err();
     assert!(
         matches!(
             error,
@@ -96,7 +96,7 @@ fn wrong_version_magic_and_base_are_named() {
     assert!(matches!(correction::decode(&magic), Err(CorrectionError::BadMagic)));
     let other = grid(4, 4, 3, &mut Rng(99));
     assert!(matches!(
-        correction::apply(&other, &bytes),
+        correction::apply(other.clone(), &bytes),
         Err(CorrectionError::BaseMismatch { expected, found })
             if expected == base.content_hash() && found == other.content_hash()
     ));
@@ -122,7 +122,7 @@ fn forged_counts_are_refused_before_decoding() {
     }
     forged.extend_from_slice(&bytes[header.header_bytes..]);
     reseal(&mut forged);
-    assert!(matches!(correction::apply(&base, &forged), Err(CorrectionError::Malformed(_))));
+    assert!(matches!(correction::apply(base.clone(), &forged), Err(CorrectionError::Malformed(_))));
 }
 
 fn varint(out: &mut Vec<u8>, mut v: u64) {
@@ -150,7 +150,7 @@ proptest! {
         let i = body.start + at % body.len();
         bytes[i] = value;
         reseal(&mut bytes);
-        match correction::apply(&base, &bytes) {
+        match correction::apply(base.clone(), &bytes) {
             Ok(mesh) => prop_assert_eq!(mesh.content_hash(), header.result),
             Err(e) => prop_assert!(!matches!(e, CorrectionError::ChecksumMismatch)),
         }

@@ -1,6 +1,7 @@
 //! `meshflow correction apply|inspect`: replay a step's correction, or describe one.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::Context;
@@ -47,10 +48,10 @@ fn read(path: &Path) -> anyhow::Result<Vec<u8>> {
 }
 
 fn apply(base: &Path, correction: &Path, output: &Path, json: bool) -> anyhow::Result<()> {
-    let mesh = load_mesh(base)?;
+    let mesh = Arc::new(load_mesh(base)?);
     let bytes = read(correction)?;
     let started = Instant::now();
-    let result = correction::apply(&mesh, &bytes)
+    let result = correction::apply(Arc::clone(&mesh), &bytes)
         .with_context(|| format!("applying {}", correction.display()))?;
     let apply_time = started.elapsed();
     save_mesh(output, &result)?;

@@ -1,7 +1,7 @@
 //! Replaying a correction: decode each op against the state before it, apply it, repeat.
 
 use std::collections::VecDeque;
-use std::sync::mpsc;
+use std::sync::{Arc, mpsc};
 
 use crate::MeshData;
 use crate::store::{MeshStore, Op, OpKind};
@@ -27,7 +27,7 @@ const CHUNK: u32 = 8192;
 pub(super) fn replay(
     header: &Correction,
     sections: [&[u8]; 4],
-    base: MeshData,
+    base: Arc<MeshData>,
 ) -> Result<(MeshData, Vec<Op>), CorrectionError> {
     let budget = ELEMENTS_PER_BYTE * header.total_bytes() as u64 + ELEMENT_SLACK;
     let declared: u64 = OpKind::ALL

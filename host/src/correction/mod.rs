@@ -23,7 +23,7 @@
 //! store.apply(Op::SplitTriangle { triangle: 0, at: None }).unwrap();
 //! let (result, log) = store.finish();
 //! let bytes = correction::encode(&base, &log, &result).unwrap();
-//! assert_eq!(correction::apply(&base, &bytes).unwrap(), result);
+//! assert_eq!(correction::apply(base, &bytes).unwrap(), result);
 //! ```
 
 mod codec;
@@ -39,6 +39,8 @@ pub use encode::encode;
 pub use error::CorrectionError;
 pub use header::{Correction, KindCount, SECTIONS, VERSION};
 
+use std::sync::Arc;
+
 use crate::store::Op;
 use crate::{ContentHash, MeshData};
 
@@ -49,13 +51,18 @@ pub fn decode(bytes: &[u8]) -> Result<Correction, CorrectionError> {
 }
 
 /// Applies a correction to `base`: checks the base hash, replays the ops, checks the result
-/// hash. The result is bit-identical to the producer's.
-pub fn apply(base: &MeshData, bytes: &[u8]) -> Result<MeshData, CorrectionError> {
+/// hash. The result is bit-identical to the producer's. A shared `base` (a session's mesh)
+/// is left as it is: the replay copies what the ops edit, when they first edit it.
+pub fn apply(base: impl Into<Arc<MeshData>>, bytes: &[u8]) -> Result<MeshData, CorrectionError> {
     replay(base, bytes).map(|(mesh, _)| mesh)
 }
 
 /// Like [`apply`], also returning the replayed edit log (equal to the producer's log).
-pub fn replay(base: &MeshData, bytes: &[u8]) -> Result<(MeshData, Vec<Op>), CorrectionError> {
+pub fn replay(
+    base: impl Into<Arc<MeshData>>,
+    bytes: &[u8],
+) -> Result<(MeshData, Vec<Op>), CorrectionError> {
+    let base = base.into();
     let (header, sections) = header::read(bytes)?;
     let counts = [base.vertex_count() as u64, base.triangle_count() as u64];
     if counts != header.base_counts {
@@ -68,7 +75,7 @@ pub fn replay(base: &MeshData, bytes: &[u8]) -> Result<(MeshData, Vec<Op>), Corr
     // ops replay; on a mismatch the replay is discarded.
     let (found, replayed) = std::thread::scope(|s| {
         let hash = s.spawn(|| base.content_hash());
-        let replayed = replay_checked(&header, sections, base.clone());
+        let replayed = replay_checked(&header, sections, Arc::clone(&base));
         (hash.join().expect("hashing does not panic"), replayed)
     });
     if found != header.base {
@@ -81,7 +88,7 @@ pub fn replay(base: &MeshData, bytes: &[u8]) -> Result<(MeshData, Vec<Op>), Corr
 /// host updating a session): a correction for another base or result is refused before any
 /// replay, and `base` is not hashed again.
 pub fn apply_known(
-    base: &MeshData,
+    base: impl Into<Arc<MeshData>>,
     base_hash: ContentHash,
     bytes: &[u8],
     result: ContentHash,
@@ -93,14 +100,14 @@ pub fn apply_known(
     if header.result != result {
         return Err(CorrectionError::ResultMismatch { expected: result, found: header.result });
     }
-    replay_checked(&header, sections, base.clone()).map(|(mesh, _)| mesh)
+    replay_checked(&header, sections, base.into()).map(|(mesh, _)| mesh)
 }
 
 /// Replays the ops on `base` and checks the result's hash against the header.
 fn replay_checked(
     header: &Correction,
     sections: [&[u8]; 4],
-    base: MeshData,
+    base: Arc<MeshData>,
 ) -> Result<(MeshData, Vec<Op>), CorrectionError> {
     let (mesh, log) = decode::replay(header, sections, base)?;
     let found = mesh.content_hash();

@@ -93,7 +93,7 @@ async fn apply_blob(host: &Host, mesh: MeshData, name: &str) -> Result<MeshData,
     let bytes = host.blobs.read(name).await?;
     let name = name.to_owned();
     tokio::task::spawn_blocking(move || {
-        correction::apply(&mesh, &bytes).map_err(|e| format!("replaying {name}: {e}"))
+        correction::apply(mesh, &bytes).map_err(|e| format!("replaying {name}: {e}"))
     })
     .await
     .map_err(|e| e.to_string())?

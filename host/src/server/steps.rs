@@ -127,7 +127,7 @@ async fn replay_correction(
             ContentHash::from_hex(hex).ok_or_else(|| format!("{hex:?} is not a content hash"))
         };
         // The session's hash is known: the base is not hashed again.
-        let mesh = correction::apply_known(&mesh, hash(&base_hash)?, &bytes, hash(&expected)?)
+        let mesh = correction::apply_known(mesh, hash(&base_hash)?, &bytes, hash(&expected)?)
             .map_err(|e| format!("{url}: {e}"))?;
         Ok((CurrentMesh { mesh: Arc::new(mesh), hash: expected.to_ascii_lowercase() }, bytes))
     })
