@@ -20,10 +20,12 @@ use std::time::Duration;
 
 use common::{best, ms};
 
-use meshflow_host::generate::{ScanSpec, scan};
-use meshflow_host::quantize::{self, Grid};
-use meshflow_host::store::{MeshStore, Op};
-use meshflow_host::{MeshData, correction, io, pack};
+use meshflow_codec::quantize::{self, Grid};
+use meshflow_codec::{correction, pack};
+use meshflow_generate::{ScanSpec, scan};
+use meshflow_mesh::MeshData;
+use meshflow_mesh::store::{MeshStore, Op};
+use meshflow_meshio as io;
 use meshflow_plugin_smoothing::laplacian::{Pinning, Weights, smooth};
 
 const RUNS: usize = 3;

@@ -11,8 +11,8 @@
 mod common;
 
 use meshflow_builtin_plugins::PLUGINS;
-use meshflow_host::generate::scan;
-use meshflow_host::server::{HostConfig, start};
+use meshflow_generate::scan;
+use meshflow_host::{HostConfig, start};
 use serde_json::{Value, json};
 use tokio::net::TcpListener;
 
@@ -27,7 +27,7 @@ async fn main() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
     let mesh = scan(&common::SCAN_1M);
     let input = dir.path().join("scan.mfm");
-    std::fs::write(&input, meshflow_host::pack::encode(&mesh)?)?;
+    std::fs::write(&input, meshflow_codec::pack::encode(&mesh)?)?;
     println!(
         "mesh: generated scan, {} vertices, {} triangles\n",
         mesh.vertex_count(),

@@ -16,12 +16,13 @@ use std::time::{Duration, Instant};
 
 use common::{SCAN_1M, best, meshlab_time, ms, ratio};
 use meshflow_builtin_plugins::PLUGINS;
-use meshflow_host::generate::scan;
-use meshflow_host::io::{Format, PlyEncoding};
-use meshflow_host::runtime::{Limits, Runtime, Value};
-use meshflow_host::store::{MeshStore, Op};
-use meshflow_host::{MeshData, io};
+use meshflow_generate::scan;
+use meshflow_mesh::MeshData;
+use meshflow_mesh::store::{MeshStore, Op};
+use meshflow_meshio as io;
+use meshflow_meshio::{Format, PlyEncoding};
 use meshflow_plugin_smoothing::laplacian::{Pinning, Weights, smooth};
+use meshflow_runtime::{Limits, Runtime, Value};
 
 const RUNS: usize = 5;
 

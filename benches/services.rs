@@ -19,16 +19,17 @@ use std::time::Duration;
 
 use common::{SCAN_1M, best, meshlab_available, meshlab_time, ms, ratio};
 use meshflow_builtin_plugins::PLUGINS;
-use meshflow_host::generate::scan;
-use meshflow_host::runtime::{Limits, Runtime, Value};
-use meshflow_host::store::{MeshStore, Op};
-use meshflow_host::{MeshData, io};
+use meshflow_generate::scan;
+use meshflow_mesh::MeshData;
+use meshflow_mesh::store::{MeshStore, Op};
+use meshflow_meshio as io;
 use meshflow_plugin_checks::{angles, counts, normals, topology};
 use meshflow_plugin_cleanup::components::{Keep, small_components};
 use meshflow_plugin_cleanup::degenerate::repair_degenerate;
 use meshflow_plugin_holes::fill::{Settings, fill_holes};
 use meshflow_plugin_smoothing::laplacian::{Pinning, Weights, smooth};
 use meshflow_plugin_smoothing::noise::add_noise;
+use meshflow_runtime::{Limits, Runtime, Value};
 use meshflow_sdk::geometry::bounding_box;
 
 const RUNS: usize = 3;
@@ -202,7 +203,7 @@ fn main() {
     );
 }
 
-fn load(runtime: &Runtime, plugin: &str) -> meshflow_host::runtime::Plugin {
+fn load(runtime: &Runtime, plugin: &str) -> meshflow_runtime::Plugin {
     let wasm = PLUGINS.iter().find(|p| p.name == plugin).expect("a built-in plugin").wasm;
     runtime.load(wasm).expect("the plugin loads")
 }

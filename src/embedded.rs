@@ -7,7 +7,7 @@ use anyhow::Context;
 use clap::ValueEnum;
 use meshflow_builtin_plugins::PLUGINS;
 use meshflow_engine::EngineHandle;
-use meshflow_host::server::{HostConfig, HostHandle};
+use meshflow_host::{HostConfig, HostHandle};
 use tokio::net::TcpListener;
 
 /// Which built-in plugins each host offers.
@@ -52,7 +52,7 @@ pub async fn start(
             ..HostConfig::new(data.join(format!("host-{index}")))
         };
         let listener = TcpListener::bind("127.0.0.1:0").await?;
-        let handle = meshflow_host::server::start(config, listener)
+        let handle = meshflow_host::start(config, listener)
             .await
             .with_context(|| format!("starting host {index}"))?;
         handles.push(handle);

@@ -4,8 +4,8 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use meshflow_host::runtime::Limits;
-use meshflow_host::{Catalog, Runtime};
+use meshflow_runtime::Limits;
+use meshflow_runtime::{Catalog, Runtime};
 
 use crate::PluginArgs;
 

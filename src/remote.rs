@@ -65,7 +65,7 @@ impl Submission {
         }
         if let Some(path) = &self.output {
             let bytes = download(&http, &format!("{}/runs/{id}/result", self.engine)).await?;
-            let mesh = meshflow_host::pack::decode(&bytes).context("decoding the result")?;
+            let mesh = meshflow_codec::pack::decode(&bytes).context("decoding the result")?;
             crate::commands::pack::save_mesh(path, &mesh)?;
         }
         match self.json {

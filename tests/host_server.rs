@@ -6,11 +6,13 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
-use meshflow_host::api::{RunRequest, RunResult, SessionState, Transfer, Update};
-use meshflow_host::client::{ClientError, HostClient};
-use meshflow_host::runtime::Limits;
-use meshflow_host::server::{HostConfig, HostHandle, start};
-use meshflow_host::{Catalog, MeshData, Runtime, io};
+use meshflow_api::host::{RunRequest, RunResult, SessionState, Transfer, Update};
+use meshflow_api::{ClientError, HostClient};
+use meshflow_host::{HostConfig, HostHandle, start};
+use meshflow_mesh::MeshData;
+use meshflow_meshio as io;
+use meshflow_runtime::Limits;
+use meshflow_runtime::{Catalog, Runtime};
 
 const TOKEN: &str = "sesame";
 
@@ -89,7 +91,7 @@ async fn filter(
     id: &str,
     service: &str,
     params: serde_json::Value,
-) -> meshflow_host::api::FilterResult {
+) -> meshflow_api::host::FilterResult {
     match client.run(id, &request(service, params)).await.unwrap() {
         RunResult::Filter(result) => result,
         other => panic!("expected a filter result, got {other:?}"),
@@ -107,7 +109,7 @@ fn api_error(result: Result<impl std::fmt::Debug, ClientError>) -> (u16, String,
 fn local_filter(
     mesh: &MeshData,
     service: &str,
-    params: &[(&str, meshflow_host::runtime::Value)],
+    params: &[(&str, meshflow_runtime::Value)],
 ) -> MeshData {
     let runtime = Runtime::new(Limits::default(), Some(&shared_cache())).unwrap();
     let mut catalog = Catalog::new();
@@ -141,7 +143,7 @@ async fn filters_and_checks_run_and_other_hosts_follow_by_correction_or_full_mes
     let expected = local_filter(
         &input,
         "laplacian-smoothing",
-        &[("iterations", meshflow_host::runtime::Value::Integer(2))],
+        &[("iterations", meshflow_runtime::Value::Integer(2))],
     );
     assert_eq!(step.input_hash, input.content_hash().to_hex());
     assert_eq!(step.output_hash, expected.content_hash().to_hex());
@@ -207,7 +209,7 @@ async fn blobs_have_a_length_and_an_etag_that_answers_304() {
     }
     let full = client.download(&step.full.url).await.unwrap();
     assert_eq!(
-        meshflow_host::pack::decode(&full).unwrap().content_hash().to_hex(),
+        meshflow_codec::pack::decode(&full).unwrap().content_hash().to_hex(),
         step.output_hash
     );
     let missing = format!("{}/blobs/{}.mfc", client.base_url(), "0".repeat(64));
@@ -471,7 +473,7 @@ fn the_cli_serves_a_host_and_uploads_a_plugin_to_it() {
     assert!(String::from_utf8_lossy(&refused.stderr).contains("401"));
     let stdout = String::from_utf8(uploaded.stdout).unwrap();
     assert!(uploaded.status.success(), "{}", String::from_utf8_lossy(&uploaded.stderr));
-    let digest = meshflow_host::runtime::digest(meshflow_builtin_plugins::fixture("hostile"));
+    let digest = meshflow_runtime::digest(meshflow_builtin_plugins::fixture("hostile"));
     assert!(stdout.starts_with(&format!("plugin {digest}")), "{stdout}");
     assert!(stdout.contains("loop-forever (filter"), "{stdout}");
 }

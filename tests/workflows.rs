@@ -9,8 +9,8 @@ use std::path::Path;
 use common::local::{Local, Trace};
 use common::process::HostProcess;
 use common::{Cluster, Input, TOKEN, builtin, components_cache, executed, steps, text};
+use meshflow_api::HostClient;
 use meshflow_engine::workflow::Workflow;
-use meshflow_host::client::HostClient;
 use serde_json::{Value as Json, json};
 
 /// Each filter family on its own host and the checks with the hole filler, so every example

@@ -7,7 +7,7 @@ use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use meshflow_host::generate::ScanSpec;
+use meshflow_generate::ScanSpec;
 
 /// The generated scan of issue 4's speed targets: 1M vertices, 2M triangles, 150 spurious
 /// pieces, 400 holes.

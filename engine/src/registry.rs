@@ -4,9 +4,9 @@ use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use meshflow_host::api::ServiceEntry;
-use meshflow_host::client::HostClient;
-use meshflow_host::runtime::ServiceInfo;
+use meshflow_api::HostClient;
+use meshflow_api::host::ServiceEntry;
+use meshflow_api::params::ServiceInfo;
 use serde::Serialize;
 
 /// How often the engine asks every host for its health and services.
@@ -66,7 +66,7 @@ impl HostEntry {
         let polled = async {
             let health = self.client.health().await?;
             let services = self.client.services().await?;
-            Ok::<_, meshflow_host::client::ClientError>((health, services))
+            Ok::<_, meshflow_api::ClientError>((health, services))
         }
         .await;
         let mut state = self.state.lock().unwrap();

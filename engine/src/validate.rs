@@ -2,8 +2,8 @@
 //! filters run as steps and checks as conditions, parameters have the declared types and
 //! ranges, and each condition compares with a value of the check's result type.
 
-use meshflow_host::api::params_from_json;
-use meshflow_host::runtime::{ServiceInfo, ServiceKind, ValueType};
+use meshflow_api::params::from_json as params_from_json;
+use meshflow_api::params::{ServiceInfo, ServiceKind, ValueType};
 use serde_json::Value as Json;
 
 use crate::workflow::{Condition, Step, Task, Workflow, WorkflowError};
@@ -58,7 +58,7 @@ fn validate_task(
         ));
     }
     params_from_json(&info, &task.params)
-        .map_err(|message| WorkflowError::new(format!("{}.params", task.path), message))?;
+        .map_err(|e| WorkflowError::new(format!("{}.params", task.path), e.to_string()))?;
     Ok(info)
 }
 
@@ -119,7 +119,7 @@ fn json_type_name(value: &Json) -> &'static str {
 
 #[cfg(test)]
 mod tests {
-    use meshflow_host::runtime::{ParamInfo, Value};
+    use meshflow_api::params::{ParamInfo, Value};
     use serde_json::json;
 
     use super::*;

@@ -4,7 +4,8 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use meshflow_host::{MeshData, correction};
+use meshflow_codec::correction;
+use meshflow_mesh::MeshData;
 
 fn base() -> MeshData {
     let mut positions = Vec::new();

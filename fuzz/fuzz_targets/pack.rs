@@ -3,7 +3,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use meshflow_host::pack;
+use meshflow_codec::pack;
 
 fuzz_target!(|data: &[u8]| {
     let _ = pack::decode(data);

@@ -1,22 +1,154 @@
-//! The meshflow host as a library: the recording mesh store, mesh IO and the sandboxed
-//! plugin runtime.
+//! The host HTTP server (feature `server`): services, plugin upload, sessions that load a
+//! mesh from a URL and then run services or take other hosts' steps, and blobs.
+//!
+//! One file per concern: `config` (settings and limits), `error` (JSON errors), `state`
+//! (what handlers share), `plugins`, `sessions` (table and records), `rebuild` (loading
+//! and replaying a session), `steps` (update and run), `meshes` (formats and blob names),
+//! `blobs` (storage and serving), `eviction`.
 
-#[cfg(feature = "server")]
-pub mod api;
-pub mod catalog;
-#[cfg(feature = "server")]
-pub mod client;
-pub mod correction;
-pub mod generate;
-pub mod io;
-pub mod mesh;
-pub mod pack;
-pub mod quantize;
-pub mod runtime;
-#[cfg(feature = "server")]
-pub mod server;
-pub mod store;
+mod blobs;
+mod config;
+mod error;
+mod eviction;
+mod meshes;
+mod plugins;
+mod rebuild;
+mod sessions;
+mod state;
+mod steps;
 
-pub use catalog::Catalog;
-pub use mesh::{ContentHash, MeshData};
-pub use runtime::Runtime;
+pub use config::*;
+pub use plugins::MAX_PLUGIN_BYTES;
+
+use std::sync::Arc;
+
+use anyhow::Context;
+use axum::Router;
+use axum::extract::{DefaultBodyLimit, State};
+use axum::routing::{delete, get, post};
+use tokio::net::TcpListener;
+
+use error::ApiError;
+use meshflow_api::host::Health;
+use meshflow_runtime::Runtime;
+use state::{DataDirs, Host};
+
+/// A running host server.
+pub struct HostHandle {
+    /// Where it is reached (its public URL).
+    pub url: String,
+    shutdown: tokio::sync::oneshot::Sender<()>,
+    server: tokio::task::JoinHandle<std::io::Result<()>>,
+    background: Vec<tokio::task::AbortHandle>,
+}
+
+impl HostHandle {
+    /// Stops accepting requests, lets those in flight finish, and returns.
+    pub async fn shutdown(self) -> anyhow::Result<()> {
+        let _ = self.shutdown.send(());
+        self.background.iter().for_each(|task| task.abort());
+        self.server.await.context("the host server task failed")??;
+        Ok(())
+    }
+}
+
+/// Starts a host on `listener`: loads the plugins (built-in and stored), rebuilds stored
+/// sessions in the background, serves, and registers with the engine if one is given.
+pub async fn start(config: HostConfig, listener: TcpListener) -> anyhow::Result<HostHandle> {
+    let dirs = DataDirs::create(&config).with_context(|| {
+        format!("creating the data folders under {}", config.data_dir.display())
+    })?;
+    let address = listener.local_addr()?;
+    let public_url = match &config.public_url {
+        Some(url) => url.trim_end_matches('/').to_owned(),
+        None if address.ip().is_unspecified() => format!("http://127.0.0.1:{}", address.port()),
+        None => format!("http://{address}"),
+    };
+    let (runtime, plugins) = {
+        let (limits, cache) = (config.limits.clone(), dirs.cache.clone());
+        let (plugin_dir, builtins) = (dirs.plugins.clone(), config.builtins.clone());
+        tokio::task::spawn_blocking(move || {
+            let runtime = Runtime::new(limits, Some(&cache))?;
+            let plugins = plugins::PluginSet::load(&runtime, plugin_dir, &builtins)?;
+            Ok::<_, anyhow::Error>((Arc::new(runtime), plugins))
+        })
+        .await??
+    };
+    let host = Arc::new(Host::new(config, public_url.clone(), runtime, plugins, &dirs)?);
+    for (id, record) in host.sessions.saved_records() {
+        host.sessions.insert(&id, record.clone()).map_err(|e| anyhow::anyhow!(e.message))?;
+        tokio::spawn(rebuild::load(host.clone(), id, record));
+    }
+
+    let (shutdown, stop) = tokio::sync::oneshot::channel::<()>();
+    let app = router(host.clone());
+    let server = tokio::spawn(async move {
+        axum::serve(listener, app)
+            .with_graceful_shutdown(async {
+                let _ = stop.await;
+            })
+            .await
+    });
+    let mut background =
+        vec![tokio::spawn(eviction::run_periodically(host.clone())).abort_handle()];
+    if let Some(engine) = host.config.engine.clone() {
+        let http = host.http.clone();
+        background.push(tokio::spawn(register(http, engine, public_url.clone())).abort_handle());
+    }
+    tracing::info!("host listening on {address}, reached at {public_url}");
+    Ok(HostHandle { url: public_url, shutdown, server, background })
+}
+
+/// Serves until Ctrl-C.
+pub async fn serve(config: HostConfig, listener: TcpListener) -> anyhow::Result<()> {
+    let handle = start(config, listener).await?;
+    tokio::signal::ctrl_c().await?;
+    tracing::info!("shutting down");
+    handle.shutdown().await
+}
+
+fn router(host: Arc<Host>) -> Router {
+    Router::new()
+        .route("/health", get(health))
+        .route("/services", get(plugins::services))
+        .route(
+            "/plugins",
+            get(plugins::list).post(plugins::upload).layer(DefaultBodyLimit::max(MAX_PLUGIN_BYTES)),
+        )
+        .route("/plugins/{digest}", delete(plugins::delete))
+        .route("/sessions", post(sessions::create))
+        .route("/sessions/{id}", get(sessions::status).delete(sessions::delete))
+        .route("/sessions/{id}/update", post(steps::update))
+        .route("/sessions/{id}/run", post(steps::run))
+        .route("/blobs/{name}", get(blobs::serve).head(blobs::serve))
+        .fallback(|| async {
+            ApiError::new(axum::http::StatusCode::NOT_FOUND, "not-found", "no such endpoint")
+        })
+        .with_state(host)
+}
+
+async fn health(State(host): State<Arc<Host>>) -> axum::Json<Health> {
+    axum::Json(Health {
+        status: "ok".into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        running: host.running(),
+        sessions: host.sessions.count(),
+    })
+}
+
+/// `POST {engine}/hosts {"url"}`, a few times; a failure is logged, not fatal.
+async fn register(http: reqwest::Client, engine: String, url: String) {
+    let endpoint = format!("{}/hosts", engine.trim_end_matches('/'));
+    for attempt in 1..=REGISTER_ATTEMPTS {
+        let sent = http.post(&endpoint).json(&serde_json::json!({ "url": url })).send().await;
+        match sent.and_then(|r| r.error_for_status()) {
+            Ok(_) => {
+                tracing::info!("registered with the engine at {engine}");
+                return;
+            }
+            Err(e) => tracing::warn!("registering with {endpoint} (attempt {attempt}): {e}"),
+        }
+        tokio::time::sleep(REGISTER_RETRY).await;
+    }
+    tracing::warn!("gave up registering with the engine at {engine}");
+}

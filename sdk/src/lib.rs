@@ -31,10 +31,11 @@ extern crate self as meshflow_sdk;
 
 pub mod bindings;
 mod error;
-pub mod geometry;
 mod mesh;
 mod service;
-pub mod topology;
+
+pub use meshflow_topology as topology;
+pub use meshflow_topology::geometry;
 
 pub use bindings::meshflow::geometry::types::{Value, ValueType};
 pub use error::{Error, Result};

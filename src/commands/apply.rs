@@ -5,8 +5,9 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use meshflow_host::runtime::ServiceKind;
-use meshflow_host::{correction, io, quantize};
+use meshflow_codec::{correction, quantize};
+use meshflow_meshio as io;
+use meshflow_runtime::ServiceKind;
 
 use super::{millis, parse_params};
 use crate::PluginArgs;

@@ -5,8 +5,8 @@ use std::time::Instant;
 
 use anyhow::bail;
 use clap::Args;
-use meshflow_host::io;
-use meshflow_host::runtime::{ServiceKind, value_text};
+use meshflow_meshio as io;
+use meshflow_runtime::{ServiceKind, value_text};
 
 use super::{millis, parse_params, value_json};
 use crate::PluginArgs;

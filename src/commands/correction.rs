@@ -6,8 +6,8 @@ use std::time::Instant;
 
 use anyhow::Context;
 use clap::Subcommand;
-use meshflow_host::correction::{self, SECTIONS};
-use meshflow_host::store::OpKind;
+use meshflow_codec::correction::{self, SECTIONS};
+use meshflow_mesh::store::OpKind;
 
 use super::millis;
 use super::pack::{load_mesh, save_mesh};

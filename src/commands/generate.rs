@@ -4,8 +4,8 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
-use meshflow_host::generate::{ScanSpec, scan};
-use meshflow_host::io;
+use meshflow_generate::{ScanSpec, scan};
+use meshflow_meshio as io;
 
 #[derive(Subcommand)]
 pub enum GenerateCommand {

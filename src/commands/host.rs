@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use anyhow::Context;
 use clap::Args;
-use meshflow_host::server::{
+use meshflow_host::{
     DEFAULT_BLOB_BUDGET_BYTES, DEFAULT_MAX_DOWNLOAD_BYTES, DEFAULT_SESSION_TTL, HostConfig, serve,
 };
 

@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use meshflow_host::io;
+use meshflow_meshio as io;
 
 pub fn hash(input: &Path) -> anyhow::Result<()> {
     let mesh = io::load(input)?;

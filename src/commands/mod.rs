@@ -14,7 +14,7 @@ pub mod services;
 pub mod submit;
 pub mod up;
 
-use meshflow_host::runtime::Value;
+use meshflow_runtime::Value;
 
 /// `k=v` pairs from the command line; values stay text until the service's declared
 /// types say how to read them.
@@ -29,4 +29,5 @@ pub fn parse_params(pairs: &[String]) -> anyhow::Result<Vec<(String, Value)>> {
 }
 
 /// Timings in JSON output and values as JSON, as the host API gives them.
-pub use meshflow_host::api::{millis, value_json};
+pub use meshflow_api::host::millis;
+pub use meshflow_params::value_json;

@@ -5,7 +5,9 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::Context;
-use meshflow_host::{MeshData, io, pack, quantize};
+use meshflow_codec::{pack, quantize};
+use meshflow_mesh::MeshData;
+use meshflow_meshio as io;
 
 use super::millis;
 

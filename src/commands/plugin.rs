@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Subcommand;
-use meshflow_host::client::HostClient;
+use meshflow_api::HostClient;
 
 #[derive(Subcommand)]
 pub enum PluginCommand {

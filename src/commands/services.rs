@@ -1,34 +1,25 @@
 //! `meshflow services`: what can be run, and how.
 
-use meshflow_host::runtime::{ServiceInfo, ServiceKind, describe_params};
+use meshflow_runtime::{ServiceInfo, ServiceKind, describe_params};
 
-use super::value_json;
 use crate::PluginArgs;
+
+/// One service of `meshflow services --json`: its description, as the HTTP APIs give it,
+/// and the digest of the plugin that offers it.
+#[derive(serde::Serialize)]
+struct Listed<'a> {
+    #[serde(flatten)]
+    info: &'a ServiceInfo,
+    plugin: &'a str,
+}
 
 pub fn run(args: &PluginArgs, json: bool) -> anyhow::Result<()> {
     let (_runtime, catalog) = crate::plugins::load(args)?;
     if json {
-        let services: Vec<_> = catalog
+        let services: Vec<Listed> = catalog
             .services()
             .into_iter()
-            .map(|(s, plugin)| {
-                serde_json::json!({
-                    "name": s.name,
-                    "kind": kind_name(s.kind),
-                    "doc": s.doc,
-                    "plugin": plugin.digest,
-                    "result": s.result_type.map(|t| format!("{t:?}").to_lowercase()),
-                    "params": s.params.iter().map(|p| serde_json::json!({
-                        "name": p.name,
-                        "type": format!("{:?}", p.ty).to_lowercase(),
-                        "default": value_json(&p.default),
-                        "min": p.min,
-                        "max": p.max,
-                        "choices": p.choices,
-                        "doc": p.doc,
-                    })).collect::<Vec<_>>(),
-                })
-            })
+            .map(|(info, plugin)| Listed { info, plugin: &plugin.digest })
             .collect();
         println!("{}", serde_json::to_string_pretty(&services)?);
         return Ok(());

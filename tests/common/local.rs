@@ -6,9 +6,10 @@ use std::cmp::Ordering;
 use std::path::Path;
 
 use meshflow_engine::workflow::{Condition, Step, Task, Workflow};
-use meshflow_host::api::{params_from_json, value_json};
-use meshflow_host::runtime::{Limits, RunOutput};
-use meshflow_host::{Catalog, MeshData, Runtime};
+use meshflow_mesh::MeshData;
+use meshflow_params::{from_json as params_from_json, value_json};
+use meshflow_runtime::{Catalog, Runtime};
+use meshflow_runtime::{Limits, RunOutput};
 use serde_json::Value as Json;
 
 /// What a local run did: every task in execution order with its outcome (a filter's output

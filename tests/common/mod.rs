@@ -9,9 +9,9 @@ use std::time::Duration;
 
 use meshflow_builtin_plugins::PLUGINS;
 use meshflow_engine::EngineHandle;
-use meshflow_host::MeshData;
-use meshflow_host::io::{self, Format};
-use meshflow_host::server::{HostConfig, HostHandle};
+use meshflow_host::{HostConfig, HostHandle};
+use meshflow_mesh::MeshData;
+use meshflow_meshio::{self as io, Format};
 use serde_json::Value as Json;
 use tokio::net::TcpListener;
 
@@ -43,7 +43,7 @@ impl Input {
 
     /// A generated scan with holes, debris and non-manifold spots, uploaded as PLY.
     pub fn scan(vertices: usize, seed: u64) -> Self {
-        use meshflow_host::generate::{ScanSpec, scan};
+        use meshflow_generate::{ScanSpec, scan};
         let spec = ScanSpec { vertices, components: 12, holes: 15, noise: 0.2, seed };
         let mut bytes = Vec::new();
         io::write_to(&mut bytes, &scan(&spec), Format::Ply).unwrap();
@@ -80,7 +80,7 @@ impl Cluster {
                 ..HostConfig::new(data.path().join(format!("host-{index}")))
             };
             let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
-            hosts.push(meshflow_host::server::start(config, listener).await.unwrap());
+            hosts.push(meshflow_host::start(config, listener).await.unwrap());
         }
         let urls: Vec<String> =
             hosts.iter().map(|h| h.url.clone()).chain(other_hosts.iter().cloned()).collect();
@@ -164,7 +164,7 @@ impl Cluster {
     pub async fn result(&self, id: &str) -> MeshData {
         let answer = self.http.get(self.url(&format!("/runs/{id}/result"))).send().await.unwrap();
         assert_eq!(answer.status(), 200);
-        meshflow_host::pack::decode(&answer.bytes().await.unwrap()).unwrap()
+        meshflow_codec::pack::decode(&answer.bytes().await.unwrap()).unwrap()
     }
 
     /// `GET /services`: the catalogue by service name, with the hosts offering each.

@@ -4,7 +4,7 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
-use meshflow_host::client::HostClient;
+use meshflow_api::HostClient;
 
 /// How long a fresh host may take to compile its plugins and answer.
 const START_TIMEOUT: Duration = Duration::from_secs(60);

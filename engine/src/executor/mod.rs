@@ -9,10 +9,10 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
 
-use meshflow_host::api::{
+use meshflow_api::ClientError;
+use meshflow_api::host::{
     FilterResult, FullRef, RunRequest, RunResult, SessionState, Transfer as Use, Update,
 };
-use meshflow_host::client::ClientError;
 use serde_json::{Value as Json, json};
 
 use crate::plan::{Plan, pick};
@@ -45,7 +45,7 @@ pub async fn execute(run: Arc<Run>, workflow: Workflow, input: String, registry:
 struct Current {
     hash: String,
     full: FullRef,
-    correction: Option<meshflow_host::api::BlobRef>,
+    correction: Option<meshflow_api::host::BlobRef>,
     vertices: u64,
     triangles: u64,
     /// The size of the last full mesh seen, to choose the smaller transfer in `auto`.
@@ -205,7 +205,7 @@ impl Executor {
         Ok(())
     }
 
-    fn set_input(&mut self, url: &str, status: &meshflow_host::api::SessionStatus) {
+    fn set_input(&mut self, url: &str, status: &meshflow_api::host::SessionStatus) {
         if self.current.is_some() {
             return;
         }
@@ -605,7 +605,7 @@ async fn load_input(
     host: Arc<HostEntry>,
     url: &str,
     hash: Option<String>,
-) -> Result<(String, meshflow_host::api::SessionStatus), Failure> {
+) -> Result<(String, meshflow_api::host::SessionStatus), Failure> {
     let created = host.client.create_session(url, hash.as_deref()).await?;
     let status = host.client.wait_ready(&created.id).await?;
     match status.state {

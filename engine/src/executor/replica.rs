@@ -3,8 +3,8 @@
 
 use std::sync::Arc;
 
-use meshflow_host::api::{Transfer as Use, Update, Updated};
-use meshflow_host::client::ClientError;
+use meshflow_api::ClientError;
+use meshflow_api::host::{Transfer as Use, Update, Updated};
 use tokio::task::JoinHandle;
 
 use crate::record::TransferRecord;

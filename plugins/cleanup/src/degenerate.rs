@@ -253,7 +253,7 @@ fn split_cap(mesh: &mut MirrorMesh, t: u32, k: u32) -> Option<u32> {
 mod tests {
     use super::*;
     use crate::mirror::tests::assert_store_agrees;
-    use meshflow_host::MeshData;
+    use meshflow_mesh::MeshData;
     use meshflow_sdk::topology::{HalfEdges, boundary_loops, is_manifold};
 
     /// The live triangles of the mirror (vertex ids unchanged: enough for topology checks).

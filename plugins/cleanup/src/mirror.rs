@@ -234,8 +234,8 @@ impl MirrorMesh {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use meshflow_host::MeshData;
-    use meshflow_host::store::{MeshStore, Op};
+    use meshflow_mesh::MeshData;
+    use meshflow_mesh::store::{MeshStore, Op};
 
     /// Replays the recorded edits through the host's store and checks that every slot of
     /// the result matches the mirror's.

@@ -1,0 +1,105 @@
+//! Parameters as JSON objects, as workflows and the HTTP APIs carry them.
+
+use serde_json::{Map, Value as Json};
+
+use crate::{ParamError, ServiceInfo, Value, ValueType, describe_params, resolve};
+
+/// JSON parameters as typed values, by each parameter's declared type, checked against
+/// the service's description (names, types, ranges, choices). Returns the values given
+/// (not the defaults); the error lists what the service accepts.
+pub fn from_json(
+    info: &ServiceInfo,
+    params: &Map<String, Json>,
+) -> Result<Vec<(String, Value)>, ParamError> {
+    let typed = params
+        .iter()
+        .map(|(name, json)| {
+            let declared = info.params.iter().find(|p| &p.name == name).map(|p| p.ty);
+            let value = json_value(declared, json).ok_or_else(|| ParamError {
+                service: info.name.clone(),
+                problem: format!("parameter `{name}`: {json} is not a number, boolean or string"),
+                accepted: describe_params(info),
+            })?;
+            Ok((name.clone(), value))
+        })
+        .collect::<Result<Vec<_>, ParamError>>()?;
+    resolve(info, &typed)?;
+    Ok(typed)
+}
+
+/// The value of a JSON scalar, guided by the declared type so that `3` is an integer for
+/// an integer parameter and a real for a real one. Range and type mismatches are left to
+/// [`resolve`], which words them.
+fn json_value(declared: Option<ValueType>, json: &Json) -> Option<Value> {
+    Some(match json {
+        Json::Bool(b) => Value::Boolean(*b),
+        Json::String(s) => Value::Text(s.clone()),
+        Json::Number(n) => match (declared, n.as_i64()) {
+            (Some(ValueType::Real), _) | (_, None) => Value::Real(n.as_f64()?),
+            (_, Some(i)) => Value::Integer(i),
+        },
+        Json::Null | Json::Array(_) | Json::Object(_) => return None,
+    })
+}
+
+/// A value as JSON.
+pub fn value_json(value: &Value) -> Json {
+    match value {
+        Value::Boolean(b) => (*b).into(),
+        Value::Integer(i) => (*i).into(),
+        Value::Real(r) => (*r).into(),
+        Value::Text(t) => t.clone().into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{ParamInfo, ServiceKind};
+
+    fn smoothing() -> ServiceInfo {
+        let param = |name: &str, ty, default| ParamInfo {
+            name: name.into(),
+            doc: String::new(),
+            ty,
+            default,
+            min: Some(0.0),
+            max: Some(100.0),
+            choices: vec![],
+        };
+        ServiceInfo {
+            name: "smooth".into(),
+            kind: ServiceKind::Filter,
+            doc: String::new(),
+            params: vec![
+                param("iterations", ValueType::Integer, Value::Integer(1)),
+                param("factor", ValueType::Real, Value::Real(0.5)),
+            ],
+            result_type: None,
+        }
+    }
+
+    fn json(text: &str) -> Map<String, Json> {
+        serde_json::from_str(text).unwrap()
+    }
+
+    #[test]
+    fn numbers_take_the_declared_type() {
+        let typed = from_json(&smoothing(), &json(r#"{"iterations": 3, "factor": 1}"#));
+        assert_eq!(
+            typed.unwrap(),
+            vec![("factor".into(), Value::Real(1.0)), ("iterations".into(), Value::Integer(3))]
+        );
+    }
+
+    #[test]
+    fn bad_params_are_refused_with_what_is_accepted() {
+        let error =
+            from_json(&smoothing(), &json(r#"{"iterations": 1000}"#)).unwrap_err().to_string();
+        assert!(error.contains("iterations"), "{error}");
+        let error = from_json(&smoothing(), &json(r#"{"speed": 1}"#)).unwrap_err().to_string();
+        assert!(error.contains("unknown parameter `speed`") && error.contains("factor"), "{error}");
+        let error = from_json(&smoothing(), &json(r#"{"factor": [1]}"#)).unwrap_err().to_string();
+        assert!(error.contains("is not a number"), "{error}");
+    }
+}

@@ -1,0 +1,189 @@
+//! The host HTTP API's bodies: serde types shared by the host server and
+//! [`HostClient`](crate::HostClient).
+
+use serde::{Deserialize, Serialize};
+
+use meshflow_params::ServiceInfo;
+
+/// `GET /health`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Health {
+    pub status: String,
+    pub version: String,
+    /// Runs in progress: the engine's measure of load.
+    pub running: usize,
+    pub sessions: usize,
+}
+
+/// One entry of `GET /services`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ServiceEntry {
+    pub plugin: String,
+    pub builtin: bool,
+    pub info: ServiceInfo,
+}
+
+/// `POST /plugins`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct UploadedPlugin {
+    pub digest: String,
+    pub services: Vec<ServiceInfo>,
+}
+
+/// One entry of `GET /plugins`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct PluginEntry {
+    pub digest: String,
+    pub builtin: bool,
+    pub services: Vec<String>,
+}
+
+/// `POST /sessions`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct CreateSession {
+    pub input: InputRef,
+}
+
+/// Where a session's input mesh is, and optionally the content hash it must have.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct InputRef {
+    pub url: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hash: Option<String>,
+}
+
+/// `POST /sessions` answer.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct SessionCreated {
+    pub id: String,
+    pub state: SessionState,
+}
+
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum SessionState {
+    Loading,
+    Ready,
+    Busy,
+    Failed,
+}
+
+/// `GET /sessions/{id}`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct SessionStatus {
+    pub id: String,
+    pub state: SessionState,
+    /// Content hash of the session's current mesh, once loaded.
+    pub hash: Option<String>,
+    pub vertices: Option<usize>,
+    pub triangles: Option<usize>,
+    /// Why the session failed.
+    pub error: Option<String>,
+    pub download_ms: Option<f64>,
+    pub load_ms: Option<f64>,
+    pub input_bytes: Option<u64>,
+}
+
+/// A blob another host produced: a correction.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct BlobRef {
+    pub url: String,
+    pub bytes: u64,
+}
+
+/// A full mesh another host can produce, named by its content hash.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct FullRef {
+    pub url: String,
+    pub hash: String,
+}
+
+/// Which of the two transfers a receiving host should use.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Transfer {
+    Correction,
+    Full,
+}
+
+/// `POST /sessions/{id}/update`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Update {
+    pub correction: Option<BlobRef>,
+    pub full: FullRef,
+    #[serde(rename = "use")]
+    pub use_: Transfer,
+}
+
+/// `POST /sessions/{id}/update` answer.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Updated {
+    pub hash: String,
+    pub via: Transfer,
+    /// Bytes downloaded, the failed correction attempt included.
+    pub bytes: u64,
+    pub download_ms: f64,
+    pub apply_ms: f64,
+    /// Why the correction was not used, when the host fell back to the full mesh.
+    pub fallback: Option<String>,
+}
+
+/// `POST /sessions/{id}/run`.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct RunRequest {
+    pub service: String,
+    #[serde(default)]
+    pub params: serde_json::Map<String, serde_json::Value>,
+    /// Run this plugin's service rather than the one the catalogue picks.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plugin: Option<String>,
+}
+
+/// `POST /sessions/{id}/run` answer.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum RunResult {
+    Filter(FilterResult),
+    Check(CheckResult),
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct FilterResult {
+    pub service: String,
+    pub plugin: String,
+    pub input_hash: String,
+    pub output_hash: String,
+    pub vertices: usize,
+    pub triangles: usize,
+    pub edits: usize,
+    pub compute_ms: f64,
+    pub report: String,
+    pub correction: BlobRef,
+    pub full: FullRef,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct CheckResult {
+    pub service: String,
+    pub plugin: String,
+    pub value: serde_json::Value,
+    pub compute_ms: f64,
+    pub report: String,
+}
+
+/// Every error body: `{"error": {"code", "message"}}`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ErrorBody {
+    pub error: ErrorDetail,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ErrorDetail {
+    pub code: String,
+    pub message: String,
+}
+
+/// Milliseconds, rounded to microseconds: how the API reports timings.
+pub fn millis(duration: std::time::Duration) -> f64 {
+    (duration.as_secs_f64() * 1e6).round() / 1e3
+}

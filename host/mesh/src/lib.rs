@@ -1,0 +1,11 @@
+//! The mesh model every host shares: [`MeshData`] (a compact indexed triangle set) with its
+//! canonical [`ContentHash`], and the recording [`store`] through which every edit passes
+//! and is logged as an [`store::Op`] — the vocabulary corrections are made of.
+//!
+//! This crate must not depend on file formats, codecs, wasmtime or HTTP: everything else
+//! builds on it.
+
+mod data;
+pub mod store;
+
+pub use data::{ContentHash, MeshData, as_le_bytes_f32};

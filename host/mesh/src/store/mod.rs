@@ -1,0 +1,344 @@
+//! The recording mesh store: the only writer of mesh state on a host.
+//!
+//! A step starts from a compact [`MeshData`]. Every edit goes through [`MeshStore::apply`],
+//! which validates it completely before changing anything, performs it, and appends it to
+//! the log. Removed elements stay as tombstones until [`MeshStore::finish`] compacts the mesh
+//! deterministically (survivors keep their relative order), so two stores that apply the
+//! same ops to the same mesh end with byte-identical data.
+//!
+//! ```
+//! use meshflow_mesh::{MeshData, store::{MeshStore, Op}};
+//! let quad = MeshData::new(
+//!     vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0],
+//!     vec![0, 1, 2, 0, 2, 3],
+//! );
+//! let mut store = MeshStore::new(quad.clone());
+//! store.apply(Op::RemoveTriangles { ids: vec![1] }).unwrap();
+//! let (result, log) = store.finish();
+//! assert_eq!(result.triangles, vec![0, 1, 2]);
+//!
+//! let mut replay = MeshStore::new(quad);
+//! for op in log {
+//!     replay.apply(op).unwrap();
+//! }
+//! assert_eq!(replay.finish().0.content_hash(), result.content_hash());
+//! ```
+
+mod compact;
+mod components;
+mod edges;
+mod error;
+mod incidence;
+mod op;
+mod triangles;
+mod vertices;
+
+pub use error::{EditError, EditErrorKind};
+pub use op::{Affine, Op, OpKind};
+
+use std::sync::Arc;
+
+use crate::MeshData;
+use incidence::Incidence;
+
+/// What the bulk triangle read shows in all three corners of a removed triangle.
+pub const REMOVED: u32 = u32::MAX;
+
+pub struct MeshStore {
+    /// Positions, and corners per triangle slot (a removed triangle holds `REMOVED` three
+    /// times). Shared with the caller until the first edit, so a read-only run (a check)
+    /// never copies the mesh.
+    mesh: Arc<MeshData>,
+    vertex_removed: Vec<bool>,
+    removed_vertex_count: usize,
+    removed_triangle_count: usize,
+    /// Built on the first edit that needs to find triangles around a vertex.
+    incidence: Option<Incidence>,
+    log: Vec<Op>,
+}
+
+impl MeshStore {
+    /// A store over `mesh`; an `Arc` is shared, and copied only on the first edit.
+    pub fn new(mesh: impl Into<Arc<MeshData>>) -> Self {
+        let mesh = mesh.into();
+        let vertex_slots = mesh.vertex_count();
+        Self {
+            mesh,
+            vertex_removed: vec![false; vertex_slots],
+            removed_vertex_count: 0,
+            removed_triangle_count: 0,
+            incidence: None,
+            log: Vec::new(),
+        }
+    }
+
+    // ---- reads -------------------------------------------------------------------------
+
+    pub fn vertex_slots(&self) -> u32 {
+        self.vertex_removed.len() as u32
+    }
+
+    pub fn triangle_slots(&self) -> u32 {
+        (self.mesh.triangles.len() / 3) as u32
+    }
+
+    pub fn vertex_count(&self) -> u32 {
+        (self.vertex_removed.len() - self.removed_vertex_count) as u32
+    }
+
+    pub fn triangle_count(&self) -> u32 {
+        (self.mesh.triangles.len() / 3 - self.removed_triangle_count) as u32
+    }
+
+    /// `x y z` per vertex slot; removed vertices keep their last position.
+    pub fn positions(&self) -> &[f32] {
+        &self.mesh.positions
+    }
+
+    /// `a b c` per triangle slot; removed triangles read `REMOVED` three times.
+    pub fn triangles(&self) -> &[u32] {
+        &self.mesh.triangles
+    }
+
+    pub fn removed_vertices(&self) -> Vec<u32> {
+        (0..self.vertex_slots()).filter(|&v| self.vertex_removed[v as usize]).collect()
+    }
+
+    pub fn is_vertex_live(&self, vertex: u32) -> bool {
+        self.vertex_removed.get(vertex as usize) == Some(&false)
+    }
+
+    pub fn is_triangle_live(&self, triangle: u32) -> bool {
+        self.mesh.triangles.get(3 * triangle as usize).is_some_and(|&a| a != REMOVED)
+    }
+
+    pub fn position(&self, vertex: u32) -> Result<[f32; 3], EditError> {
+        self.check_vertex(vertex)?;
+        Ok(self.point(vertex))
+    }
+
+    pub fn triangle(&self, triangle: u32) -> Result<[u32; 3], EditError> {
+        self.check_triangle(triangle)?;
+        Ok(self.corners(triangle))
+    }
+
+    /// Every op applied so far, consecutive bulk ops of one kind merged.
+    pub fn log(&self) -> &[Op] {
+        &self.log
+    }
+
+    // ---- edits ---------------------------------------------------------------------------
+
+    /// Validates and performs one edit, then records it. Returns the id of the element the
+    /// edit created, where it creates one (the first, for bulk additions).
+    pub fn apply(&mut self, op: Op) -> Result<Option<u32>, EditError> {
+        let created = match &op {
+            Op::AddVertices { xyz } => Some(self.add_vertices(xyz)?),
+            Op::MoveVertices { ids, xyz } => self.move_vertices(ids, xyz).map(|_| None)?,
+            Op::SetPositions { xyz } => self.set_positions(xyz).map(|_| None)?,
+            Op::RemoveVertices { ids } => self.remove_vertices(ids).map(|_| None)?,
+            Op::AddTriangles { abc } => Some(self.add_triangles(abc)?),
+            Op::RemoveTriangles { ids } => self.remove_triangles(ids).map(|_| None)?,
+            Op::FlipTriangles { ids } => self.flip_triangles(ids).map(|_| None)?,
+            Op::SplitTriangle { triangle, at } => Some(self.split_triangle(*triangle, *at)?),
+            Op::ExtendEdge { edge, vertex } => Some(self.extend_edge(*edge, *vertex)?),
+            Op::SplitEdge { edge, at } => Some(self.split_edge(*edge, *at)?),
+            Op::SwapEdge { edge } => self.swap_edge(*edge).map(|_| None)?,
+            Op::CollapseEdge { edge } => self.collapse_edge(*edge).map(|_| None)?,
+            Op::RemoveComponent { triangle } => self.remove_component(*triangle).map(|_| None)?,
+            Op::TransformComponent { triangle, matrix } => {
+                self.transform_component(*triangle, matrix).map(|_| None)?
+            }
+            Op::Transform { matrix } => self.transform(matrix).map(|_| None)?,
+            Op::Clear => self.clear().map(|_| None)?,
+        };
+        // Removed slots keep their positions whatever the op said, and the log records what
+        // they hold; with none removed the op's values are the positions, kept as they came.
+        let op = match op {
+            Op::SetPositions { .. } if self.removed_vertex_count > 0 => {
+                Op::SetPositions { xyz: self.mesh.positions.clone() }
+            }
+            op => op,
+        };
+        self.record(op);
+        Ok(created)
+    }
+
+    fn record(&mut self, op: Op) {
+        let op = match self.log.last_mut() {
+            Some(last) => match last.absorb(op) {
+                None => return,
+                Some(op) => op,
+            },
+            None => op,
+        };
+        self.log.push(op);
+    }
+
+    /// Ends the step: the compacted mesh and the log of everything applied.
+    pub fn finish(self) -> (MeshData, Vec<Op>) {
+        let mesh = if self.removed_vertex_count == 0 && self.removed_triangle_count == 0 {
+            Arc::unwrap_or_clone(self.mesh)
+        } else {
+            compact::compact(&self.mesh.positions, &self.mesh.triangles, &self.vertex_removed)
+        };
+        (mesh, self.log)
+    }
+
+    // ---- shared helpers for the edit modules ---------------------------------------------
+
+    /// The positions, to edit: the first edit of a run copies a shared mesh.
+    fn positions_mut(&mut self) -> &mut Vec<f32> {
+        &mut Arc::make_mut(&mut self.mesh).positions
+    }
+
+    /// The corners, to edit; see [`positions_mut`](Self::positions_mut).
+    fn triangles_mut(&mut self) -> &mut Vec<u32> {
+        &mut Arc::make_mut(&mut self.mesh).triangles
+    }
+
+    fn point(&self, vertex: u32) -> [f32; 3] {
+        let i = 3 * vertex as usize;
+        [self.mesh.positions[i], self.mesh.positions[i + 1], self.mesh.positions[i + 2]]
+    }
+
+    fn corners(&self, triangle: u32) -> [u32; 3] {
+        let i = 3 * triangle as usize;
+        [self.mesh.triangles[i], self.mesh.triangles[i + 1], self.mesh.triangles[i + 2]]
+    }
+
+    fn check_vertex(&self, vertex: u32) -> Result<(), EditError> {
+        match self.vertex_removed.get(vertex as usize) {
+            Some(false) => Ok(()),
+            Some(true) => Err(EditError::new(
+                EditErrorKind::InvalidVertex,
+                format!("vertex {vertex} was removed in this step"),
+            )),
+            None => Err(EditError::new(
+                EditErrorKind::InvalidVertex,
+                format!("vertex {vertex} does not exist ({} vertex slots)", self.vertex_slots()),
+            )),
+        }
+    }
+
+    fn check_triangle(&self, triangle: u32) -> Result<(), EditError> {
+        if triangle >= self.triangle_slots() {
+            return Err(EditError::new(
+                EditErrorKind::InvalidTriangle,
+                format!(
+                    "triangle {triangle} does not exist ({} triangle slots)",
+                    self.triangle_slots()
+                ),
+            ));
+        }
+        if !self.is_triangle_live(triangle) {
+            return Err(EditError::new(
+                EditErrorKind::InvalidTriangle,
+                format!("triangle {triangle} was removed in this step"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// A new triangle's corners must be live and distinct.
+    fn check_new_triangle(&self, corners: [u32; 3]) -> Result<(), EditError> {
+        for v in corners {
+            self.check_vertex(v)?;
+        }
+        let [a, b, c] = corners;
+        if a == b || b == c || a == c {
+            return Err(EditError::new(
+                EditErrorKind::RepeatedVertex,
+                format!("triangle ({a}, {b}, {c}) repeats a vertex"),
+            ));
+        }
+        Ok(())
+    }
+
+    fn incidence(&mut self) -> &mut Incidence {
+        let (slots, triangles) = (self.vertex_removed.len(), &self.mesh.triangles);
+        self.incidence.get_or_insert_with(|| Incidence::build(slots, triangles))
+    }
+
+    fn push_vertex(&mut self, p: [f32; 3]) -> u32 {
+        let id = self.vertex_slots();
+        self.positions_mut().extend_from_slice(&p);
+        self.vertex_removed.push(false);
+        if let Some(incidence) = &mut self.incidence {
+            incidence.add_vertex();
+        }
+        id
+    }
+
+    fn push_triangle(&mut self, corners: [u32; 3]) -> u32 {
+        let id = self.triangle_slots();
+        self.triangles_mut().extend_from_slice(&corners);
+        if let Some(incidence) = &mut self.incidence {
+            incidence.add_triangle(id, corners);
+        }
+        id
+    }
+
+    fn set_corners(&mut self, triangle: u32, corners: [u32; 3]) {
+        let old = self.corners(triangle);
+        if let Some(incidence) = &mut self.incidence {
+            incidence.remove_triangle(triangle, old);
+            incidence.add_triangle(triangle, corners);
+        }
+        let i = 3 * triangle as usize;
+        self.triangles_mut()[i..i + 3].copy_from_slice(&corners);
+    }
+
+    fn kill_triangle(&mut self, triangle: u32) {
+        let old = self.corners(triangle);
+        if let Some(incidence) = &mut self.incidence {
+            incidence.remove_triangle(triangle, old);
+        }
+        let i = 3 * triangle as usize;
+        self.triangles_mut()[i..i + 3].fill(REMOVED);
+        self.removed_triangle_count += 1;
+    }
+
+    fn kill_vertex(&mut self, vertex: u32) {
+        self.vertex_removed[vertex as usize] = true;
+        self.removed_vertex_count += 1;
+    }
+
+    /// Live triangles around a vertex, ascending: the canonical order for edits that append.
+    fn triangles_around(&mut self, vertex: u32) -> Vec<u32> {
+        let mut around = self.incidence().around(vertex).to_vec();
+        around.sort_unstable();
+        around
+    }
+}
+
+fn check_finite(values: &[f32], what: &str) -> Result<(), EditError> {
+    match values.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(EditError::argument(format!(
+            "{what}: value {i} is {}, coordinates must be finite",
+            values[i]
+        ))),
+    }
+}
+
+fn check_triples(len: usize, what: &str) -> Result<(), EditError> {
+    if len.is_multiple_of(3) {
+        Ok(())
+    } else {
+        Err(EditError::argument(format!("{what}: {len} values is not a multiple of 3")))
+    }
+}
+
+/// Ids in a bulk removal must be distinct: removing one element twice is a bug in the caller.
+fn check_distinct(ids: &[u32], what: &str) -> Result<(), EditError> {
+    let mut sorted = ids.to_vec();
+    sorted.sort_unstable();
+    match sorted.windows(2).find(|w| w[0] == w[1]) {
+        None => Ok(()),
+        Some(w) => Err(EditError::argument(format!("{what}: id {} appears twice", w[0]))),
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,204 @@
+//! Mesh files: loading OBJ, PLY (ascii and binary), OFF and STL into a [`MeshData`], and
+//! saving meshes atomically.
+//!
+//! Loading keeps raw scans as they are: non-manifold edges, unreferenced vertices and
+//! degenerate faces load unchanged, polygons are fan-triangulated. What cannot be a mesh is
+//! rejected with a [`LoadError`] naming the file, the line or byte and the reason: garbage
+//! or truncated files, an index out of range, a non-finite coordinate, a face of fewer than 3
+//! corners, header counts the file cannot hold.
+//!
+//! This crate must not depend on codecs, the runtime or HTTP; it knows only `meshflow-mesh`.
+
+mod atomic;
+mod build;
+mod error;
+mod obj;
+mod off;
+mod ply;
+mod stl;
+mod text;
+
+use std::fmt;
+use std::io::Write;
+use std::path::Path;
+
+use meshflow_mesh::MeshData;
+
+pub use atomic::write_file;
+pub use error::{LoadError, Position, SaveError};
+
+/// A mesh file format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Format {
+    /// Wavefront OBJ (text).
+    Obj,
+    /// Stanford PLY (ascii, binary little or big endian).
+    Ply,
+    /// Object File Format (text).
+    Off,
+    /// Stereolithography (ascii or binary); has no shared vertices.
+    Stl,
+}
+
+impl Format {
+    /// All formats, in a stable order.
+    pub const ALL: [Format; 4] = [Format::Obj, Format::Ply, Format::Off, Format::Stl];
+
+    /// The format named by a file's extension (case-insensitive), if it is a known one.
+    pub fn from_path(path: &Path) -> Option<Format> {
+        Format::from_name(path.extension()?.to_str()?)
+    }
+
+    /// The format with this name or extension, case-insensitive, with or without a leading
+    /// dot: `"ply"`, `"PLY"` and `".ply"` all give [`Format::Ply`]. For command lines.
+    pub fn from_name(name: &str) -> Option<Format> {
+        let name = name.strip_prefix('.').unwrap_or(name);
+        Format::ALL.into_iter().find(|f| f.extension().eq_ignore_ascii_case(name))
+    }
+
+    /// The usual file extension, lower case and without the dot.
+    pub fn extension(self) -> &'static str {
+        match self {
+            Format::Obj => "obj",
+            Format::Ply => "ply",
+            Format::Off => "off",
+            Format::Stl => "stl",
+        }
+    }
+}
+
+impl fmt::Display for Format {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.extension())
+    }
+}
+
+/// How the PLY writer encodes the body. Other formats ignore it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum PlyEncoding {
+    /// Text; readable but large and slow.
+    Ascii,
+    /// The default: compact, and what nearly every tool reads fastest.
+    #[default]
+    BinaryLittleEndian,
+    BinaryBigEndian,
+}
+
+/// Loads a mesh, choosing the format by the file extension.
+pub fn load(path: &Path) -> Result<MeshData, LoadError> {
+    let name = path.display().to_string();
+    let format = Format::from_path(path).ok_or(LoadError::UnknownFormat { name })?;
+    load_as(path, format)
+}
+
+/// Loads a mesh in the given format, whatever the file is called.
+pub fn load_as(path: &Path, format: Format) -> Result<MeshData, LoadError> {
+    let name = path.display().to_string();
+    // One read of the whole file: every reader works on a byte slice, which is the fastest
+    // way to parse and lets binary readers check counts against the remaining size.
+    let bytes =
+        std::fs::read(path).map_err(|source| LoadError::Io { name: name.clone(), source })?;
+    load_bytes(&bytes, format, &name)
+}
+
+/// Decodes a mesh held in memory; `name` is what error messages call it.
+pub fn load_bytes(bytes: &[u8], format: Format, name: &str) -> Result<MeshData, LoadError> {
+    let read = match format {
+        Format::Obj => obj::read,
+        Format::Ply => ply::read,
+        Format::Off => off::read,
+        Format::Stl => stl::read,
+    };
+    read(bytes).map_err(|e| e.named(name))
+}
+
+/// Saves a mesh, choosing the format by the file extension; PLY is written binary little
+/// endian. Atomic: the data goes to a temporary file in the same directory that is renamed
+/// over `path` only when complete, so a failure leaves no partial and no new file.
+pub fn save(path: &Path, mesh: &MeshData) -> Result<(), SaveError> {
+    let format =
+        Format::from_path(path).ok_or_else(|| SaveError::UnknownFormat { path: path.into() })?;
+    save_as(path, mesh, format, PlyEncoding::default())
+}
+
+/// Saves a mesh in the given format (and PLY encoding), atomically like [`save`].
+///
+/// STL is lossy: it keeps only the referenced vertices, in the order triangles use them.
+pub fn save_as(
+    path: &Path,
+    mesh: &MeshData,
+    format: Format,
+    ply_encoding: PlyEncoding,
+) -> Result<(), SaveError> {
+    let name = path.display().to_string();
+    // Checked before the temporary file exists, so a bad mesh touches no file at all.
+    validate(mesh).map_err(|reason| SaveError::InvalidMesh { name, reason })?;
+    atomic::write_file(path, |out| encode(out, mesh, format, ply_encoding))
+}
+
+/// Encodes a mesh into any writer (e.g. a `Vec<u8>`); PLY is binary little endian. Errors
+/// name the target `<writer>`.
+pub fn write_to<W: Write>(writer: W, mesh: &MeshData, format: Format) -> Result<(), SaveError> {
+    write_as(writer, mesh, format, PlyEncoding::default())
+}
+
+/// Like [`write_to`], with a choice of PLY encoding.
+pub fn write_as<W: Write>(
+    writer: W,
+    mesh: &MeshData,
+    format: Format,
+    ply_encoding: PlyEncoding,
+) -> Result<(), SaveError> {
+    const NAME: &str = "<writer>";
+    validate(mesh).map_err(|reason| SaveError::InvalidMesh { name: NAME.to_owned(), reason })?;
+    let mut out = std::io::BufWriter::with_capacity(1 << 16, writer);
+    encode(&mut out, mesh, format, ply_encoding)
+        .and_then(|()| out.flush())
+        .map_err(|source| SaveError::Io { name: NAME.to_owned(), action: "write failed", source })
+}
+
+fn encode(
+    out: &mut dyn Write,
+    mesh: &MeshData,
+    format: Format,
+    ply_encoding: PlyEncoding,
+) -> std::io::Result<()> {
+    match format {
+        Format::Obj => obj::write(out, mesh),
+        Format::Ply => ply::write(out, mesh, ply_encoding),
+        Format::Off => off::write(out, mesh),
+        Format::Stl => stl::write(out, mesh),
+    }
+}
+
+/// The invariants a written file needs to load back: whole vertices and triangles, finite
+/// coordinates, indices in range, ids that fit `u32`.
+fn validate(mesh: &MeshData) -> Result<(), String> {
+    if !mesh.positions.len().is_multiple_of(3) {
+        return Err(format!(
+            "{} position values is not a whole number of vertices",
+            mesh.positions.len()
+        ));
+    }
+    if !mesh.triangles.len().is_multiple_of(3) {
+        return Err(format!(
+            "{} corner indices is not a whole number of triangles",
+            mesh.triangles.len()
+        ));
+    }
+    let vertices = mesh.vertex_count();
+    if u32::try_from(vertices).is_err() {
+        return Err(format!("{vertices} vertices do not fit u32 ids"));
+    }
+    if let Some(i) = mesh.positions.iter().position(|c| !c.is_finite()) {
+        return Err(format!("vertex {} has a non-finite coordinate {}", i / 3, mesh.positions[i]));
+    }
+    if let Some(i) = mesh.triangles.iter().position(|&v| v as usize >= vertices) {
+        return Err(format!(
+            "triangle {} uses vertex {}, but there are only {vertices} vertices",
+            i / 3,
+            mesh.triangles[i]
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,285 @@
+//! Reading a PLY body into a mesh: the `vertex` element's x/y/z, the `face` element's index
+//! lists; every other property and element is skipped.
+
+use super::super::build::{
+    capacity, check_arity, check_corner, check_finite, check_vertex_count, push_fan,
+};
+use super::super::error::{Invalid, Position, ReadResult};
+use super::header::{self, Element, Encoding, Header, Kind, Scalar};
+use super::source::{Ascii, BigEndian, Binary, LittleEndian, Source, truncated};
+use meshflow_mesh::MeshData;
+
+/// Decodes a PLY file of any encoding.
+pub(crate) fn read(bytes: &[u8]) -> ReadResult<MeshData> {
+    let header = header::parse(bytes)?;
+    let body = &bytes[header.body_offset..];
+    check_sizes(&header, body.len())?;
+    let layout = Layout::new(&header)?;
+    match header.encoding {
+        Encoding::Ascii => read_body(&header, &layout, Ascii::new(body, header.body_line)),
+        Encoding::BinaryLittleEndian => {
+            read_body(&header, &layout, Binary::<LittleEndian>::new(body, header.body_offset))
+        }
+        Encoding::BinaryBigEndian => {
+            read_body(&header, &layout, Binary::<BigEndian>::new(body, header.body_offset))
+        }
+    }
+}
+
+/// Rejects headers whose counts the body cannot hold, before anything is allocated from
+/// them: a 20-byte file claiming 4 billion vertices fails here, at once.
+fn check_sizes(header: &Header, available: usize) -> ReadResult<()> {
+    // Ascii: the last value of the file may lack its separator.
+    let slack = u128::from(header.encoding == Encoding::Ascii);
+    let mut needed: u128 = 0;
+    for element in &header.elements {
+        needed += u128::from(element.count) * element.min_size(header.encoding) as u128;
+        if needed > available as u128 + slack {
+            let reason = format!(
+                "the header declares {} '{}' elements, but the {available} bytes after the header \
+                 cannot hold them (truncated or corrupt file)",
+                element.count, element.name
+            );
+            return Err(Invalid::line(element.line, reason));
+        }
+    }
+    Ok(())
+}
+
+/// Which elements and properties carry the mesh.
+struct Layout {
+    vertex_count: u64,
+    /// Property indices of x, y, z in the vertex element.
+    axes: [usize; 3],
+    /// Property index of the corner list in the face element.
+    corners: Option<usize>,
+}
+
+impl Layout {
+    fn new(header: &Header) -> ReadResult<Layout> {
+        let mut layout = Layout { vertex_count: 0, axes: [0; 3], corners: None };
+        if let Some(vertex) = header.elements.iter().find(|e| e.name == "vertex") {
+            let at = Position::Line(vertex.line);
+            check_vertex_count(vertex.count, at)?;
+            layout.vertex_count = vertex.count;
+            for (axis, name) in layout.axes.iter_mut().zip(["x", "y", "z"]) {
+                *axis = vertex
+                    .property(name)
+                    .filter(|&p| matches!(vertex.properties[p].kind, Kind::Scalar(_)))
+                    .ok_or_else(|| {
+                        Invalid::at(
+                            at,
+                            format!("the vertex element has no scalar '{name}' property"),
+                        )
+                    })?;
+            }
+        }
+        if let Some(face) = header.elements.iter().find(|e| e.name == "face") {
+            let list = face.property("vertex_indices").or_else(|| face.property("vertex_index"));
+            layout.corners = match list.map(|p| face.properties[p].kind) {
+                Some(Kind::List { item, .. }) if item.is_integer() => list,
+                // A face element without corners only matters if it has faces.
+                None if face.count == 0 => None,
+                _ => {
+                    let reason =
+                        "the face element has no integer list 'vertex_indices' or 'vertex_index'";
+                    return Err(Invalid::line(face.line, reason));
+                }
+            };
+        }
+        Ok(layout)
+    }
+}
+
+fn read_body<S: Source>(header: &Header, layout: &Layout, mut source: S) -> ReadResult<MeshData> {
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    for element in &header.elements {
+        match (element.name.as_str(), layout.corners) {
+            ("vertex", _) => read_vertices(&mut source, element, layout.axes, &mut positions)?,
+            ("face", Some(list)) => {
+                read_faces(&mut source, element, list, layout.vertex_count, &mut triangles)?
+            }
+            _ => skip_element(&mut source, element)?,
+        }
+    }
+    // Bytes after the last element are ignored, as other readers do.
+    Ok(MeshData::new(positions, triangles))
+}
+
+fn read_vertices<S: Source>(
+    source: &mut S,
+    element: &Element,
+    axes: [usize; 3],
+    positions: &mut Vec<f32>,
+) -> ReadResult<()> {
+    // `check_sizes` bounded the count by the file size, so this reservation is safe.
+    positions.reserve(element.count as usize * 3);
+    if let Some(size) = element.fixed_size()
+        && let Some((data, offset)) = source.unread()
+    {
+        let block = fixed_block(data, offset, element.count, size)?;
+        decode_fixed_vertices::<S>(element, axes, size, block, offset, positions)?;
+        source.consume(block.len());
+        return Ok(());
+    }
+    let roles: Vec<Option<usize>> =
+        (0..element.properties.len()).map(|p| axes.iter().position(|&a| a == p)).collect();
+    for vertex in 0..element.count as usize {
+        let mut p = [0.0f32; 3];
+        for (property, role) in element.properties.iter().zip(&roles) {
+            let value = match (role, property.kind) {
+                (Some(axis), Kind::Scalar(ty)) => source.coordinate(ty).map(|c| p[*axis] = c),
+                _ => source.skip(property.kind),
+            };
+            value.map_err(|e| e.context(format_args!("vertex {vertex}")))?;
+        }
+        check_finite(vertex, p, source.last_at())?;
+        positions.extend_from_slice(&p);
+    }
+    Ok(())
+}
+
+/// The first `count` records of `size` bytes of a binary body, or the truncation error.
+fn fixed_block(data: &[u8], offset: usize, count: u64, size: usize) -> ReadResult<&[u8]> {
+    let len = usize::try_from(count).unwrap_or(usize::MAX).saturating_mul(size);
+    data.get(..len).ok_or_else(|| truncated(offset, len, data.len()))
+}
+
+/// The fast path for binary vertex records of one fixed layout: no per-value calls.
+fn decode_fixed_vertices<S: Source>(
+    element: &Element,
+    axes: [usize; 3],
+    size: usize,
+    block: &[u8],
+    offset: usize,
+    positions: &mut Vec<f32>,
+) -> ReadResult<()> {
+    let field = |axis: usize| {
+        let start = element.properties[..axis].iter().map(|p| scalar_size(p.kind)).sum::<usize>();
+        match element.properties[axis].kind {
+            Kind::Scalar(ty) => (start, ty),
+            Kind::List { .. } => unreachable!("Layout keeps only scalar axes"),
+        }
+    };
+    let [(ox, tx), (oy, ty), (oz, tz)] = axes.map(field);
+    for (vertex, record) in block.chunks_exact(size).enumerate() {
+        let p = [
+            S::decode_f32(tx, &record[ox..]),
+            S::decode_f32(ty, &record[oy..]),
+            S::decode_f32(tz, &record[oz..]),
+        ];
+        check_finite(vertex, p, Position::Byte((offset + vertex * size) as u64))?;
+        positions.extend_from_slice(&p);
+    }
+    Ok(())
+}
+
+fn scalar_size(kind: Kind) -> usize {
+    match kind {
+        Kind::Scalar(ty) => ty.size(),
+        Kind::List { .. } => 0,
+    }
+}
+
+fn read_faces<S: Source>(
+    source: &mut S,
+    element: &Element,
+    list: usize,
+    vertices: u64,
+    triangles: &mut Vec<u32>,
+) -> ReadResult<()> {
+    let Kind::List { count: count_type, item } = element.properties[list].kind else {
+        unreachable!("Layout keeps only list corners")
+    };
+    // Most faces are triangles; the cap keeps a lying count from reserving beyond the file.
+    let triangle_bytes = element.min_size(Encoding::BinaryLittleEndian) + 3 * item.size();
+    triangles.reserve(capacity(element.count, source.remaining(), triangle_bytes) * 3);
+    if element.properties.len() == 1
+        && let Some((data, offset)) = source.unread()
+    {
+        let len = decode_face_lists::<S>(
+            data,
+            offset,
+            element.count,
+            [count_type, item],
+            vertices,
+            triangles,
+        )?;
+        source.consume(len);
+        return Ok(());
+    }
+    let mut corners = Vec::new();
+    for face in 0..element.count as usize {
+        let in_face = |e: Invalid| e.context(format_args!("face {face}"));
+        for (index, property) in element.properties.iter().enumerate() {
+            if index != list {
+                source.skip(property.kind).map_err(in_face)?;
+                continue;
+            }
+            let n = source.integer(count_type).map_err(in_face)?;
+            check_arity(face, n, source.last_at())?;
+            corners.clear();
+            for _ in 0..n {
+                let corner = source.integer(item).map_err(in_face)?;
+                corners.push(check_corner(face, corner, vertices, source.last_at())?);
+            }
+            push_fan(triangles, &corners);
+        }
+    }
+    Ok(())
+}
+
+/// The fast path for binary faces that hold nothing but their corner list (what nearly every
+/// writer produces): decodes straight from the bytes. Returns the bytes used.
+fn decode_face_lists<S: Source>(
+    data: &[u8],
+    offset: usize,
+    count: u64,
+    [count_type, item]: [Scalar; 2],
+    vertices: u64,
+    triangles: &mut Vec<u32>,
+) -> ReadResult<usize> {
+    let (count_size, item_size) = (count_type.size(), item.size());
+    let at = |pos: usize| Position::Byte((offset + pos) as u64);
+    let mut corners = Vec::new();
+    let mut pos = 0;
+    for face in 0..count as usize {
+        let in_face = |e: Invalid| e.context(format_args!("face {face}"));
+        let head = fixed_block(&data[pos..], offset + pos, 1, count_size).map_err(in_face)?;
+        let n = S::decode_int(count_type, head);
+        check_arity(face, n, at(pos))?;
+        let start = pos + count_size;
+        let list =
+            fixed_block(&data[start..], offset + start, n as u64, item_size).map_err(in_face)?;
+        corners.clear();
+        for (k, raw) in list.chunks_exact(item_size).enumerate() {
+            let corner = S::decode_int(item, raw);
+            corners.push(check_corner(face, corner, vertices, at(start + k * item_size))?);
+        }
+        push_fan(triangles, &corners);
+        pos = start + list.len();
+    }
+    Ok(pos)
+}
+
+fn skip_element<S: Source>(source: &mut S, element: &Element) -> ReadResult<()> {
+    if element.properties.is_empty() {
+        return Ok(());
+    }
+    if let Some(size) = element.fixed_size()
+        && let Some((data, offset)) = source.unread()
+    {
+        let len = fixed_block(data, offset, element.count, size)?.len();
+        source.consume(len);
+        return Ok(());
+    }
+    for record in 0..element.count {
+        for property in &element.properties {
+            source
+                .skip(property.kind)
+                .map_err(|e| e.context(format_args!("{} {record}", element.name)))?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,81 @@
+//! Host-side bindings of the `meshflow:geometry` plugin world (the one `bindgen!`), and
+//! the conversions between its types and `meshflow-params`, at this edge only.
+
+wasmtime::component::bindgen!({
+    path: "../../wit",
+    world: "plugin",
+    with: {
+        "meshflow:geometry/mesh.mesh": super::state::MeshHandle,
+    },
+    // Host functions may trap: that is how a run that exceeds its edit budget is stopped.
+    imports: { default: trappable },
+});
+
+pub use exports::meshflow::geometry::service::{Param, ServiceInfo};
+pub use meshflow::geometry::types::{
+    EditError, EditErrorKind, ParamInfo, ServiceKind, Value, ValueType,
+};
+
+use meshflow_params as params;
+
+impl From<ServiceInfo> for params::ServiceInfo {
+    fn from(info: ServiceInfo) -> Self {
+        params::ServiceInfo {
+            name: info.name,
+            kind: match info.kind {
+                ServiceKind::Filter => params::ServiceKind::Filter,
+                ServiceKind::Check => params::ServiceKind::Check,
+            },
+            doc: info.doc,
+            params: info.params.into_iter().map(Into::into).collect(),
+            result_type: info.result_type.map(Into::into),
+        }
+    }
+}
+
+impl From<ParamInfo> for params::ParamInfo {
+    fn from(p: ParamInfo) -> Self {
+        params::ParamInfo {
+            name: p.name,
+            ty: p.ty.into(),
+            default: p.default.into(),
+            min: p.min,
+            max: p.max,
+            choices: p.choices,
+            doc: p.doc,
+        }
+    }
+}
+
+impl From<ValueType> for params::ValueType {
+    fn from(ty: ValueType) -> Self {
+        match ty {
+            ValueType::Boolean => params::ValueType::Boolean,
+            ValueType::Integer => params::ValueType::Integer,
+            ValueType::Real => params::ValueType::Real,
+            ValueType::Text => params::ValueType::Text,
+        }
+    }
+}
+
+impl From<Value> for params::Value {
+    fn from(value: Value) -> Self {
+        match value {
+            Value::Boolean(b) => params::Value::Boolean(b),
+            Value::Integer(i) => params::Value::Integer(i),
+            Value::Real(r) => params::Value::Real(r),
+            Value::Text(t) => params::Value::Text(t),
+        }
+    }
+}
+
+impl From<params::Value> for Value {
+    fn from(value: params::Value) -> Self {
+        match value {
+            params::Value::Boolean(b) => Value::Boolean(b),
+            params::Value::Integer(i) => Value::Integer(i),
+            params::Value::Real(r) => Value::Real(r),
+            params::Value::Text(t) => Value::Text(t),
+        }
+    }
+}

@@ -1,0 +1,45 @@
+//! What can go wrong loading a plugin or running a service, said so a user can act on it.
+
+use std::time::Duration;
+
+pub use meshflow_params::ParamError;
+
+#[derive(Debug, thiserror::Error)]
+pub enum PluginError {
+    #[error("not a valid WebAssembly component: {0}")]
+    Compile(String),
+    #[error("the component does not fit the meshflow:geometry/plugin world: {0}")]
+    World(String),
+    #[error("the component's describe() failed: {0}")]
+    Describe(Box<RunError>),
+    #[error("the component describes its services wrongly: {0}")]
+    Description(String),
+    #[error("artefact cache {path}: {source}")]
+    Cache { path: String, source: std::io::Error },
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error("unknown service `{service}`; available services: {available}")]
+    UnknownService { service: String, available: String },
+    #[error(transparent)]
+    Params(#[from] ParamError),
+    #[error("{service}: stopped at the deadline of {deadline:?} (infinite loop or too slow?)")]
+    Deadline { service: String, deadline: Duration },
+    #[error("{service}: stopped at the memory limit of {limit_mib} MiB")]
+    Memory { service: String, limit_mib: usize },
+    #[error("{service}: ran out of fuel ({fuel} units)")]
+    Fuel { service: String, fuel: u64 },
+    #[error("{service}: stopped after exhausting its edit budget (it kept editing without end?)")]
+    EditBudget { service: String },
+    #[error("{service}: stopped for printing more than {limit_kib} KiB")]
+    Output { service: String, limit_kib: usize },
+    #[error("{service}: the plugin crashed: {message}")]
+    Trap { service: String, message: String },
+    #[error("{service}: {message}")]
+    Failed { service: String, message: String },
+    #[error("{service}: invalid result: {message}")]
+    BadResult { service: String, message: String },
+    #[error("{service}: could not start: {message}")]
+    Instantiate { service: String, message: String },
+}

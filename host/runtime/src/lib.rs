@@ -1,0 +1,309 @@
+//! The sandboxed plugin runtime: wasmtime configured for deterministic, bounded runs.
+//!
+//! A [`Runtime`] owns one engine. [`Runtime::load`] turns component bytes into a validated
+//! [`Plugin`] (compiled once, cached on disk by digest); [`Runtime::run`] runs one service
+//! of it on a mesh in a fresh `Store` with every limit of [`Limits`], and returns the edited
+//! mesh with the log of every edit the plugin made.
+//!
+//! [`Catalog`] says which loaded plugin offers a service. Service descriptions and values
+//! are `meshflow-params` types; the WIT's bindgen types stay inside `bindings`. This crate
+//! must not depend on codecs, file formats or HTTP.
+
+mod bindings;
+mod cache;
+mod catalog;
+mod error;
+mod host_mesh;
+mod limits;
+mod permits;
+mod plugin;
+mod state;
+
+pub use catalog::Catalog;
+pub use error::{PluginError, RunError};
+pub use limits::*;
+pub use meshflow_params::{
+    ParamError, ParamInfo, ServiceInfo, ServiceKind, Value, ValueType, describe_params,
+    resolve as resolve_params, type_name, value_text,
+};
+pub use plugin::{Plugin, digest};
+
+use std::path::Path;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use wasmtime::component::{HasSelf, Linker, Resource};
+use wasmtime::{Config, Enabled, Engine, PoolingAllocationConfig, Store, Trap};
+
+use bindings::Param;
+use cache::ArtifactCache;
+use meshflow_mesh::MeshData;
+use meshflow_mesh::store::{MeshStore, Op};
+use state::{MeshHandle, RunState};
+
+/// What a successful run produced.
+#[derive(Debug)]
+pub struct RunOutput {
+    /// The compacted result of a filter; `None` for a check.
+    pub mesh: Option<MeshData>,
+    /// Every edit the plugin made, in order.
+    pub log: Vec<Op>,
+    /// A check's value.
+    pub value: Option<Value>,
+    /// The plugin's own account of what it did.
+    pub report: String,
+    /// What the plugin printed (capped at [`OUTPUT_CAPTURE_BYTES`] each).
+    pub stdout: String,
+    pub stderr: String,
+    pub duration: Duration,
+}
+
+pub struct Runtime {
+    engine: Engine,
+    linker: Linker<RunState>,
+    limits: Limits,
+    cache: Option<ArtifactCache>,
+    permits: permits::Permits,
+}
+
+impl Runtime {
+    /// A runtime with the given limits; compiled components are cached in `cache_dir`
+    /// when one is given.
+    pub fn new(limits: Limits, cache_dir: Option<&Path>) -> Result<Self, PluginError> {
+        let engine = Engine::new(&engine_config(&limits))
+            .map_err(|e| PluginError::Compile(e.to_string()))?;
+        let mut linker = Linker::new(&engine);
+        wasmtime_wasi::p2::add_to_linker_sync(&mut linker)
+            .and_then(|()| bindings::Plugin::add_to_linker::<_, HasSelf<_>>(&mut linker, |s| s))
+            .map_err(|e| PluginError::World(e.to_string()))?;
+        start_epoch_ticker(&engine);
+        let cache = cache_dir.map(|dir| ArtifactCache::new(dir, &engine)).transpose()?;
+        let permits = permits::Permits::new(limits.concurrent_runs);
+        Ok(Self { engine, linker, limits, cache, permits })
+    }
+
+    pub fn limits(&self) -> &Limits {
+        &self.limits
+    }
+
+    /// Compiles (or loads from the cache), links and validates a component, and asks it to
+    /// describe its services.
+    pub fn load(&self, bytes: &[u8]) -> Result<Plugin, PluginError> {
+        let digest = digest(bytes);
+        let component = match &self.cache {
+            Some(cache) => cache.load_or_compile(&self.engine, &digest, bytes)?,
+            None => cache::compile(&self.engine, bytes)?,
+        };
+        let instance_pre = self
+            .linker
+            .instantiate_pre(&component)
+            .map_err(|e| PluginError::World(format!("{e:#}")))?;
+        let pre = bindings::PluginPre::new(instance_pre)
+            .map_err(|e| PluginError::World(format!("{e:#}")))?;
+        let services = self
+            .call(&pre, "describe", Arc::default(), true, |store, plugin, _| {
+                plugin.meshflow_geometry_service().call_describe(store)
+            })
+            .map(|(services, _)| services.into_iter().map(ServiceInfo::from).collect::<Vec<_>>())
+            .map_err(|e| PluginError::Describe(Box::new(e)))?;
+        plugin::validate_description(&services)?;
+        Ok(Plugin { digest, services, pre })
+    }
+
+    /// Runs `service` of `plugin` on `mesh`. Parameters are checked against the service's
+    /// description first; a check runs read-only. A shared mesh (`Arc`) is copied only if
+    /// the service edits it, so a check on a session's mesh copies nothing.
+    pub fn run(
+        &self,
+        plugin: &Plugin,
+        service: &str,
+        mesh: impl Into<Arc<MeshData>>,
+        params: &[(String, Value)],
+    ) -> Result<RunOutput, RunError> {
+        let info = plugin.service(service).ok_or_else(|| RunError::UnknownService {
+            service: service.to_owned(),
+            available: plugin
+                .services
+                .iter()
+                .map(|s| s.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+        })?;
+        let params: Vec<Param> = meshflow_params::resolve(info, params)?
+            .into_iter()
+            .map(|(name, value)| Param { name, value: value.into() })
+            .collect();
+        let is_check = info.kind == ServiceKind::Check;
+        let started = Instant::now();
+        let (outcome, state) =
+            self.call(&plugin.pre, service, mesh.into(), is_check, |store, p, mesh| {
+                p.meshflow_geometry_service().call_run(store, service, mesh, &params)
+            })?;
+        let outcome =
+            outcome.map_err(|message| RunError::Failed { service: service.to_owned(), message })?;
+        let value = outcome.value.map(Value::from);
+        check_value(info, value.as_ref())
+            .map_err(|message| RunError::BadResult { service: service.to_owned(), message })?;
+        let (edited, log) = state.mesh.finish();
+        Ok(RunOutput {
+            mesh: (!is_check).then_some(edited),
+            log,
+            value,
+            report: outcome.report,
+            stdout: captured(&state.stdout),
+            stderr: captured(&state.stderr),
+            duration: started.elapsed(),
+        })
+    }
+
+    /// Instantiates the component in a fresh store around `mesh`, calls `f`, and turns
+    /// traps into errors that say which limit was hit.
+    fn call<R>(
+        &self,
+        pre: &bindings::PluginPre<RunState>,
+        service: &str,
+        mesh: Arc<MeshData>,
+        read_only: bool,
+        f: impl FnOnce(
+            &mut Store<RunState>,
+            &bindings::Plugin,
+            Resource<MeshHandle>,
+        ) -> wasmtime::Result<R>,
+    ) -> Result<(R, RunState), RunError> {
+        let _permit = self.permits.acquire();
+        let input_elements = (mesh.positions.len() + mesh.triangles.len()) as u64;
+        let budget = BASE_EDIT_BUDGET + EDIT_BUDGET_PER_INPUT_ELEMENT * input_elements;
+        let state =
+            RunState::new(MeshStore::new(mesh), read_only, budget, self.limits.memory_bytes);
+        let mut store = Store::new(&self.engine, state);
+        store.limiter(|s| &mut s.memory);
+        store.set_hostcall_fuel(BASE_HOSTCALL_BYTES + 8 * input_elements as usize);
+        store.set_epoch_deadline(ticks(self.limits.deadline));
+        store.epoch_deadline_trap();
+        if let Some(fuel) = self.limits.fuel {
+            store.set_fuel(fuel).expect("fuel is enabled in the engine config when set");
+        }
+        let instance = pre.instantiate(&mut store).map_err(|e| RunError::Instantiate {
+            service: service.to_owned(),
+            message: format!("{e:#}"),
+        })?;
+        let handle = store.data_mut().table().push(MeshHandle).map_err(|e| {
+            RunError::Instantiate { service: service.to_owned(), message: e.to_string() }
+        })?;
+        match f(&mut store, &instance, handle) {
+            Ok(result) => Ok((result, store.into_data())),
+            Err(error) => Err(self.classify(service, error, store.data())),
+        }
+    }
+
+    fn classify(&self, service: &str, error: wasmtime::Error, state: &RunState) -> RunError {
+        let service = service.to_owned();
+        if state.memory.exceeded {
+            return RunError::Memory { service, limit_mib: self.limits.memory_bytes >> 20 };
+        }
+        if state.edit_budget_exceeded {
+            return RunError::EditBudget { service };
+        }
+        if [&state.stdout, &state.stderr].iter().any(|p| p.contents().len() >= OUTPUT_CAPTURE_BYTES)
+        {
+            return RunError::Output { service, limit_kib: OUTPUT_CAPTURE_BYTES >> 10 };
+        }
+        match error.downcast_ref::<Trap>() {
+            Some(Trap::Interrupt) => RunError::Deadline { service, deadline: self.limits.deadline },
+            Some(Trap::OutOfFuel) => {
+                RunError::Fuel { service, fuel: self.limits.fuel.unwrap_or(0) }
+            }
+            _ => {
+                // A Rust panic prints its message to stderr before trapping: show it.
+                let stderr = captured(&state.stderr);
+                let mut message = format!("{error:#}");
+                if !stderr.trim().is_empty() {
+                    message = format!("{message}\nplugin stderr:\n{}", tail(&stderr, 2000));
+                }
+                RunError::Trap { service, message }
+            }
+        }
+    }
+}
+
+fn engine_config(limits: &Limits) -> Config {
+    let mut config = Config::new();
+    // Synchronous calls only: halves the cost of a host call (~190 ns -> ~95 ns).
+    config.concurrency_support(false);
+    config.epoch_interruption(true);
+    config.consume_fuel(limits.fuel.is_some());
+    // The same plugin on the same mesh must give the same bits on every host.
+    config.cranelift_nan_canonicalization(true);
+    config.max_wasm_stack(MAX_WASM_STACK_BYTES);
+    // A 4 GiB reservation with guard pages: no bounds checks in the compiled code, and the
+    // memory never has to move, which lets cranelift keep its base pointer in a register.
+    config.memory_reservation(MEMORY_RESERVATION);
+    config.memory_guard_size(MEMORY_GUARD_BYTES);
+    config.memory_may_move(false);
+    config.allocation_strategy(pool(limits));
+    config
+}
+
+/// The pooling allocator: a store's memories and tables come from slots reserved once, and
+/// a slot is reset in place when the store drops, keeping its pages resident (see
+/// [`LINEAR_MEMORY_KEEP_RESIDENT`]). Slots are sized from the limits: every instantiation
+/// runs under a permit (see [`Runtime::call`]), so `concurrent_runs` slots always suffice.
+fn pool(limits: &Limits) -> PoolingAllocationConfig {
+    let runs = limits.concurrent_runs.max(1) as u32;
+    let mut pool = PoolingAllocationConfig::new();
+    pool.total_component_instances(runs)
+        .total_core_instances(runs * CORE_INSTANCES_PER_RUN)
+        .max_core_instances_per_component(CORE_INSTANCES_PER_RUN)
+        .total_memories(runs * MEMORIES_PER_RUN)
+        .max_memories_per_component(MEMORIES_PER_RUN)
+        .total_tables(runs * TABLES_PER_RUN)
+        .max_tables_per_component(TABLES_PER_RUN)
+        .max_tables_per_module(TABLES_PER_RUN)
+        .table_elements(TABLE_ELEMENTS)
+        // The `MemoryCap` limiter refuses growth beyond this first, with a clear error.
+        .max_memory_size(limits.memory_bytes)
+        .linear_memory_keep_resident(LINEAR_MEMORY_KEEP_RESIDENT)
+        .table_keep_resident(TABLE_KEEP_RESIDENT)
+        // Where the kernel can tell (Linux >= 6.7), zero only the pages a run dirtied.
+        .pagemap_scan(Enabled::Auto);
+    pool
+}
+
+fn ticks(deadline: Duration) -> u64 {
+    (deadline.as_millis() / EPOCH_TICK.as_millis()).max(1) as u64
+}
+
+/// Advances the engine's epoch every tick, for as long as the engine lives.
+fn start_epoch_ticker(engine: &Engine) {
+    let weak = engine.weak();
+    std::thread::Builder::new()
+        .name("meshflow-epoch".into())
+        .spawn(move || {
+            while let Some(engine) = weak.upgrade() {
+                engine.increment_epoch();
+                drop(engine);
+                std::thread::sleep(EPOCH_TICK);
+            }
+        })
+        .expect("spawning the epoch ticker thread");
+}
+
+fn check_value(info: &ServiceInfo, value: Option<&Value>) -> Result<(), String> {
+    match (info.result_type, value) {
+        (None, None) => Ok(()),
+        (None, Some(v)) => Err(format!("a filter returned a value ({v:?})")),
+        (Some(ty), None) => Err(format!("a check returned no value; expected {}", type_name(ty))),
+        (Some(ty), Some(v)) if v.is_of(ty) => Ok(()),
+        (Some(ty), Some(v)) => Err(format!("expected {}, got {v:?}", type_name(ty))),
+    }
+}
+
+fn captured(pipe: &wasmtime_wasi::p2::pipe::MemoryOutputPipe) -> String {
+    String::from_utf8_lossy(&pipe.contents()).into_owned()
+}
+
+fn tail(text: &str, max: usize) -> &str {
+    let start = text.len().saturating_sub(max);
+    let start = (start..text.len()).find(|&i| text.is_char_boundary(i)).unwrap_or(text.len());
+    &text[start..]
+}

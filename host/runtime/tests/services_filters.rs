@@ -1,0 +1,267 @@
+//! The cleanup, smoothing and noise filters, run as WebAssembly through the host on
+//! generated scans and hand-built meshes.
+
+use meshflow_builtin_plugins::PLUGINS;
+use meshflow_generate::{ScanSpec, scan};
+use meshflow_mesh::MeshData;
+use meshflow_mesh::store::Op;
+use meshflow_runtime::{Limits, Plugin, RunOutput, Runtime, Value};
+use meshflow_topology::adjacency::VertexNeighbours;
+use meshflow_topology::boundary::{boundary_loops, boundary_vertices};
+use meshflow_topology::components::TriangleComponents;
+use meshflow_topology::geometry::{bounding_box, is_degenerate};
+use meshflow_topology::halfedge::HalfEdges;
+
+fn runtime() -> Runtime {
+    Runtime::new(Limits::default(), None).expect("a runtime")
+}
+
+fn builtin(runtime: &Runtime, name: &str) -> Plugin {
+    let wasm = PLUGINS.iter().find(|p| p.name == name).expect("a built-in plugin").wasm;
+    runtime.load(wasm).expect("built-in plugins load")
+}
+
+fn run(plugin: &str, service: &str, mesh: &MeshData, params: &[(&str, Value)]) -> RunOutput {
+    let runtime = runtime();
+    let plugin = builtin(&runtime, plugin);
+    let params: Vec<(String, Value)> =
+        params.iter().map(|(name, value)| (name.to_string(), value.clone())).collect();
+    runtime
+        .run(&plugin, service, mesh.clone(), &params)
+        .unwrap_or_else(|e| panic!("{service}: {e}"))
+}
+
+fn small_scan(seed: u64) -> MeshData {
+    scan(&ScanSpec { vertices: 20_000, components: 12, holes: 15, noise: 0.2, seed })
+}
+
+fn loop_count(mesh: &MeshData) -> usize {
+    let half_edges = HalfEdges::new(mesh.vertex_count(), &mesh.triangles);
+    boundary_loops(&mesh.triangles, &half_edges).len()
+}
+
+fn unreferenced(mesh: &MeshData) -> usize {
+    let mut used = vec![false; mesh.vertex_count()];
+    mesh.triangles.iter().for_each(|&v| used[v as usize] = true);
+    used.iter().filter(|&&u| !u).count()
+}
+
+// ---- remove-smallest-components ----------------------------------------------------------
+
+#[test]
+fn removing_the_smallest_components_leaves_exactly_one() {
+    let mesh = small_scan(11);
+    let before = TriangleComponents::new(mesh.vertex_count(), &mesh.triangles);
+    assert!(before.count() > 10, "{} components", before.count());
+    let largest = before.sizes()[before.largest().unwrap() as usize] as usize;
+
+    let out = run("cleanup", "remove-smallest-components", &mesh, &[]);
+    let result = out.mesh.unwrap();
+    let after = TriangleComponents::new(result.vertex_count(), &result.triangles);
+    assert_eq!(after.count(), 1, "{}", out.report);
+    assert_eq!(result.triangle_count(), largest);
+    // Stray vertices of the input stay; the removed pieces leave none behind.
+    assert_eq!(unreferenced(&result), unreferenced(&mesh));
+    assert!(matches!(out.log[..], [Op::RemoveTriangles { .. }, Op::RemoveVertices { .. }]));
+    assert!(out.report.starts_with(&format!(
+        "removed {} of {}",
+        before.count() - 1,
+        before.count()
+    )));
+}
+
+#[test]
+fn a_minimum_size_removes_only_the_smaller_components() {
+    let mesh = small_scan(12);
+    let before = TriangleComponents::new(mesh.vertex_count(), &mesh.triangles);
+    let min = 20;
+    let out = run(
+        "cleanup",
+        "remove-smallest-components",
+        &mesh,
+        &[("min-triangles", Value::Integer(min))],
+    );
+    let result = out.mesh.unwrap();
+    let after = TriangleComponents::new(result.vertex_count(), &result.triangles);
+    let big = before.sizes().iter().filter(|&&s| s as i64 >= min).count();
+    assert_eq!(after.count(), big);
+    assert!(after.sizes().iter().all(|&s| s as i64 >= min));
+}
+
+// ---- laplacian-smoothing -------------------------------------------------------------------
+
+#[test]
+fn smoothing_with_a_fixed_boundary_leaves_boundary_vertices_bit_identical() {
+    let mesh = small_scan(13);
+    let he = HalfEdges::new(mesh.vertex_count(), &mesh.triangles);
+    let boundary = boundary_vertices(mesh.vertex_count(), &mesh.triangles, &he);
+    assert!(boundary.iter().filter(|&&b| b).count() > 100);
+    for weights in ["uniform", "cotangent"] {
+        let params = [("iterations", Value::Integer(3)), ("weights", Value::Text(weights.into()))];
+        let out = run("smoothing", "laplacian-smoothing", &mesh, &params);
+        assert!(matches!(out.log[..], [Op::SetPositions { .. }]), "one move-all edit");
+        let result = out.mesh.unwrap();
+        assert_eq!(result.triangles, mesh.triangles);
+        let (mut moved, mut pinned) = (0, 0);
+        for (v, &on_boundary) in boundary.iter().enumerate() {
+            let (a, b) = (&mesh.positions[3 * v..3 * v + 3], &result.positions[3 * v..3 * v + 3]);
+            if on_boundary {
+                let bits = |p: &[f32]| p.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+                assert_eq!(bits(a), bits(b), "{weights}: vertex {v}");
+                pinned += 1;
+            } else if a != b {
+                moved += 1;
+            }
+        }
+        assert!(pinned > 0 && moved > mesh.vertex_count() / 2, "{weights}: {moved} moved");
+    }
+}
+
+/// A flat sheet of `n x n` vertices on a nearly equilateral lattice, lifted by `height`.
+fn sheet(n: u32, height: impl Fn(f32, f32) -> f32) -> MeshData {
+    let h = 3f32.sqrt() / 2.0;
+    let mut positions = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let (x, y) = (i as f32 + 0.5 * (j % 2) as f32, j as f32 * h);
+            positions.extend([x, y, height(x, y)]);
+        }
+    }
+    let v = |i: u32, j: u32| j * n + i;
+    let mut triangles = Vec::new();
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            if j % 2 == 0 {
+                triangles.extend([v(i, j), v(i + 1, j), v(i, j + 1)]);
+                triangles.extend([v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]);
+            } else {
+                triangles.extend([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
+                triangles.extend([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
+            }
+        }
+    }
+    MeshData::new(positions, triangles)
+}
+
+/// The mean difference between an interior vertex's height and its neighbours' mean
+/// height (boundary vertices are pinned, so they do not count).
+fn roughness(mesh: &MeshData) -> f64 {
+    let neighbours = VertexNeighbours::new(mesh.vertex_count(), &mesh.triangles);
+    let he = HalfEdges::new(mesh.vertex_count(), &mesh.triangles);
+    let boundary = boundary_vertices(mesh.vertex_count(), &mesh.triangles, &he);
+    let z = |v: u32| mesh.positions[3 * v as usize + 2] as f64;
+    (0..mesh.vertex_count() as u32)
+        .filter(|&v| !boundary[v as usize])
+        .map(|v| {
+            let around = neighbours.of(v);
+            let mean = around.iter().map(|&w| z(w)).sum::<f64>() / around.len() as f64;
+            (z(v) - mean).abs()
+        })
+        .sum::<f64>()
+        / mesh.vertex_count() as f64
+}
+
+#[test]
+fn cotangent_smoothing_flattens_a_noisy_bump() {
+    let mesh = sheet(30, |x, y| {
+        let bump = 2.0 * (-((x - 15.0).powi(2) + (y - 13.0).powi(2)) / 80.0).exp();
+        // A classic shader hash: deterministic, uncorrelated between neighbours.
+        let hash = ((12.9898 * x + 78.233 * y).sin() * 43758.547).fract();
+        bump + 0.1 * hash
+    });
+    let params = [("iterations", Value::Integer(10)), ("weights", Value::Text("cotangent".into()))];
+    let out = run("smoothing", "laplacian-smoothing", &mesh, &params);
+    let result = out.mesh.unwrap();
+    let (before, after) = (roughness(&mesh), roughness(&result));
+    assert!(after < 0.25 * before, "roughness {before} -> {after}");
+    assert!(out.report.contains("cotangent"), "{}", out.report);
+}
+
+// ---- add-noise ----------------------------------------------------------------------------
+
+#[test]
+fn noise_reproduces_by_seed_differs_by_seed_and_respects_the_amount() {
+    let mesh = small_scan(14);
+    let noisy = |seed: i64| {
+        let params = [("amount", Value::Real(0.5)), ("seed", Value::Integer(seed))];
+        run("smoothing", "add-noise", &mesh, &params).mesh.unwrap()
+    };
+    let (a, b, c) = (noisy(1), noisy(1), noisy(2));
+    assert_eq!(a.content_hash(), b.content_hash());
+    assert_ne!(a.content_hash(), c.content_hash());
+    assert_eq!(a.triangles, mesh.triangles);
+
+    let diagonal = bounding_box(&mesh.positions).unwrap().diagonal();
+    let amount = 0.005 * diagonal;
+    let largest = mesh.positions.iter().fold(0f32, |m, &x| m.max(x.abs())) as f64;
+    // Rounding the moved point to f32 may add half an ulp per axis.
+    let slack = 3f64.sqrt() * largest * f32::EPSILON as f64;
+    let mut moved = 0;
+    for (p, q) in mesh.positions.chunks_exact(3).zip(a.positions.chunks_exact(3)) {
+        let d = (0..3).map(|k| (q[k] as f64 - p[k] as f64).powi(2)).sum::<f64>().sqrt();
+        assert!(d <= amount + slack, "moved {d} > {amount}");
+        moved += (d > 0.0) as usize;
+    }
+    assert_eq!(moved, mesh.vertex_count());
+}
+
+// ---- remove-degenerate-triangles -----------------------------------------------------------
+
+/// A 4x4 grid of unit squares (vertex `5y + x` at (x, y)), each split on its diagonal, with
+/// a cap on the border, a cap inside, two needles on one edge, a duplicate and a triangle
+/// with a repeated vertex.
+fn damaged_grid() -> MeshData {
+    let mut positions = Vec::new();
+    for y in 0..5 {
+        for x in 0..5 {
+            positions.extend([x as f32, y as f32, 0.0]);
+        }
+    }
+    let mut triangles = Vec::new();
+    for y in 0..4 {
+        for x in 0..4 {
+            let v = y * 5 + x;
+            triangles.extend([v, v + 1, v + 6, v, v + 6, v + 5]);
+        }
+    }
+    let mut place = |v: usize, x: f32, y: f32| positions[3 * v..3 * v + 2].copy_from_slice(&[x, y]);
+    place(6, 0.5, 0.0); // (0, 1, 6) lies flat on the border edge 0-1
+    place(17, 1.0, 2.5); // (11, 17, 16) lies flat on the interior edge 11-16
+    place(13, 3.0, 1.0); // onto vertex 8: (7, 8, 13) and (8, 14, 13) are needles
+    triangles.extend([18, 13, 12, 3, 3, 9]);
+    MeshData::new(positions, triangles)
+}
+
+fn degenerate_count(mesh: &MeshData) -> usize {
+    (0..mesh.triangle_count() as u32)
+        .filter(|&t| is_degenerate(&mesh.positions, &mesh.triangles, t))
+        .count()
+}
+
+#[test]
+fn degenerate_repair_leaves_no_flat_triangle_and_keeps_the_holes() {
+    let mesh = damaged_grid();
+    assert_eq!(degenerate_count(&mesh), 5);
+    let out = run("cleanup", "remove-degenerate-triangles", &mesh, &[]);
+    let result = out.mesh.unwrap();
+    assert_eq!(degenerate_count(&result), 0);
+    assert_eq!(loop_count(&result), 1);
+    assert_eq!(result.triangle_count(), 29);
+    assert_eq!(
+        out.report,
+        "removed 1 repeated-vertex and 1 duplicate triangle(s); 4 degenerate triangle(s): \
+         split 2 cap(s), collapsed 1 needle(s), removed 0 unrepairable triangle(s)"
+    );
+}
+
+#[test]
+fn degenerate_repair_cleans_a_generated_scan() {
+    let mesh = small_scan(15);
+    assert!(degenerate_count(&mesh) > 0);
+    let out = run("cleanup", "remove-degenerate-triangles", &mesh, &[]);
+    let result = out.mesh.unwrap();
+    assert_eq!(degenerate_count(&result), 0, "{}", out.report);
+    // A second run finds nothing to do.
+    let again = run("cleanup", "remove-degenerate-triangles", &result, &[]);
+    assert!(again.log.is_empty(), "{}", again.report);
+}

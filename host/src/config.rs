@@ -1,0 +1,66 @@
+//! How a host server is set up, and every server limit as a named constant.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use meshflow_runtime::Limits;
+
+/// Largest download (input mesh, correction or full mesh) a host accepts.
+pub const DEFAULT_MAX_DOWNLOAD_BYTES: u64 = 2 << 30;
+/// A download that sends nothing for this long is abandoned.
+pub const DOWNLOAD_READ_TIMEOUT: Duration = Duration::from_secs(30);
+pub const DOWNLOAD_CONNECT_TIMEOUT: Duration = Duration::from_secs(10);
+/// Sessions untouched for this long are deleted.
+pub const DEFAULT_SESSION_TTL: Duration = Duration::from_secs(6 * 3600);
+/// Total size of stored blobs beyond which the oldest unneeded ones are deleted.
+pub const DEFAULT_BLOB_BUDGET_BYTES: u64 = 8 << 30;
+/// Output meshes kept in memory so their full (packed) blob can be made on first request.
+pub const DEFAULT_RECENT_OUTPUTS: usize = 16;
+/// How often idle sessions and excess blobs are looked for.
+pub const EVICTION_INTERVAL: Duration = Duration::from_secs(60);
+/// How long `GET /sessions/{id}?wait=ready` waits for a loading session.
+pub const LONG_POLL: Duration = Duration::from_secs(60);
+/// Attempts to register with the engine, and the pause between them.
+pub const REGISTER_ATTEMPTS: u32 = 5;
+pub const REGISTER_RETRY: Duration = Duration::from_secs(1);
+
+/// Everything a host server needs to start.
+#[derive(Clone, Debug)]
+pub struct HostConfig {
+    /// Holds `blobs/`, `plugins/`, `cache/` and `sessions/`; survives restarts.
+    pub data_dir: PathBuf,
+    /// Bearer token for plugin upload and delete; without one uploads are refused.
+    pub token: Option<String>,
+    /// An engine to register with at start (`POST {engine}/hosts`).
+    pub engine: Option<String>,
+    /// The URL others reach this host at; by default `http://` + the listening address.
+    pub public_url: Option<String>,
+    /// Built-in plugin components, offered after uploaded ones.
+    pub builtins: Vec<&'static [u8]>,
+    /// Compiled-component cache; `data_dir/cache` by default. Hosts may share one.
+    pub artefact_cache: Option<PathBuf>,
+    pub limits: Limits,
+    pub max_download_bytes: u64,
+    pub session_ttl: Duration,
+    pub blob_budget_bytes: u64,
+    pub recent_outputs: usize,
+}
+
+impl HostConfig {
+    /// A configuration with every limit at its default.
+    pub fn new(data_dir: impl Into<PathBuf>) -> Self {
+        Self {
+            data_dir: data_dir.into(),
+            token: None,
+            engine: None,
+            public_url: None,
+            builtins: Vec::new(),
+            artefact_cache: None,
+            limits: Limits::default(),
+            max_download_bytes: DEFAULT_MAX_DOWNLOAD_BYTES,
+            session_ttl: DEFAULT_SESSION_TTL,
+            blob_budget_bytes: DEFAULT_BLOB_BUDGET_BYTES,
+            recent_outputs: DEFAULT_RECENT_OUTPUTS,
+        }
+    }
+}

@@ -1,0 +1,139 @@
+//! Mesh bytes as they travel: packed (`.mfm`) or any file format `io` reads; how to tell
+//! which, decode them, and the blob name they are kept under.
+
+use meshflow_codec::pack;
+use meshflow_mesh::MeshData;
+use meshflow_meshio::{self as io, Format};
+
+const PACKED_MAGIC: &[u8] = b"MFM\x1a";
+/// Extension of packed full meshes and of corrections.
+pub const PACKED: &str = "mfm";
+pub const CORRECTION: &str = "mfc";
+
+/// How a mesh's bytes are encoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeshEncoding {
+    Packed,
+    File(Format),
+}
+
+impl MeshEncoding {
+    pub fn from_extension(extension: &str) -> Option<Self> {
+        if extension.eq_ignore_ascii_case(PACKED) {
+            return Some(MeshEncoding::Packed);
+        }
+        Format::from_name(extension).map(MeshEncoding::File)
+    }
+
+    /// By the extension of the URL's path, else by the first bytes.
+    pub fn detect(url: &str, bytes: &[u8]) -> Result<Self, String> {
+        let by_name = reqwest::Url::parse(url).ok().and_then(|url| {
+            let file = url.path_segments()?.next_back()?.to_owned();
+            let (_, extension) = file.rsplit_once('.')?;
+            MeshEncoding::from_extension(extension)
+        });
+        by_name.or_else(|| sniff(bytes)).ok_or_else(|| {
+            format!("{url}: cannot tell the mesh format from the name or the first bytes")
+        })
+    }
+}
+
+fn sniff(bytes: &[u8]) -> Option<MeshEncoding> {
+    let file = |format| Some(MeshEncoding::File(format));
+    if bytes.starts_with(PACKED_MAGIC) {
+        return Some(MeshEncoding::Packed);
+    }
+    if bytes.starts_with(b"ply") {
+        return file(Format::Ply);
+    }
+    if bytes.starts_with(b"OFF") {
+        return file(Format::Off);
+    }
+    if bytes.starts_with(b"solid") || is_binary_stl(bytes) {
+        return file(Format::Stl);
+    }
+    let head = &bytes[..bytes.len().min(4096)];
+    let obj_line = |line: &[u8]| line.starts_with(b"v ") || line.starts_with(b"f ");
+    if head.split(|&b| b == b'\n').any(obj_line) {
+        return file(Format::Obj);
+    }
+    None
+}
+
+/// An 80-byte header, a triangle count, and exactly 50 bytes per triangle.
+fn is_binary_stl(bytes: &[u8]) -> bool {
+    bytes.get(80..84).is_some_and(|count| {
+        let count = u32::from_le_bytes(count.try_into().expect("four bytes")) as u64;
+        84 + 50 * count == bytes.len() as u64
+    })
+}
+
+/// Decodes mesh bytes; errors name `name` (a URL or blob).
+pub fn decode(bytes: &[u8], encoding: MeshEncoding, name: &str) -> Result<MeshData, String> {
+    match encoding {
+        MeshEncoding::Packed => pack::decode(bytes).map_err(|e| format!("{name}: {e}")),
+        MeshEncoding::File(format) => {
+            io::load_bytes(bytes, format, name).map_err(|e| e.to_string())
+        }
+    }
+}
+
+/// The blob a mesh's bytes are kept as: a packed mesh under its content hash (so it is the
+/// full mesh other hosts ask for), a file under the BLAKE3 of its bytes.
+pub fn blob_name(bytes: &[u8], encoding: MeshEncoding, content_hash: &str) -> String {
+    match encoding {
+        MeshEncoding::Packed => full_mesh_name(content_hash),
+        MeshEncoding::File(format) => {
+            format!("{}.{}", blake3::hash(bytes).to_hex(), format.extension())
+        }
+    }
+}
+
+pub fn full_mesh_name(content_hash: &str) -> String {
+    format!("{content_hash}.{PACKED}")
+}
+
+pub fn correction_name(bytes: &[u8]) -> String {
+    format!("{}.{CORRECTION}", blake3::hash(bytes).to_hex())
+}
+
+/// A name this host could have given a blob: 64 hex digits and a known extension. Anything
+/// else (a path, a temporary file) is not a blob.
+pub fn is_blob_name(name: &str) -> bool {
+    name.split_once('.').is_some_and(|(hash, extension)| {
+        hash.len() == 64
+            && hash.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
+            && (extension == CORRECTION || MeshEncoding::from_extension(extension).is_some())
+            && extension.bytes().all(|b| b.is_ascii_lowercase())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn format_comes_from_the_url_then_from_the_bytes() {
+        let detect = MeshEncoding::detect;
+        assert_eq!(detect("http://h/a/b.PLY?x=1", b"").unwrap(), MeshEncoding::File(Format::Ply));
+        assert_eq!(detect("http://h/blobs/x.mfm", b"").unwrap(), MeshEncoding::Packed);
+        assert_eq!(detect("http://h/in", b"MFM\x1a..").unwrap(), MeshEncoding::Packed);
+        assert_eq!(
+            detect("http://h/in", b"# c\nv 0 0 0\n").unwrap(),
+            MeshEncoding::File(Format::Obj)
+        );
+        assert_eq!(detect("http://h/in", b"OFF\n3 1 0").unwrap(), MeshEncoding::File(Format::Off));
+        let error = detect("http://h/in", b"\x00\x01garbage").unwrap_err();
+        assert!(error.contains("http://h/in") && error.contains("cannot tell"), "{error}");
+    }
+
+    #[test]
+    fn only_hash_named_blobs_are_blobs() {
+        let hash = "ab".repeat(32);
+        assert!(is_blob_name(&format!("{hash}.mfc")));
+        assert!(is_blob_name(&format!("{hash}.obj")));
+        assert!(!is_blob_name(&format!("{hash}.exe")));
+        assert!(!is_blob_name("../../etc/passwd"));
+        assert!(!is_blob_name(".meshflow-x.tmp"));
+    }
+}

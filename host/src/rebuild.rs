@@ -1,0 +1,115 @@
+//! Bringing a session's mesh into being in the background: download and decode the input
+//! (a new session), or read the stored input and replay the steps (after a restart).
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use super::meshes::{self, CORRECTION, MeshEncoding};
+use super::sessions::{CurrentMesh, LoadTimes, SessionRecord};
+use super::state::Host;
+use meshflow_api::host::millis;
+use meshflow_codec::correction;
+use meshflow_mesh::MeshData;
+
+/// Loads session `id` from its record; on failure the session is failed with the reason.
+pub async fn load(host: Arc<Host>, id: String, record: SessionRecord) {
+    match build(&host, &record).await {
+        Ok((input, current, times)) => host.sessions.loaded(&id, input, current, times),
+        Err(error) => host.sessions.fail(&id, error),
+    }
+}
+
+async fn build(
+    host: &Host,
+    record: &SessionRecord,
+) -> Result<(String, CurrentMesh, LoadTimes), String> {
+    let _writing = host.blobs.writing().await;
+    let (input, mut current, times) = match &record.input {
+        Some(name) => {
+            let mesh = read_mesh_blob(host, name).await?;
+            (name.clone(), hashed(mesh).await.map_err(|e| e.to_string())?, LoadTimes::default())
+        }
+        None => download_input(host, record).await?,
+    };
+    for step in &record.steps {
+        let mesh = apply_blob(host, Arc::unwrap_or_clone(current.mesh), step).await?;
+        current = hashed(mesh).await.map_err(|e| e.to_string())?;
+    }
+    Ok((input, current, times))
+}
+
+async fn download_input(
+    host: &Host,
+    record: &SessionRecord,
+) -> Result<(String, CurrentMesh, LoadTimes), String> {
+    let url = record.input_url.clone();
+    let started = Instant::now();
+    let bytes = host.download(&url).await?;
+    let download_ms = millis(started.elapsed());
+    let input_bytes = bytes.len() as u64;
+    let started = Instant::now();
+    let encoding = MeshEncoding::detect(&url, &bytes)?;
+    let (current, bytes) = tokio::task::spawn_blocking(move || {
+        let mesh = meshes::decode(&bytes, encoding, &url)?;
+        let hash = mesh.content_hash().to_hex();
+        Ok::<_, String>((CurrentMesh { mesh: Arc::new(mesh), hash }, bytes))
+    })
+    .await
+    .map_err(|e| e.to_string())??;
+    let hash = &current.hash;
+    if let Some(expected) = &record.input_hash
+        && !expected.eq_ignore_ascii_case(hash)
+    {
+        return Err(format!(
+            "{}: the mesh has content hash {hash}, not the expected {expected}",
+            record.input_url
+        ));
+    }
+    let load_ms = millis(started.elapsed());
+    let name = meshes::blob_name(&bytes, encoding, hash);
+    host.blobs.put(&name, Arc::new(bytes)).await.map_err(|e| e.message)?;
+    let times = LoadTimes {
+        download_ms: Some(download_ms),
+        load_ms: Some(load_ms),
+        input_bytes: Some(input_bytes),
+    };
+    Ok((name, current, times))
+}
+
+/// A stored mesh blob, decoded by its extension.
+async fn read_mesh_blob(host: &Host, name: &str) -> Result<MeshData, String> {
+    let bytes = host.blobs.read(name).await?;
+    let encoding = encoding_of(name)?;
+    let name = name.to_owned();
+    tokio::task::spawn_blocking(move || meshes::decode(&bytes, encoding, &name))
+        .await
+        .map_err(|e| e.to_string())?
+}
+
+/// One replayed step: a correction applied to `mesh`, or a full mesh replacing it.
+async fn apply_blob(host: &Host, mesh: MeshData, name: &str) -> Result<MeshData, String> {
+    if !name.ends_with(&format!(".{CORRECTION}")) {
+        return read_mesh_blob(host, name).await;
+    }
+    let bytes = host.blobs.read(name).await?;
+    let name = name.to_owned();
+    tokio::task::spawn_blocking(move || {
+        correction::apply(mesh, &bytes).map_err(|e| format!("replaying {name}: {e}"))
+    })
+    .await
+    .map_err(|e| e.to_string())?
+}
+
+fn encoding_of(name: &str) -> Result<MeshEncoding, String> {
+    let extension = name.rsplit_once('.').map(|(_, e)| e).unwrap_or_default();
+    MeshEncoding::from_extension(extension).ok_or_else(|| format!("blob {name} is not a mesh"))
+}
+
+/// A mesh with its content hash, hashed off the async threads.
+pub async fn hashed(mesh: MeshData) -> Result<CurrentMesh, tokio::task::JoinError> {
+    tokio::task::spawn_blocking(move || {
+        let hash = mesh.content_hash().to_hex();
+        CurrentMesh { mesh: Arc::new(mesh), hash }
+    })
+    .await
+}

@@ -1,0 +1,363 @@
+//! Sessions: one mesh per session, its state, and the record that rebuilds it after a
+//! restart (input blob + blobs applied since), kept as `DATA/sessions/<id>.json`.
+
+use std::collections::{HashMap, HashSet};
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use axum::extract::{Path, Query, State};
+use axum::http::StatusCode;
+use serde::{Deserialize, Serialize};
+
+use super::config::LONG_POLL;
+use super::error::{ApiError, ApiJson};
+use super::rebuild;
+use super::state::Host;
+use meshflow_api::host::{CreateSession, SessionCreated, SessionState, SessionStatus};
+use meshflow_mesh::MeshData;
+use meshflow_meshio as io;
+
+/// What rebuilds a session: where its input came from, the blob it was stored as, and
+/// the blobs (corrections or full meshes) applied to it since, in order.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SessionRecord {
+    pub input_url: String,
+    pub input_hash: Option<String>,
+    /// `None` until the input has been downloaded and stored.
+    pub input: Option<String>,
+    pub steps: Vec<String>,
+}
+
+/// A session's mesh once loaded, with its content hash (computed once).
+#[derive(Clone)]
+pub struct CurrentMesh {
+    pub mesh: Arc<MeshData>,
+    pub hash: String,
+}
+
+/// How loading went, for the status.
+#[derive(Clone, Copy, Default)]
+pub struct LoadTimes {
+    pub download_ms: Option<f64>,
+    pub load_ms: Option<f64>,
+    pub input_bytes: Option<u64>,
+}
+
+struct Session {
+    state: SessionState,
+    current: Option<CurrentMesh>,
+    error: Option<String>,
+    times: LoadTimes,
+    record: SessionRecord,
+    last_used: Instant,
+}
+
+pub struct Sessions {
+    dir: PathBuf,
+    table: Mutex<HashMap<String, Session>>,
+    /// Woken on every state change, for long polls.
+    changed: tokio::sync::Notify,
+}
+
+impl Sessions {
+    pub fn new(dir: PathBuf) -> Self {
+        Self { dir, table: Mutex::default(), changed: tokio::sync::Notify::new() }
+    }
+
+    fn table(&self) -> std::sync::MutexGuard<'_, HashMap<String, Session>> {
+        self.table.lock().expect("session table lock")
+    }
+
+    pub fn count(&self) -> usize {
+        self.table().len()
+    }
+
+    /// Adds a session in state "loading" and saves its record.
+    pub fn insert(&self, id: &str, record: SessionRecord) -> Result<(), ApiError> {
+        self.save(id, &record)?;
+        let session = Session {
+            state: SessionState::Loading,
+            current: None,
+            error: None,
+            times: LoadTimes::default(),
+            record,
+            last_used: Instant::now(),
+        };
+        self.table().insert(id.to_owned(), session);
+        Ok(())
+    }
+
+    /// The records saved under `DATA/sessions`, to rebuild after a restart.
+    pub fn saved_records(&self) -> Vec<(String, SessionRecord)> {
+        let Ok(entries) = std::fs::read_dir(&self.dir) else { return Vec::new() };
+        entries
+            .flatten()
+            .filter_map(|entry| {
+                let path = entry.path();
+                let id = path.file_name()?.to_str()?.strip_suffix(".json")?.to_owned();
+                let text = std::fs::read(&path).ok()?;
+                match serde_json::from_slice(&text) {
+                    Ok(record) => Some((id, record)),
+                    Err(e) => {
+                        tracing::warn!(
+                            "ignoring unreadable session record {}: {e}",
+                            path.display()
+                        );
+                        None
+                    }
+                }
+            })
+            .collect()
+    }
+
+    /// The session's input is loaded and its steps replayed: it is ready.
+    pub fn loaded(&self, id: &str, input: String, current: CurrentMesh, times: LoadTimes) {
+        let mut table = self.table();
+        let Some(session) = table.get_mut(id) else { return };
+        session.record.input = Some(input);
+        if let Err(e) = self.save(id, &session.record) {
+            tracing::warn!("session {id}: {}", e.message);
+        }
+        session.state = SessionState::Ready;
+        session.current = Some(current);
+        session.times = times;
+        drop(table);
+        self.changed.notify_waiters();
+    }
+
+    /// Loading failed for good: the session stays, failed, until deleted; its record goes,
+    /// so a restart does not retry it.
+    pub fn fail(&self, id: &str, error: String) {
+        tracing::warn!("session {id} failed: {error}");
+        let mut table = self.table();
+        let Some(session) = table.get_mut(id) else { return };
+        session.state = SessionState::Failed;
+        session.error = Some(error);
+        drop(table);
+        let _ = std::fs::remove_file(self.record_path(id));
+        self.changed.notify_waiters();
+    }
+
+    pub fn status(&self, id: &str) -> Option<SessionStatus> {
+        let table = self.table();
+        let session = table.get(id)?;
+        let current = session.current.as_ref();
+        Some(SessionStatus {
+            id: id.to_owned(),
+            state: session.state,
+            hash: current.map(|c| c.hash.clone()),
+            vertices: current.map(|c| c.mesh.vertex_count()),
+            triangles: current.map(|c| c.mesh.triangle_count()),
+            error: session.error.clone(),
+            download_ms: session.times.download_ms,
+            load_ms: session.times.load_ms,
+            input_bytes: session.times.input_bytes,
+        })
+    }
+
+    /// The status once the session is no longer loading, or when `timeout` is over.
+    pub async fn wait_loaded(&self, id: &str, timeout: Duration) -> Option<SessionStatus> {
+        let deadline = tokio::time::Instant::now() + timeout;
+        loop {
+            // Registered before the check, so a change in between is not missed.
+            let changed = self.changed.notified();
+            tokio::pin!(changed);
+            changed.as_mut().enable();
+            let status = self.status(id)?;
+            if status.state != SessionState::Loading {
+                return Some(status);
+            }
+            if tokio::time::timeout_at(deadline, changed).await.is_err() {
+                return self.status(id);
+            }
+        }
+    }
+
+    /// Marks a ready session busy and hands out its mesh; the guard puts it back.
+    pub fn begin(&self, id: &str) -> Result<BusyGuard<'_>, ApiError> {
+        let mut table = self.table();
+        let session = table.get_mut(id).ok_or_else(|| ApiError::not_found("session", id))?;
+        match session.state {
+            SessionState::Ready => {}
+            SessionState::Busy => {
+                return Err(ApiError::conflict("session-busy", format!("session {id} is busy")));
+            }
+            SessionState::Loading => {
+                return Err(ApiError::conflict(
+                    "not-ready",
+                    format!("session {id} is still loading"),
+                ));
+            }
+            SessionState::Failed => {
+                let error = session.error.clone().unwrap_or_default();
+                return Err(ApiError::conflict(
+                    "session-failed",
+                    format!("session {id} failed: {error}"),
+                ));
+            }
+        }
+        session.state = SessionState::Busy;
+        session.last_used = Instant::now();
+        let current = session.current.clone().expect("a ready session has a mesh");
+        Ok(BusyGuard { sessions: self, id: id.to_owned(), current, done: false })
+    }
+
+    pub fn remove(&self, id: &str) -> bool {
+        // Only ids of the table reach the file system: a request's id is never a path.
+        let removed = self.table().remove(id).is_some();
+        if removed {
+            let _ = std::fs::remove_file(self.record_path(id));
+            self.changed.notify_waiters();
+        }
+        removed
+    }
+
+    /// Sessions neither loading nor busy that nobody used for longer than `ttl`.
+    pub fn idle_longer_than(&self, ttl: Duration) -> Vec<String> {
+        let table = self.table();
+        table
+            .iter()
+            .filter(|(_, s)| !matches!(s.state, SessionState::Loading | SessionState::Busy))
+            .filter(|(_, s)| s.last_used.elapsed() > ttl)
+            .map(|(id, _)| id.clone())
+            .collect()
+    }
+
+    /// Every blob some session needs to be rebuilt.
+    pub fn needed_blobs(&self) -> HashSet<String> {
+        let table = self.table();
+        let records = table.values().map(|s| &s.record);
+        records.flat_map(|r| r.input.iter().chain(&r.steps).cloned()).collect()
+    }
+
+    /// A session's current mesh with this content hash, to pack on request.
+    pub fn mesh_with_hash(&self, hash: &str) -> Option<Arc<MeshData>> {
+        let table = self.table();
+        let mut currents = table.values().filter_map(|s| s.current.as_ref());
+        currents.find(|c| c.hash == hash).map(|c| c.mesh.clone())
+    }
+
+    fn record_path(&self, id: &str) -> PathBuf {
+        self.dir.join(format!("{id}.json"))
+    }
+
+    fn save(&self, id: &str, record: &SessionRecord) -> Result<(), ApiError> {
+        let json = serde_json::to_vec_pretty(record).map_err(ApiError::internal)?;
+        io::write_file(&self.record_path(id), |out| out.write_all(&json))
+            .map_err(|e| ApiError::internal(format!("saving session {id}: {e}")))
+    }
+}
+
+/// A session marked busy; unless [`BusyGuard::commit`] is called it goes back to ready
+/// with its mesh unchanged.
+pub struct BusyGuard<'a> {
+    sessions: &'a Sessions,
+    id: String,
+    pub current: CurrentMesh,
+    done: bool,
+}
+
+impl BusyGuard<'_> {
+    /// The session's mesh becomes `next`, reached by applying blob `step`.
+    pub fn commit(mut self, next: CurrentMesh, step: String) -> Result<(), ApiError> {
+        self.done = true;
+        let mut table = self.sessions.table();
+        // Deleted while busy: nothing to keep.
+        let Some(session) = table.get_mut(&self.id) else { return Ok(()) };
+        session.record.steps.push(step);
+        session.current = Some(next);
+        session.state = SessionState::Ready;
+        session.last_used = Instant::now();
+        let saved = self.sessions.save(&self.id, &session.record);
+        drop(table);
+        self.sessions.changed.notify_waiters();
+        saved
+    }
+}
+
+impl Drop for BusyGuard<'_> {
+    fn drop(&mut self) {
+        if self.done {
+            return;
+        }
+        if let Some(session) = self.sessions.table().get_mut(&self.id) {
+            session.state = SessionState::Ready;
+            session.last_used = Instant::now();
+        }
+        self.sessions.changed.notify_waiters();
+    }
+}
+
+/// `POST /sessions`: the input downloads in the background.
+pub async fn create(
+    State(host): State<Arc<Host>>,
+    ApiJson(request): ApiJson<CreateSession>,
+) -> Result<(StatusCode, axum::Json<SessionCreated>), ApiError> {
+    if reqwest::Url::parse(&request.input.url).is_err() {
+        return Err(ApiError::bad_request(
+            "bad-url",
+            format!("`{}` is not a URL", request.input.url),
+        ));
+    }
+    let id = new_id();
+    let record = SessionRecord {
+        input_url: request.input.url,
+        input_hash: request.input.hash,
+        input: None,
+        steps: Vec::new(),
+    };
+    host.sessions.insert(&id, record.clone())?;
+    tokio::spawn(rebuild::load(host.clone(), id.clone(), record));
+    let created = SessionCreated { id, state: SessionState::Loading };
+    Ok((StatusCode::ACCEPTED, axum::Json(created)))
+}
+
+#[derive(Deserialize)]
+pub struct StatusQuery {
+    wait: Option<String>,
+}
+
+/// `GET /sessions/{id}[?wait=ready]`.
+pub async fn status(
+    State(host): State<Arc<Host>>,
+    Path(id): Path<String>,
+    Query(query): Query<StatusQuery>,
+) -> Result<axum::Json<SessionStatus>, ApiError> {
+    let status = match query.wait.as_deref() {
+        None => host.sessions.status(&id),
+        Some("ready") => host.sessions.wait_loaded(&id, LONG_POLL).await,
+        Some(other) => {
+            return Err(ApiError::bad_request(
+                "bad-query",
+                format!("wait={other}: only wait=ready is known"),
+            ));
+        }
+    };
+    status.map(axum::Json).ok_or_else(|| ApiError::not_found("session", &id))
+}
+
+/// `DELETE /sessions/{id}`.
+pub async fn delete(
+    State(host): State<Arc<Host>>,
+    Path(id): Path<String>,
+) -> Result<StatusCode, ApiError> {
+    if host.sessions.remove(&id) {
+        Ok(StatusCode::NO_CONTENT)
+    } else {
+        Err(ApiError::not_found("session", &id))
+    }
+}
+
+/// Unique among this host's sessions, also across restarts.
+fn new_id() -> String {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let mut hasher = blake3::Hasher::new();
+    let now =
+        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
+    hasher.update(&now.as_nanos().to_le_bytes());
+    hasher.update(&COUNTER.fetch_add(1, Ordering::Relaxed).to_le_bytes());
+    hasher.update(&std::process::id().to_le_bytes());
+    hasher.finalize().to_hex()[..16].to_owned()
+}

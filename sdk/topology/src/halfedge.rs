@@ -1,0 +1,275 @@
+//! Half-edges: twins and the classification of every edge.
+//!
+//! Half-edge `h = 3 * t + k` runs from corner `k` of triangle `t` to corner `(k + 1) % 3`.
+//! The free functions ([`next`], [`prev`], [`origin`], …, re-exported from `half_edge_ids`)
+//! need no structure at all;
+//! [`HalfEdges`] adds the twin of every half-edge and what kind of edge it lies on.
+
+pub use super::half_edge_ids::*;
+
+use super::NONE;
+use super::csr::Csr;
+use super::edges::{EdgeBuckets, Members};
+
+impl EdgeLookup for HalfEdges {
+    fn kind(&self, h: u32) -> EdgeKind {
+        HalfEdges::kind(self, h)
+    }
+
+    fn opposite(&self, h: u32) -> u32 {
+        HalfEdges::opposite(self, h)
+    }
+
+    fn sorted_boundary_half_edges(&self) -> Vec<u32> {
+        self.boundary_half_edges().collect()
+    }
+
+    fn half_edge_count(&self) -> usize {
+        self.len()
+    }
+}
+
+/// Twins and edge classification for every half-edge of a triangle array.
+///
+/// - `opposite(h)` is the other half-edge on the same undirected edge when the edge is
+///   manifold-interior (exactly two half-edges, whichever directions), else [`NONE`]
+///   (boundary, non-manifold and degenerate half-edges).
+/// - `kind(h)` tells which of those cases applies, and for interior edges whether the two
+///   triangles are consistently oriented.
+/// - Non-manifold edges are listed with all their half-edges in
+///   [`non_manifold_edges`](Self::non_manifold_edges).
+///
+/// Memory: 5 bytes per half-edge (15 per triangle) plus the non-manifold list; building
+/// needs another 8 bytes per half-edge and 4 per vertex temporarily. Measured natively on a
+/// 1M-vertex, 2M-triangle grid: ≈ 55 ms with local vertex order, ≈ 200 ms with randomly
+/// permuted vertex ids (memory-latency bound).
+#[derive(Clone, Debug, Default)]
+pub struct HalfEdges {
+    opposite: Vec<u32>,
+    kinds: Vec<EdgeKind>,
+    non_manifold: Csr,
+    edge_count: usize,
+    boundary_edges: usize,
+    interior_edges: usize,
+    inconsistent_edges: usize,
+}
+
+impl HalfEdges {
+    /// Builds twins and kinds for `triangles` (ids `< vertex_count`; see the module docs for
+    /// improper triangles). O(V + T log d) time with `d` the vertex degree (a bucket sort on
+    /// the smaller endpoint, then a tiny sort per vertex); no hashing; deterministic.
+    pub fn new(vertex_count: usize, triangles: &[u32]) -> Self {
+        Self::from_buckets(&EdgeBuckets::new(vertex_count, triangles))
+    }
+
+    /// The same from edge buckets already built with [`EdgeBuckets::new`] (a check that
+    /// looked at the edges first need not group them again).
+    pub fn from_buckets(buckets: &EdgeBuckets) -> Self {
+        assert!(buckets.members() == Members::ProperTriangles, "twins need proper triangles");
+        let n = buckets.half_edge_count();
+        let mut opposite = vec![NONE; n];
+        let mut kinds = vec![EdgeKind::Degenerate; n];
+        let mut nm_offsets = vec![0u32];
+        let mut nm_items = Vec::new();
+        let (mut edges, mut boundary, mut interior, mut inconsistent) = (0, 0, 0, 0);
+        buckets.for_each_edge(|a, group| {
+            edges += 1;
+            match *group {
+                [e] => {
+                    kinds[e.half_edge() as usize] = EdgeKind::Boundary;
+                    boundary += 1;
+                }
+                [e, f] => {
+                    let (g, h) = (e.half_edge(), f.half_edge());
+                    opposite[g as usize] = h;
+                    opposite[h as usize] = g;
+                    let kind = if buckets.runs_up(a, e) != buckets.runs_up(a, f) {
+                        EdgeKind::Interior
+                    } else {
+                        inconsistent += 1;
+                        EdgeKind::InteriorInconsistent
+                    };
+                    kinds[g as usize] = kind;
+                    kinds[h as usize] = kind;
+                    interior += 1;
+                }
+                _ => {
+                    for e in group {
+                        kinds[e.half_edge() as usize] = EdgeKind::NonManifold;
+                        nm_items.push(e.half_edge());
+                    }
+                    nm_offsets.push(nm_items.len() as u32);
+                }
+            }
+        });
+        Self {
+            opposite,
+            kinds,
+            non_manifold: Csr::from_parts_unchecked(nm_offsets, nm_items),
+            edge_count: edges,
+            boundary_edges: boundary,
+            interior_edges: interior,
+            inconsistent_edges: inconsistent,
+        }
+    }
+
+    /// The number of half-edges, `3 * triangle_count`. O(1).
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.opposite.len()
+    }
+
+    /// Whether there are no half-edges. O(1).
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.opposite.is_empty()
+    }
+
+    /// The twin of `h` on a manifold-interior edge, else [`NONE`]. O(1).
+    #[inline]
+    pub fn opposite(&self, h: u32) -> u32 {
+        self.opposite[h as usize]
+    }
+
+    /// All twins, indexed by half-edge id ([`NONE`] where there is none).
+    #[inline]
+    pub fn opposites(&self) -> &[u32] {
+        &self.opposite
+    }
+
+    /// The kind of edge `h` lies on. O(1).
+    #[inline]
+    pub fn kind(&self, h: u32) -> EdgeKind {
+        self.kinds[h as usize]
+    }
+
+    /// All kinds, indexed by half-edge id.
+    #[inline]
+    pub fn kinds(&self) -> &[EdgeKind] {
+        &self.kinds
+    }
+
+    /// Whether `h` is the only half-edge on its edge. O(1).
+    #[inline]
+    pub fn is_boundary(&self, h: u32) -> bool {
+        self.kinds[h as usize] == EdgeKind::Boundary
+    }
+
+    /// Whether `h` has a twin (manifold-interior edge, either orientation). O(1).
+    #[inline]
+    pub fn is_interior(&self, h: u32) -> bool {
+        self.kinds[h as usize].is_interior()
+    }
+
+    /// Whether `h` has a twin running the opposite way. O(1).
+    #[inline]
+    pub fn is_consistent(&self, h: u32) -> bool {
+        self.kinds[h as usize] == EdgeKind::Interior
+    }
+
+    /// Whether `h` lies on an edge with three or more half-edges. O(1).
+    #[inline]
+    pub fn is_non_manifold(&self, h: u32) -> bool {
+        self.kinds[h as usize] == EdgeKind::NonManifold
+    }
+
+    /// The number of distinct undirected edges of proper triangles (the `edge-count`). O(1).
+    #[inline]
+    pub fn edge_count(&self) -> usize {
+        self.edge_count
+    }
+
+    /// The number of boundary edges (= boundary half-edges). O(1).
+    #[inline]
+    pub fn boundary_edge_count(&self) -> usize {
+        self.boundary_edges
+    }
+
+    /// The number of manifold-interior edges (each has two half-edges). O(1).
+    #[inline]
+    pub fn interior_edge_count(&self) -> usize {
+        self.interior_edges
+    }
+
+    /// The number of interior edges whose two half-edges run the same way. O(1).
+    #[inline]
+    pub fn inconsistent_edge_count(&self) -> usize {
+        self.inconsistent_edges
+    }
+
+    /// The number of edges with three or more half-edges. O(1).
+    #[inline]
+    pub fn non_manifold_edge_count(&self) -> usize {
+        self.non_manifold.len()
+    }
+
+    /// The non-manifold edges: one row per edge holding all its half-edges (ascending), rows
+    /// in ascending order of the edge's `(min vertex, max vertex)`.
+    #[inline]
+    pub fn non_manifold_edges(&self) -> &Csr {
+        &self.non_manifold
+    }
+
+    /// Whether no edge is a boundary edge (there may still be non-manifold edges). O(1).
+    #[inline]
+    pub fn is_closed(&self) -> bool {
+        self.boundary_edges == 0
+    }
+
+    /// The boundary half-edges in ascending order. O(H) to iterate.
+    pub fn boundary_half_edges(&self) -> impl Iterator<Item = u32> + '_ {
+        self.kinds
+            .iter()
+            .enumerate()
+            .filter(|(_, k)| **k == EdgeKind::Boundary)
+            .map(|(h, _)| h as u32)
+    }
+
+    /// Gives back the twin array (the form the host hands out). O(1).
+    pub fn into_opposites(self) -> Vec<u32> {
+        self.opposite
+    }
+}
+
+/// The undirected edge of `h` as `(min vertex, max vertex)`. O(1).
+#[inline]
+pub fn edge_key(triangles: &[u32], h: u32) -> (u32, u32) {
+    let (a, b) = (origin(triangles, h), target(triangles, h));
+    (a.min(b), a.max(b))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn navigation() {
+        assert_eq!([next(0), next(1), next(2), next(5)], [1, 2, 0, 3]);
+        assert_eq!([prev(0), prev(1), prev(2), prev(3)], [2, 0, 1, 5]);
+        let t = [7, 8, 9, 1, 2, 3];
+        assert_eq!((origin(&t, 5), target(&t, 5), opposite_vertex(&t, 5)), (3, 1, 2));
+        assert_eq!(edge_key(&t, 2), (7, 9));
+        assert_eq!((triangle_of(4), corner_of(4), half_edge(1, 1)), (1, 1, 4));
+    }
+
+    #[test]
+    fn two_triangles() {
+        let t = [0, 1, 2, 2, 1, 3];
+        let he = HalfEdges::new(4, &t);
+        assert_eq!(he.opposite(1), 3);
+        assert_eq!(he.opposite(3), 1);
+        assert_eq!(he.kind(1), EdgeKind::Interior);
+        assert_eq!(he.edge_count(), 5);
+        assert_eq!(he.boundary_edge_count(), 4);
+        assert_eq!(he.boundary_half_edges().collect::<Vec<_>>(), [0, 2, 4, 5]);
+    }
+
+    #[test]
+    fn empty_and_trailing() {
+        let he = HalfEdges::new(0, &[]);
+        assert!(he.is_empty() && he.is_closed());
+        let he = HalfEdges::new(3, &[0, 1, 2, 0]);
+        assert_eq!(he.len(), 3);
+        assert_eq!(he.edge_count(), 3);
+    }
+}
