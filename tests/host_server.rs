@@ -100,7 +100,8 @@ async fn filter(
 
 fn api_error(result: Result<impl std::fmt::Debug, ClientError>) -> (u16, String, String) {
     match result.expect_err("the host should refuse") {
-        ClientError::Api { status, code, message, .. } => (status, code, message),
+        ClientError::Refused { status, code, message, .. }
+        | ClientError::Server { status, code, message, .. } => (status, code, message),
         other => panic!("expected an HTTP error, got {other}"),
     }
 }

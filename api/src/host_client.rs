@@ -9,33 +9,44 @@ use crate::host::{
     SessionCreated, SessionStatus, Update, Updated, UploadedPlugin,
 };
 
-/// What went wrong with a request: the host's answer (status, code, message) or the
-/// transport.
+/// What went wrong with a request, typed by what a caller does about it: a host that is
+/// [`Unreachable`](Self::Unreachable), too slow ([`Timeout`](Self::Timeout)) or broken
+/// ([`Server`](Self::Server), [`Protocol`](Self::Protocol)) may be replaced by another; a
+/// [`Refused`](Self::Refused) request would fail the same way anywhere.
 #[derive(Debug, thiserror::Error)]
 pub enum ClientError {
+    #[error("{url}: cannot connect: {message}")]
+    Unreachable { url: String, message: String },
+    #[error("{url}: timed out: {message}")]
+    Timeout { url: String, message: String },
+    /// The host refused the request itself (bad parameters, a failing plugin, an input it
+    /// could not fetch): HTTP 4xx, or 502 for a download the request pointed it to.
     #[error("{url}: HTTP {status} {code}: {message}")]
-    Api { url: String, status: u16, code: String, message: String },
+    Refused { url: String, status: u16, code: String, message: String },
+    /// The host failed (HTTP 5xx).
+    #[error("{url}: HTTP {status} {code}: {message}")]
+    Server { url: String, status: u16, code: String, message: String },
+    /// The answer was cut off or not what the API promises.
     #[error("{url}: {message}")]
-    Transport { url: String, message: String },
+    Protocol { url: String, message: String },
     #[error("{url}: the download is larger than the limit of {limit} bytes")]
     TooLarge { url: String, limit: u64 },
 }
 
-impl ClientError {
-    /// The HTTP status the host answered with, if it answered.
-    pub fn status(&self) -> Option<u16> {
-        match self {
-            ClientError::Api { status, .. } => Some(*status),
-            _ => None,
-        }
-    }
+/// Error bodies are read up to this size; the rest is not kept.
+pub const MAX_ERROR_BODY_BYTES: usize = 16 << 10;
 
-    /// The host's error code (`plugin-failed`, `session-busy`, ...), if it answered.
-    pub fn code(&self) -> Option<&str> {
-        match self {
-            ClientError::Api { code, .. } => Some(code),
-            _ => None,
-        }
+impl ClientError {
+    /// Whether another host might succeed where this one failed: it could not be reached,
+    /// timed out, broke, or answered nonsense.
+    pub fn is_host_failure(&self) -> bool {
+        matches!(
+            self,
+            Self::Unreachable { .. }
+                | Self::Timeout { .. }
+                | Self::Server { .. }
+                | Self::Protocol { .. }
+        )
     }
 
     fn transport(url: &str, error: reqwest::Error) -> Self {
@@ -46,7 +57,14 @@ impl ClientError {
             message = format!("{message}: {cause}");
             source = cause.source();
         }
-        ClientError::Transport { url: url.to_owned(), message }
+        let url = url.to_owned();
+        if error.is_timeout() {
+            ClientError::Timeout { url, message }
+        } else if error.is_connect() {
+            ClientError::Unreachable { url, message }
+        } else {
+            ClientError::Protocol { url, message }
+        }
     }
 }
 
@@ -146,7 +164,7 @@ impl HostClient {
         let response = send(self.http.head(url), url).await?;
         // Not `content_length()`: for a HEAD answer that is the empty body's length.
         let length = response.headers().get(reqwest::header::CONTENT_LENGTH);
-        length.and_then(|v| v.to_str().ok()?.parse().ok()).ok_or_else(|| ClientError::Transport {
+        length.and_then(|v| v.to_str().ok()?.parse().ok()).ok_or_else(|| ClientError::Protocol {
             url: url.to_owned(),
             message: "no valid Content-Length in the answer".into(),
         })
@@ -186,20 +204,39 @@ fn authorized(request: RequestBuilder, token: Option<&str>) -> RequestBuilder {
     }
 }
 
-/// Sends a request; an error status becomes [`ClientError::Api`] with the host's code and
-/// message (or the body's text when it is not a host error).
+/// Sends a request; an error status becomes [`ClientError::Refused`] or
+/// [`ClientError::Server`] with the host's code and message (or the start of the body's
+/// text when it is not a host error).
 async fn send(request: RequestBuilder, url: &str) -> Result<Response, ClientError> {
     let response = request.send().await.map_err(|e| ClientError::transport(url, e))?;
     let status = response.status();
     if status.is_success() {
         return Ok(response);
     }
-    let text = response.text().await.unwrap_or_default();
+    let text = error_text(response).await;
     let (code, message) = match serde_json::from_str::<ErrorBody>(&text) {
         Ok(body) => (body.error.code, body.error.message),
         Err(_) => (code_of(status), text),
     };
-    Err(ClientError::Api { url: url.to_owned(), status: status.as_u16(), code, message })
+    let (url, status) = (url.to_owned(), status.as_u16());
+    if status == StatusCode::BAD_GATEWAY.as_u16() || status < 500 {
+        Err(ClientError::Refused { url, status, code, message })
+    } else {
+        Err(ClientError::Server { url, status, code, message })
+    }
+}
+
+/// The start of an error body, at most [`MAX_ERROR_BODY_BYTES`], as text.
+async fn error_text(response: Response) -> String {
+    let mut kept = Vec::new();
+    let mut body = response.bytes_stream();
+    while let Some(Ok(chunk)) = body.next().await {
+        kept.extend_from_slice(&chunk[..chunk.len().min(MAX_ERROR_BODY_BYTES - kept.len())]);
+        if kept.len() == MAX_ERROR_BODY_BYTES {
+            break;
+        }
+    }
+    String::from_utf8_lossy(&kept).into_owned()
 }
 
 fn code_of(status: StatusCode) -> String {

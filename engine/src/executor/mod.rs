@@ -60,20 +60,16 @@ enum Failure {
     Step(String),
 }
 
+/// A host that cannot be reached, times out or breaks is down and the task moves on; a
+/// refused request is the step's own fault and would fail the same way elsewhere.
 impl From<ClientError> for Failure {
     fn from(error: ClientError) -> Self {
-        if is_host_failure(&error) {
+        if error.is_host_failure() {
             Failure::Host(error.to_string())
         } else {
             Failure::Step(error.to_string())
         }
     }
-}
-
-/// A host that cannot be reached, or that answers with a server error, is down; a 4xx is
-/// the step's own fault and would fail the same way elsewhere.
-fn is_host_failure(error: &ClientError) -> bool {
-    error.status().is_none_or(|status| status >= 500 && status != 502)
 }
 
 struct Executor {
@@ -475,7 +471,7 @@ impl Executor {
                         replica.hash = hash;
                         return Ok(replica.session.clone());
                     }
-                    Err(error) if is_host_failure(&error) => return Err(error.into()),
+                    Err(error) if error.is_host_failure() => return Err(error.into()),
                     Err(error) => refusals.push(format!("update from {url}: {error}")),
                 }
             }

@@ -3,7 +3,7 @@
 //! (repairs that cascade) can work locally and replay the edits on the host afterwards,
 //! instead of reading the mesh back after every host call.
 //!
-//! The store's rules mirrored here (host/src/store/edges.rs, triangles.rs): new vertices
+//! The store's rules mirrored here (host/mesh/src/store/edges.rs, triangles.rs): new vertices
 //! and triangles are appended; `split-edge` walks the live triangles on the edge in
 //! ascending id order, each `(x, y, o)` keeping its id as `(x, v, o)` and appending
 //! `(v, y, o)`; `collapse-edge` from `a` to `b` removes the triangles having both and turns
