@@ -187,14 +187,16 @@ pub async fn run(
 
     let edits = output.log.iter().map(|op| op.edit_count()).sum();
     let result = output.mesh.expect("a filter returns a mesh");
+    let base_hash = ContentHash::from_hex(&input.hash).ok_or_else(|| {
+        ApiError::internal(format!("session hash `{}` is not a hash", input.hash))
+    })?;
     let (next, correction) = tokio::task::spawn_blocking(move || {
-        let correction = correction::encode(&input.mesh, &output.log, &result);
-        let hash = result.content_hash().to_hex();
-        (CurrentMesh { mesh: Arc::new(result), hash }, correction)
+        correction::encode_known(input.mesh, base_hash, &output.log, &result).map(
+            |(bytes, hash)| (CurrentMesh { mesh: Arc::new(result), hash: hash.to_hex() }, bytes),
+        )
     })
-    .await?;
-    let correction =
-        correction.map_err(|e| ApiError::internal(format!("encoding the correction: {e}")))?;
+    .await?
+    .map_err(|e| ApiError::internal(format!("encoding the correction: {e}")))?;
     let correction_name = meshes::correction_name(&correction);
     let correction_bytes = correction.len() as u64;
     let writing = host.blobs.writing().await;

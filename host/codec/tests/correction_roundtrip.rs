@@ -120,3 +120,21 @@ fn smoothing_steps_cost_few_bits_per_vertex() {
         assert!(bits < max_bits, "lambda {lambda}: {bits:.2} bits per vertex");
     }
 }
+
+#[test]
+fn encoding_against_a_known_base_gives_the_same_bytes_and_the_result_hash() {
+    let mut rng = Rng(11);
+    let base = grid(6, 5, 2, &mut rng);
+    let mut store = MeshStore::new(base.clone());
+    random_edits(&mut store, &mut rng, 30);
+    let (result, log) = store.finish();
+    let shared = std::sync::Arc::new(base.clone());
+    let (bytes, hash) =
+        correction::encode_known(shared.clone(), base.content_hash(), &log, &result).unwrap();
+    assert_eq!(bytes, correction::encode(&base, &log, &result).unwrap());
+    assert_eq!(hash, result.content_hash());
+    assert_eq!(correction::apply(shared, &bytes).unwrap().content_hash(), hash);
+    // A wrong base hash is written as given, so every applier refuses the correction.
+    let (forged, _) = correction::encode_known(base.clone().into(), hash, &log, &result).unwrap();
+    assert!(correction::apply(base, &forged).is_err());
+}

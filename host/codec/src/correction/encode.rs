@@ -1,9 +1,11 @@
 //! Writing a correction: replay the log through a store, coding each op against the state
 //! before it.
 
-use meshflow_mesh::MeshData;
+use std::sync::Arc;
+
 use meshflow_mesh::as_le_bytes_f32;
 use meshflow_mesh::store::{MeshStore, Op};
+use meshflow_mesh::{ContentHash, MeshData};
 
 use super::CorrectionError;
 use super::codec::{END, Models, Sections, kind_symbol, motion};
@@ -16,10 +18,36 @@ use crate::quantize::Grid;
 /// [`finish`](MeshStore::finish) returned them). The log is replayed to make the
 /// predictions; a log that does not apply to `base`, or does not give `result`, is refused.
 pub fn encode(base: &MeshData, log: &[Op], result: &MeshData) -> Result<Vec<u8>, CorrectionError> {
-    // Hashing both meshes is a pass over each: done on a second thread meanwhile.
+    encode_with(Arc::new(base.clone()), None, log, result).map(|(bytes, _)| bytes)
+}
+
+/// [`encode`] as a host calls it: the base is shared (the replay copies only what the log
+/// edits) and its hash already known, so only the result is hashed, once; that hash is
+/// returned with the bytes.
+pub fn encode_known(
+    base: Arc<MeshData>,
+    base_hash: ContentHash,
+    log: &[Op],
+    result: &MeshData,
+) -> Result<(Vec<u8>, ContentHash), CorrectionError> {
+    encode_with(base, Some(base_hash), log, result)
+}
+
+fn encode_with(
+    base: Arc<MeshData>,
+    base_hash: Option<ContentHash>,
+    log: &[Op],
+    result: &MeshData,
+) -> Result<(Vec<u8>, ContentHash), CorrectionError> {
+    let (base_counts, result_counts) = (
+        [base.vertex_count() as u64, base.triangle_count() as u64],
+        [result.vertex_count() as u64, result.triangle_count() as u64],
+    );
+    // Hashing is a pass over each mesh: done on a second thread meanwhile.
     let (hashes, sections) = std::thread::scope(|s| {
-        let hashes = s.spawn(|| (base.content_hash(), result.content_hash()));
-        let sections = encode_sections(base, log, result);
+        let hashes =
+            s.spawn(|| (base_hash.unwrap_or_else(|| base.content_hash()), result.content_hash()));
+        let sections = encode_sections(base.clone(), log, result);
         (hashes.join().expect("hashing does not panic"), sections)
     });
     let (grid, sections) = sections?;
@@ -33,27 +61,27 @@ pub fn encode(base: &MeshData, log: &[Op], result: &MeshData) -> Result<Vec<u8>,
         version: header::VERSION,
         base: hashes.0,
         result: hashes.1,
-        base_counts: [base.vertex_count() as u64, base.triangle_count() as u64],
-        result_counts: [result.vertex_count() as u64, result.triangle_count() as u64],
+        base_counts,
+        result_counts,
         grid,
         kinds,
         header_bytes: 0,
         section_bytes: [0; 4],
     };
-    Ok(header::write(&header, &sections))
+    Ok((header::write(&header, &sections), hashes.1))
 }
 
 /// Codes the log's ops into the four sections, replaying them; checks the replay ends at
 /// `result` (byte for byte, which is what equal hashes mean).
 fn encode_sections(
-    base: &MeshData,
+    base: Arc<MeshData>,
     log: &[Op],
     result: &MeshData,
 ) -> Result<(Option<Grid>, [Vec<u8>; 4]), CorrectionError> {
     // Detected, not declared: any mesh whose coordinates all sit on a coarse grid gains.
     let grid = Grid::detect([&base.positions[..], &result.positions[..]]);
     let mut encoder = Encoder {
-        store: MeshStore::new(base.clone()),
+        store: MeshStore::new(base),
         models: Models::new(grid),
         out: Sections {
             ops: SymbolWriter::new(),

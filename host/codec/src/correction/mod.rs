@@ -36,7 +36,7 @@ mod header;
 mod lists;
 mod predict;
 
-pub use encode::encode;
+pub use encode::{encode, encode_known};
 pub use error::CorrectionError;
 pub use header::{Correction, KindCount, SECTIONS, VERSION};
 
