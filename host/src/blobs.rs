@@ -1,22 +1,23 @@
-//! Blobs: corrections and meshes stored under `DATA/blobs` by name, served with
-//! Content-Length and ETag; full output meshes packed on first request; the total size
-//! held to a budget.
+//! Blobs: corrections and meshes stored under `DATA/blobs` by name (the route that serves
+//! them is `routes/blobs.rs`); recent output meshes kept to pack on first request; the
+//! total size held to a budget.
 
 use std::collections::{HashSet, VecDeque};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
-use axum::body::Body;
-use axum::extract::{Path, State};
-use axum::http::{HeaderMap, Method, StatusCode, header};
-use axum::response::{IntoResponse, Response};
-
-use super::error::ApiError;
-use super::meshes::{self, PACKED};
-use super::state::Host;
-use meshflow_codec::pack;
+use super::meshes;
 use meshflow_mesh::MeshData;
 use meshflow_meshio as io;
+
+/// Why a blob could not be stored or evicted.
+#[derive(Debug, thiserror::Error)]
+pub enum BlobError {
+    #[error("storing blob {name}: {message}")]
+    Store { name: String, message: String },
+    #[error("evicting blobs: {0}")]
+    Evict(String),
+}
 
 pub struct BlobStore {
     dir: PathBuf,
@@ -51,16 +52,18 @@ impl BlobStore {
 
     /// Stores `bytes` as `name`, atomically; a blob already present is left as it is
     /// (names are hashes of the content).
-    pub async fn put(&self, name: &str, bytes: Arc<Vec<u8>>) -> Result<(), ApiError> {
+    pub async fn put(&self, name: &str, bytes: Arc<Vec<u8>>) -> Result<(), BlobError> {
         let path = self.path(name);
+        let fail = |message: String| BlobError::Store { name: name.to_owned(), message };
         tokio::task::spawn_blocking(move || {
             if path.exists() {
                 return Ok(());
             }
             io::write_file(&path, |out| out.write_all(&bytes))
         })
-        .await?
-        .map_err(ApiError::internal)
+        .await
+        .map_err(|e| fail(e.to_string()))?
+        .map_err(|e| fail(e.to_string()))
     }
 
     pub async fn read(&self, name: &str) -> Result<Vec<u8>, String> {
@@ -79,19 +82,20 @@ impl BlobStore {
         name
     }
 
-    fn recent(&self, name: &str) -> Option<Arc<MeshData>> {
+    pub fn recent(&self, name: &str) -> Option<Arc<MeshData>> {
         let recent = self.recent.lock().expect("recent outputs lock");
         recent.iter().find(|(n, _)| n == name).map(|(_, mesh)| mesh.clone())
     }
 
     /// Deletes the oldest blobs not in `keep` until the total is within the budget.
     /// Returns the names deleted.
-    pub async fn evict(&self, keep: HashSet<String>) -> Result<Vec<String>, ApiError> {
+    pub async fn evict(&self, keep: HashSet<String>) -> Result<Vec<String>, BlobError> {
         let _exclusive = self.gate.write().await;
         let (dir, budget) = (self.dir.clone(), self.budget);
         tokio::task::spawn_blocking(move || evict_oldest(&dir, budget, &keep))
-            .await?
-            .map_err(|e| ApiError::internal(format!("evicting blobs: {e}")))
+            .await
+            .map_err(|e| BlobError::Evict(e.to_string()))?
+            .map_err(|e| BlobError::Evict(e.to_string()))
     }
 }
 
@@ -129,66 +133,6 @@ fn evict_oldest(
         evicted.push(name);
     }
     Ok(evicted)
-}
-
-/// `GET` and `HEAD /blobs/{name}`.
-pub async fn serve(
-    State(host): State<Arc<Host>>,
-    Path(name): Path<String>,
-    method: Method,
-    headers: HeaderMap,
-) -> Result<Response, ApiError> {
-    if !meshes::is_blob_name(&name) {
-        return Err(ApiError::not_found("blob", &name));
-    }
-    let etag = format!("\"{name}\"");
-    let path = host.blobs.path(&name);
-    if !path.exists() {
-        pack_full_mesh(&host, &name).await?;
-    }
-    let file = match tokio::fs::File::open(&path).await {
-        Ok(file) => file,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            return Err(ApiError::not_found("blob", &name));
-        }
-        Err(e) => return Err(ApiError::internal(format!("blob {name}: {e}"))),
-    };
-    let unchanged = headers
-        .get_all(header::IF_NONE_MATCH)
-        .iter()
-        .filter_map(|v| v.to_str().ok())
-        .flat_map(|v| v.split(','))
-        .any(|tag| matches!(tag.trim(), "*") || tag.trim() == etag);
-    if unchanged {
-        return Ok((StatusCode::NOT_MODIFIED, [(header::ETAG, etag)]).into_response());
-    }
-    let length = file.metadata().await.map_err(ApiError::internal)?.len();
-    let content_headers = [
-        (header::ETAG, etag),
-        (header::CONTENT_LENGTH, length.to_string()),
-        (header::CONTENT_TYPE, "application/octet-stream".to_owned()),
-        (header::CACHE_CONTROL, "public, max-age=31536000, immutable".to_owned()),
-    ];
-    let body = if method == Method::HEAD {
-        Body::empty()
-    } else {
-        Body::from_stream(tokio_util::io::ReaderStream::new(file))
-    };
-    Ok((content_headers, body).into_response())
-}
-
-/// Makes the full blob of an output mesh this host still holds (a recent output or a
-/// session's current mesh); does nothing for any other name.
-async fn pack_full_mesh(host: &Host, name: &str) -> Result<(), ApiError> {
-    let Some(hash) = name.strip_suffix(&format!(".{PACKED}")) else { return Ok(()) };
-    let Some(mesh) = host.blobs.recent(name).or_else(|| host.sessions.mesh_with_hash(hash)) else {
-        return Ok(());
-    };
-    let packed = tokio::task::spawn_blocking(move || pack::encode(&mesh))
-        .await?
-        .map_err(|e| ApiError::internal(format!("packing {name}: {e}")))?;
-    let _writing = host.blobs.writing().await;
-    host.blobs.put(name, Arc::new(packed)).await
 }
 
 #[cfg(test)]

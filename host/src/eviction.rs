@@ -28,6 +28,6 @@ pub async fn enforce_budget(host: &Host) {
     match host.blobs.evict(host.sessions.needed_blobs()).await {
         Ok(evicted) if !evicted.is_empty() => tracing::info!("evicted {} blobs", evicted.len()),
         Ok(_) => {}
-        Err(e) => tracing::warn!("blob eviction failed: {}", e.message),
+        Err(e) => tracing::warn!("blob eviction failed: {e}"),
     }
 }

@@ -1,21 +1,22 @@
-//! The host HTTP server (feature `server`): services, plugin upload, sessions that load a
+//! The host HTTP server: services, plugin upload, sessions that load a
 //! mesh from a URL and then run services or take other hosts' steps, and blobs.
 //!
-//! One file per concern: `config` (settings and limits), `error` (JSON errors), `state`
-//! (what handlers share), `plugins`, `sessions` (table and records), `rebuild` (loading
-//! and replaying a session), `steps` (update and run), `meshes` (formats and blob names),
-//! `blobs` (storage and serving), `eviction`.
+//! The engine must not link this crate: it runs plugins (wasmtime). Domain modules know
+//! no HTTP and return typed errors: `config` (settings and limits), `state` (what handlers
+//! share), `plugins` (the plugin set), `sessions` (table and records), `rebuild` (loading
+//! and replaying a session), `meshes` (formats and blob names), `blobs` (storage),
+//! `eviction`. Only `routes/` speaks HTTP: one file per resource, and `routes/error.rs`
+//! maps every domain error to a status and code.
 
 mod blobs;
 mod config;
-mod error;
 mod eviction;
 mod meshes;
 mod plugins;
 mod rebuild;
+mod routes;
 mod sessions;
 mod state;
-mod steps;
 
 pub use config::*;
 pub use plugins::MAX_PLUGIN_BYTES;
@@ -23,13 +24,8 @@ pub use plugins::MAX_PLUGIN_BYTES;
 use std::sync::Arc;
 
 use anyhow::Context;
-use axum::Router;
-use axum::extract::{DefaultBodyLimit, State};
-use axum::routing::{delete, get, post};
 use tokio::net::TcpListener;
 
-use error::ApiError;
-use meshflow_api::host::Health;
 use meshflow_runtime::Runtime;
 use state::{DataDirs, Host};
 
@@ -76,12 +72,12 @@ pub async fn start(config: HostConfig, listener: TcpListener) -> anyhow::Result<
     };
     let host = Arc::new(Host::new(config, public_url.clone(), runtime, plugins, &dirs)?);
     for (id, record) in host.sessions.saved_records() {
-        host.sessions.insert(&id, record.clone()).map_err(|e| anyhow::anyhow!(e.message))?;
+        host.sessions.insert(&id, record.clone()).map_err(|e| anyhow::anyhow!(e))?;
         tokio::spawn(rebuild::load(host.clone(), id, record));
     }
 
     let (shutdown, stop) = tokio::sync::oneshot::channel::<()>();
-    let app = router(host.clone());
+    let app = routes::router(host.clone());
     let server = tokio::spawn(async move {
         axum::serve(listener, app)
             .with_graceful_shutdown(async {
@@ -105,35 +101,6 @@ pub async fn serve(config: HostConfig, listener: TcpListener) -> anyhow::Result<
     tokio::signal::ctrl_c().await?;
     tracing::info!("shutting down");
     handle.shutdown().await
-}
-
-fn router(host: Arc<Host>) -> Router {
-    Router::new()
-        .route("/health", get(health))
-        .route("/services", get(plugins::services))
-        .route(
-            "/plugins",
-            get(plugins::list).post(plugins::upload).layer(DefaultBodyLimit::max(MAX_PLUGIN_BYTES)),
-        )
-        .route("/plugins/{digest}", delete(plugins::delete))
-        .route("/sessions", post(sessions::create))
-        .route("/sessions/{id}", get(sessions::status).delete(sessions::delete))
-        .route("/sessions/{id}/update", post(steps::update))
-        .route("/sessions/{id}/run", post(steps::run))
-        .route("/blobs/{name}", get(blobs::serve).head(blobs::serve))
-        .fallback(|| async {
-            ApiError::new(axum::http::StatusCode::NOT_FOUND, "not-found", "no such endpoint")
-        })
-        .with_state(host)
-}
-
-async fn health(State(host): State<Arc<Host>>) -> axum::Json<Health> {
-    axum::Json(Health {
-        status: "ok".into(),
-        version: env!("CARGO_PKG_VERSION").into(),
-        running: host.running(),
-        sessions: host.sessions.count(),
-    })
 }
 
 /// `POST {engine}/hosts {"url"}`, a few times; a failure is logged, not fatal.

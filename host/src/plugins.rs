@@ -1,23 +1,30 @@
 //! The plugins a host offers: built-in ones and uploaded ones (stored under
-//! `DATA/plugins/<digest>.wasm`, reloaded at restart); upload, list and delete.
+//! `DATA/plugins/<digest>.wasm`, reloaded at restart). The routes are `routes/plugins.rs`.
 
 use std::path::PathBuf;
-use std::sync::{Arc, RwLock};
+use std::sync::RwLock;
 
-use axum::Json;
-use axum::body::Bytes;
-use axum::extract::{Path, State};
-use axum::http::{HeaderMap, StatusCode, header};
-
-use super::error::ApiError;
-use super::state::Host;
-use meshflow_api::host::{PluginEntry, ServiceEntry, UploadedPlugin};
+use meshflow_api::host::{PluginEntry, ServiceEntry};
 use meshflow_meshio as io;
-use meshflow_runtime::{Catalog, Runtime};
-use meshflow_runtime::{Plugin, ServiceInfo, digest};
+use meshflow_runtime::{Catalog, Plugin, RunError, Runtime, ServiceInfo};
 
 /// Largest plugin component accepted by upload.
 pub const MAX_PLUGIN_BYTES: usize = 64 << 20;
+
+/// Why a plugin could not be found, added or removed.
+#[derive(Debug, thiserror::Error)]
+pub enum PluginSetError {
+    #[error(transparent)]
+    Run(#[from] RunError),
+    #[error("no plugin `{0}`")]
+    NotFound(String),
+    #[error("plugin {digest} has no service `{service}`; it offers: {offered}")]
+    NoSuchService { digest: String, service: String, offered: String },
+    #[error("built-in plugins cannot be deleted")]
+    Builtin,
+    #[error("{0}")]
+    Storage(String),
+}
 
 pub struct PluginSet {
     dir: PathBuf,
@@ -80,7 +87,7 @@ impl PluginSet {
         &self,
         service: &str,
         digest: Option<&str>,
-    ) -> Result<(Plugin, ServiceInfo), ApiError> {
+    ) -> Result<(Plugin, ServiceInfo), PluginSetError> {
         let loaded = self.read();
         let Some(digest) = digest else {
             let (plugin, info) = loaded.catalog.find(service)?;
@@ -91,16 +98,14 @@ impl PluginSet {
             .plugins()
             .iter()
             .find(|p| p.digest == digest)
-            .ok_or_else(|| ApiError::not_found("plugin", digest))?;
+            .ok_or_else(|| PluginSetError::NotFound(digest.to_owned()))?;
         let info = plugin.service(service).ok_or_else(|| {
             let offered: Vec<&str> = plugin.services.iter().map(|s| s.name.as_str()).collect();
-            ApiError::bad_request(
-                "unknown-service",
-                format!(
-                    "plugin {digest} has no service `{service}`; it offers: {}",
-                    offered.join(", ")
-                ),
-            )
+            PluginSetError::NoSuchService {
+                digest: digest.to_owned(),
+                service: service.to_owned(),
+                offered: offered.join(", "),
+            }
         })?;
         Ok((plugin.clone(), info.clone()))
     }
@@ -132,16 +137,16 @@ impl PluginSet {
             .collect()
     }
 
-    fn known(&self, digest: &str) -> Option<Vec<ServiceInfo>> {
+    pub fn known(&self, digest: &str) -> Option<Vec<ServiceInfo>> {
         let loaded = self.read();
         loaded.catalog.plugins().iter().find(|p| p.digest == digest).map(|p| p.services.clone())
     }
 
     /// Stores an uploaded plugin's bytes and offers its services ahead of the built-ins.
-    fn add(&self, plugin: Plugin, bytes: &[u8]) -> Result<(), ApiError> {
+    pub fn add(&self, plugin: Plugin, bytes: &[u8]) -> Result<(), PluginSetError> {
         let path = self.dir.join(format!("{}.wasm", plugin.digest));
         io::write_file(&path, |out| out.write_all(bytes))
-            .map_err(|e| ApiError::internal(format!("storing the plugin: {e}")))?;
+            .map_err(|e| PluginSetError::Storage(format!("storing the plugin: {e}")))?;
         let mut loaded = self.inner.write().expect("plugin set lock");
         let mut uploaded = std::mem::take(&mut loaded.uploaded);
         // Two uploads of the same bytes may race; keep one.
@@ -152,14 +157,10 @@ impl PluginSet {
         Ok(())
     }
 
-    fn remove(&self, digest: &str) -> Result<(), ApiError> {
+    pub fn remove(&self, digest: &str) -> Result<(), PluginSetError> {
         let mut loaded = self.inner.write().expect("plugin set lock");
         if loaded.is_builtin(digest) {
-            return Err(ApiError::new(
-                StatusCode::FORBIDDEN,
-                "builtin",
-                "built-in plugins cannot be deleted",
-            ));
+            return Err(PluginSetError::Builtin);
         }
         let mut uploaded = std::mem::take(&mut loaded.uploaded);
         let before = uploaded.len();
@@ -167,76 +168,9 @@ impl PluginSet {
         let found = uploaded.len() != before;
         *loaded = Loaded::new(uploaded, std::mem::take(&mut loaded.builtins));
         if !found {
-            return Err(ApiError::not_found("plugin", digest));
+            return Err(PluginSetError::NotFound(digest.to_owned()));
         }
         std::fs::remove_file(self.dir.join(format!("{digest}.wasm")))
-            .map_err(|e| ApiError::internal(format!("deleting the stored plugin: {e}")))
+            .map_err(|e| PluginSetError::Storage(format!("deleting the stored plugin: {e}")))
     }
-}
-
-/// Uploads and deletes need the host's token; a host without one takes none.
-fn authorize(host: &Host, headers: &HeaderMap) -> Result<(), ApiError> {
-    let Some(token) = &host.config.token else {
-        return Err(ApiError::new(
-            StatusCode::FORBIDDEN,
-            "uploads-disabled",
-            "uploads disabled: start the host with --token",
-        ));
-    };
-    let given = headers
-        .get(header::AUTHORIZATION)
-        .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.strip_prefix("Bearer "));
-    // Comparing hashes takes the same time wherever the strings differ.
-    match given {
-        Some(given) if blake3::hash(given.as_bytes()) == blake3::hash(token.as_bytes()) => Ok(()),
-        _ => Err(ApiError::new(
-            StatusCode::UNAUTHORIZED,
-            "unauthorized",
-            "a valid bearer token is required",
-        )),
-    }
-}
-
-/// `POST /plugins`: body = component bytes.
-pub async fn upload(
-    State(host): State<Arc<Host>>,
-    headers: HeaderMap,
-    body: Bytes,
-) -> Result<(StatusCode, Json<UploadedPlugin>), ApiError> {
-    authorize(&host, &headers)?;
-    let digest = digest(&body);
-    if let Some(services) = host.plugins.known(&digest) {
-        return Ok((StatusCode::OK, Json(UploadedPlugin { digest, services })));
-    }
-    let runtime = host.runtime.clone();
-    let bytes = body.clone();
-    let plugin = tokio::task::spawn_blocking(move || runtime.load(&bytes))
-        .await?
-        .map_err(|e| ApiError::unprocessable("invalid-plugin", e.to_string()))?;
-    let services = plugin.services.clone();
-    host.plugins.add(plugin, &body)?;
-    tracing::info!("plugin {digest} uploaded");
-    Ok((StatusCode::CREATED, Json(UploadedPlugin { digest, services })))
-}
-
-/// `GET /plugins`.
-pub async fn list(State(host): State<Arc<Host>>) -> Json<Vec<PluginEntry>> {
-    Json(host.plugins.entries())
-}
-
-/// `GET /services`.
-pub async fn services(State(host): State<Arc<Host>>) -> Json<Vec<ServiceEntry>> {
-    Json(host.plugins.services())
-}
-
-/// `DELETE /plugins/{digest}`.
-pub async fn delete(
-    State(host): State<Arc<Host>>,
-    Path(digest): Path<String>,
-    headers: HeaderMap,
-) -> Result<StatusCode, ApiError> {
-    authorize(&host, &headers)?;
-    host.plugins.remove(&digest)?;
-    Ok(StatusCode::NO_CONTENT)
 }

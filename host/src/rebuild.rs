@@ -67,7 +67,7 @@ async fn download_input(
     }
     let load_ms = millis(started.elapsed());
     let name = meshes::blob_name(&bytes, encoding, hash);
-    host.blobs.put(&name, Arc::new(bytes)).await.map_err(|e| e.message)?;
+    host.blobs.put(&name, Arc::new(bytes)).await.map_err(|e| e.to_string())?;
     let times = LoadTimes {
         download_ms: Some(download_ms),
         load_ms: Some(load_ms),

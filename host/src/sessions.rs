@@ -1,22 +1,32 @@
 //! Sessions: one mesh per session, its state, and the record that rebuilds it after a
-//! restart (input blob + blobs applied since), kept as `DATA/sessions/<id>.json`.
+//! restart (input blob + blobs applied since), kept as `DATA/sessions/<id>.json`. The
+//! routes are `routes/sessions.rs`.
 
 use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use axum::extract::{Path, Query, State};
-use axum::http::StatusCode;
 use serde::{Deserialize, Serialize};
 
-use super::config::LONG_POLL;
-use super::error::{ApiError, ApiJson};
-use super::rebuild;
-use super::state::Host;
-use meshflow_api::host::{CreateSession, SessionCreated, SessionState, SessionStatus};
+use meshflow_api::host::{SessionState, SessionStatus};
 use meshflow_mesh::MeshData;
 use meshflow_meshio as io;
+
+/// Why a session cannot be used or saved.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    #[error("no session `{0}`")]
+    NotFound(String),
+    #[error("session {0} is busy")]
+    Busy(String),
+    #[error("session {0} is still loading")]
+    Loading(String),
+    #[error("session {id} failed: {error}")]
+    Failed { id: String, error: String },
+    #[error("saving session {id}: {message}")]
+    Save { id: String, message: String },
+}
 
 /// What rebuilds a session: where its input came from, the blob it was stored as, and
 /// the blobs (corrections or full meshes) applied to it since, in order.
@@ -74,7 +84,7 @@ impl Sessions {
     }
 
     /// Adds a session in state "loading" and saves its record.
-    pub fn insert(&self, id: &str, record: SessionRecord) -> Result<(), ApiError> {
+    pub fn insert(&self, id: &str, record: SessionRecord) -> Result<(), SessionError> {
         self.save(id, &record)?;
         let session = Session {
             state: SessionState::Loading,
@@ -117,7 +127,7 @@ impl Sessions {
         let Some(session) = table.get_mut(id) else { return };
         session.record.input = Some(input);
         if let Err(e) = self.save(id, &session.record) {
-            tracing::warn!("session {id}: {}", e.message);
+            tracing::warn!("session {id}: {e}");
         }
         session.state = SessionState::Ready;
         session.current = Some(current);
@@ -175,26 +185,16 @@ impl Sessions {
     }
 
     /// Marks a ready session busy and hands out its mesh; the guard puts it back.
-    pub fn begin(&self, id: &str) -> Result<BusyGuard<'_>, ApiError> {
+    pub fn begin(&self, id: &str) -> Result<BusyGuard<'_>, SessionError> {
         let mut table = self.table();
-        let session = table.get_mut(id).ok_or_else(|| ApiError::not_found("session", id))?;
+        let session = table.get_mut(id).ok_or_else(|| SessionError::NotFound(id.to_owned()))?;
         match session.state {
             SessionState::Ready => {}
-            SessionState::Busy => {
-                return Err(ApiError::conflict("session-busy", format!("session {id} is busy")));
-            }
-            SessionState::Loading => {
-                return Err(ApiError::conflict(
-                    "not-ready",
-                    format!("session {id} is still loading"),
-                ));
-            }
+            SessionState::Busy => return Err(SessionError::Busy(id.to_owned())),
+            SessionState::Loading => return Err(SessionError::Loading(id.to_owned())),
             SessionState::Failed => {
                 let error = session.error.clone().unwrap_or_default();
-                return Err(ApiError::conflict(
-                    "session-failed",
-                    format!("session {id} failed: {error}"),
-                ));
+                return Err(SessionError::Failed { id: id.to_owned(), error });
             }
         }
         session.state = SessionState::Busy;
@@ -242,10 +242,11 @@ impl Sessions {
         self.dir.join(format!("{id}.json"))
     }
 
-    fn save(&self, id: &str, record: &SessionRecord) -> Result<(), ApiError> {
-        let json = serde_json::to_vec_pretty(record).map_err(ApiError::internal)?;
+    fn save(&self, id: &str, record: &SessionRecord) -> Result<(), SessionError> {
+        let fail = |message: String| SessionError::Save { id: id.to_owned(), message };
+        let json = serde_json::to_vec_pretty(record).map_err(|e| fail(e.to_string()))?;
         io::write_file(&self.record_path(id), |out| out.write_all(&json))
-            .map_err(|e| ApiError::internal(format!("saving session {id}: {e}")))
+            .map_err(|e| fail(e.to_string()))
     }
 }
 
@@ -260,7 +261,7 @@ pub struct BusyGuard<'a> {
 
 impl BusyGuard<'_> {
     /// The session's mesh becomes `next`, reached by applying blob `step`.
-    pub fn commit(mut self, next: CurrentMesh, step: String) -> Result<(), ApiError> {
+    pub fn commit(mut self, next: CurrentMesh, step: String) -> Result<(), SessionError> {
         self.done = true;
         let mut table = self.sessions.table();
         // Deleted while busy: nothing to keep.
@@ -287,77 +288,4 @@ impl Drop for BusyGuard<'_> {
         }
         self.sessions.changed.notify_waiters();
     }
-}
-
-/// `POST /sessions`: the input downloads in the background.
-pub async fn create(
-    State(host): State<Arc<Host>>,
-    ApiJson(request): ApiJson<CreateSession>,
-) -> Result<(StatusCode, axum::Json<SessionCreated>), ApiError> {
-    if reqwest::Url::parse(&request.input.url).is_err() {
-        return Err(ApiError::bad_request(
-            "bad-url",
-            format!("`{}` is not a URL", request.input.url),
-        ));
-    }
-    let id = new_id();
-    let record = SessionRecord {
-        input_url: request.input.url,
-        input_hash: request.input.hash,
-        input: None,
-        steps: Vec::new(),
-    };
-    host.sessions.insert(&id, record.clone())?;
-    tokio::spawn(rebuild::load(host.clone(), id.clone(), record));
-    let created = SessionCreated { id, state: SessionState::Loading };
-    Ok((StatusCode::ACCEPTED, axum::Json(created)))
-}
-
-#[derive(Deserialize)]
-pub struct StatusQuery {
-    wait: Option<String>,
-}
-
-/// `GET /sessions/{id}[?wait=ready]`.
-pub async fn status(
-    State(host): State<Arc<Host>>,
-    Path(id): Path<String>,
-    Query(query): Query<StatusQuery>,
-) -> Result<axum::Json<SessionStatus>, ApiError> {
-    let status = match query.wait.as_deref() {
-        None => host.sessions.status(&id),
-        Some("ready") => host.sessions.wait_loaded(&id, LONG_POLL).await,
-        Some(other) => {
-            return Err(ApiError::bad_request(
-                "bad-query",
-                format!("wait={other}: only wait=ready is known"),
-            ));
-        }
-    };
-    status.map(axum::Json).ok_or_else(|| ApiError::not_found("session", &id))
-}
-
-/// `DELETE /sessions/{id}`.
-pub async fn delete(
-    State(host): State<Arc<Host>>,
-    Path(id): Path<String>,
-) -> Result<StatusCode, ApiError> {
-    if host.sessions.remove(&id) {
-        Ok(StatusCode::NO_CONTENT)
-    } else {
-        Err(ApiError::not_found("session", &id))
-    }
-}
-
-/// Unique among this host's sessions, also across restarts.
-fn new_id() -> String {
-    use std::sync::atomic::{AtomicU64, Ordering};
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let mut hasher = blake3::Hasher::new();
-    let now =
-        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
-    hasher.update(&now.as_nanos().to_le_bytes());
-    hasher.update(&COUNTER.fetch_add(1, Ordering::Relaxed).to_le_bytes());
-    hasher.update(&std::process::id().to_le_bytes());
-    hasher.finalize().to_hex()[..16].to_owned()
 }

@@ -4,8 +4,8 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use super::HostConfig;
 use super::blobs::BlobStore;
+use super::config::HostConfig;
 use super::plugins::PluginSet;
 use super::sessions::Sessions;
 use meshflow_runtime::Runtime;

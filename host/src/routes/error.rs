@@ -5,6 +5,9 @@ use axum::Json;
 use axum::http::StatusCode;
 use axum::response::{IntoResponse, Response};
 
+use crate::blobs::BlobError;
+use crate::plugins::PluginSetError;
+use crate::sessions::SessionError;
 use meshflow_api::host::{ErrorBody, ErrorDetail};
 use meshflow_runtime::RunError;
 
@@ -56,6 +59,43 @@ impl From<RunError> for ApiError {
             RunError::Params(_) => Self::bad_request("bad-params", error.to_string()),
             _ => Self::unprocessable("plugin-failed", error.to_string()),
         }
+    }
+}
+
+impl From<SessionError> for ApiError {
+    fn from(error: SessionError) -> Self {
+        let message = error.to_string();
+        match error {
+            SessionError::NotFound(_) => Self::new(StatusCode::NOT_FOUND, "not-found", message),
+            SessionError::Busy(_) => Self::conflict("session-busy", message),
+            SessionError::Loading(_) => Self::conflict("not-ready", message),
+            SessionError::Failed { .. } => Self::conflict("session-failed", message),
+            SessionError::Save { .. } => Self::internal(message),
+        }
+    }
+}
+
+impl From<PluginSetError> for ApiError {
+    fn from(error: PluginSetError) -> Self {
+        match error {
+            PluginSetError::Run(error) => error.into(),
+            PluginSetError::NotFound(_) => {
+                Self::new(StatusCode::NOT_FOUND, "not-found", error.to_string())
+            }
+            PluginSetError::NoSuchService { .. } => {
+                Self::bad_request("unknown-service", error.to_string())
+            }
+            PluginSetError::Builtin => {
+                Self::new(StatusCode::FORBIDDEN, "builtin", error.to_string())
+            }
+            PluginSetError::Storage(message) => Self::internal(message),
+        }
+    }
+}
+
+impl From<BlobError> for ApiError {
+    fn from(error: BlobError) -> Self {
+        Self::internal(error)
     }
 }
 

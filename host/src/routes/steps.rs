@@ -8,10 +8,10 @@ use axum::Json;
 use axum::extract::{Path, State};
 
 use super::error::{ApiError, ApiJson};
-use super::meshes::{self, MeshEncoding};
-use super::rebuild::hashed;
-use super::sessions::CurrentMesh;
-use super::state::Host;
+use crate::meshes::{self, MeshEncoding};
+use crate::rebuild::hashed;
+use crate::sessions::CurrentMesh;
+use crate::state::Host;
 use meshflow_api::host::{
     BlobRef, CheckResult, FilterResult, FullRef, RunRequest, RunResult, Transfer, Update, Updated,
     millis,
@@ -90,7 +90,7 @@ pub async fn update(
     };
     session.commit(next, name)?;
     drop(_writing);
-    super::eviction::enforce_budget(&host).await;
+    crate::eviction::enforce_budget(&host).await;
     Ok(Json(updated))
 }
 
@@ -141,7 +141,7 @@ async fn replay_correction(
                 .put(&name, Arc::new(bytes))
                 .await
                 .map(|()| (next, name))
-                .map_err(|e| e.message)
+                .map_err(|e| e.to_string())
         }
         Err(reason) => Err(reason),
     };
@@ -217,6 +217,6 @@ pub async fn run(
     };
     session.commit(next, correction_name)?;
     drop(writing);
-    super::eviction::enforce_budget(&host).await;
+    crate::eviction::enforce_budget(&host).await;
     Ok(Json(RunResult::Filter(result)))
 }

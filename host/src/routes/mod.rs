@@ -1,0 +1,48 @@
+//! The HTTP edge of the host: the router, one file per resource, and the mapping of domain
+//! errors to statuses (`error.rs`).
+
+mod blobs;
+mod error;
+mod plugins;
+mod sessions;
+mod steps;
+
+use std::sync::Arc;
+
+use axum::Router;
+use axum::extract::{DefaultBodyLimit, State};
+use axum::routing::{delete, get, post};
+
+use crate::plugins::MAX_PLUGIN_BYTES;
+use crate::state::Host;
+use error::ApiError;
+use meshflow_api::host::Health;
+
+pub fn router(host: Arc<Host>) -> Router {
+    Router::new()
+        .route("/health", get(health))
+        .route("/services", get(plugins::services))
+        .route(
+            "/plugins",
+            get(plugins::list).post(plugins::upload).layer(DefaultBodyLimit::max(MAX_PLUGIN_BYTES)),
+        )
+        .route("/plugins/{digest}", delete(plugins::delete))
+        .route("/sessions", post(sessions::create))
+        .route("/sessions/{id}", get(sessions::status).delete(sessions::delete))
+        .route("/sessions/{id}/update", post(steps::update))
+        .route("/sessions/{id}/run", post(steps::run))
+        .route("/blobs/{name}", get(blobs::serve).head(blobs::serve))
+        .fallback(|| async {
+            ApiError::new(axum::http::StatusCode::NOT_FOUND, "not-found", "no such endpoint")
+        })
+        .with_state(host)
+}
+
+async fn health(State(host): State<Arc<Host>>) -> axum::Json<Health> {
+    axum::Json(Health {
+        status: "ok".into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        running: host.running(),
+        sessions: host.sessions.count(),
+    })
+}

@@ -1,0 +1,88 @@
+//! `/sessions`: create one on an input URL (it loads in the background), its status
+//! (optionally waiting until it is loaded), delete.
+
+use std::sync::Arc;
+
+use axum::extract::{Path, Query, State};
+use axum::http::StatusCode;
+use serde::Deserialize;
+
+use super::error::{ApiError, ApiJson};
+use crate::config::LONG_POLL;
+use crate::rebuild;
+use crate::sessions::SessionRecord;
+use crate::state::Host;
+use meshflow_api::host::{CreateSession, SessionCreated, SessionState, SessionStatus};
+
+/// `POST /sessions`: the input downloads in the background.
+pub async fn create(
+    State(host): State<Arc<Host>>,
+    ApiJson(request): ApiJson<CreateSession>,
+) -> Result<(StatusCode, axum::Json<SessionCreated>), ApiError> {
+    if reqwest::Url::parse(&request.input.url).is_err() {
+        return Err(ApiError::bad_request(
+            "bad-url",
+            format!("`{}` is not a URL", request.input.url),
+        ));
+    }
+    let id = new_id();
+    let record = SessionRecord {
+        input_url: request.input.url,
+        input_hash: request.input.hash,
+        input: None,
+        steps: Vec::new(),
+    };
+    host.sessions.insert(&id, record.clone())?;
+    tokio::spawn(rebuild::load(host.clone(), id.clone(), record));
+    let created = SessionCreated { id, state: SessionState::Loading };
+    Ok((StatusCode::ACCEPTED, axum::Json(created)))
+}
+
+#[derive(Deserialize)]
+pub struct StatusQuery {
+    wait: Option<String>,
+}
+
+/// `GET /sessions/{id}[?wait=ready]`.
+pub async fn status(
+    State(host): State<Arc<Host>>,
+    Path(id): Path<String>,
+    Query(query): Query<StatusQuery>,
+) -> Result<axum::Json<SessionStatus>, ApiError> {
+    let status = match query.wait.as_deref() {
+        None => host.sessions.status(&id),
+        Some("ready") => host.sessions.wait_loaded(&id, LONG_POLL).await,
+        Some(other) => {
+            return Err(ApiError::bad_request(
+                "bad-query",
+                format!("wait={other}: only wait=ready is known"),
+            ));
+        }
+    };
+    status.map(axum::Json).ok_or_else(|| ApiError::not_found("session", &id))
+}
+
+/// `DELETE /sessions/{id}`.
+pub async fn delete(
+    State(host): State<Arc<Host>>,
+    Path(id): Path<String>,
+) -> Result<StatusCode, ApiError> {
+    if host.sessions.remove(&id) {
+        Ok(StatusCode::NO_CONTENT)
+    } else {
+        Err(ApiError::not_found("session", &id))
+    }
+}
+
+/// Unique among this host's sessions, also across restarts.
+fn new_id() -> String {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let mut hasher = blake3::Hasher::new();
+    let now =
+        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
+    hasher.update(&now.as_nanos().to_le_bytes());
+    hasher.update(&COUNTER.fetch_add(1, Ordering::Relaxed).to_le_bytes());
+    hasher.update(&std::process::id().to_le_bytes());
+    hasher.finalize().to_hex()[..16].to_owned()
+}
