@@ -193,6 +193,12 @@ async fn blobs_have_a_length_and_an_etag_that_answers_304() {
     let id = ready_session(&client, &bunny_url().await).await;
     let step = filter(&client, &id, "add-noise", serde_json::json!({"seed": 1})).await;
     let http = reqwest::Client::new();
+    // A HEAD of an output not packed yet answers without packing it (nor a length).
+    let full_name = step.full.url.rsplit('/').next().unwrap();
+    let head = http.head(&step.full.url).send().await.unwrap();
+    assert_eq!(head.status(), 200);
+    assert!(head.headers().get("content-length").is_none(), "{head:?}");
+    assert!(!dir.path().join("blobs").join(full_name).exists(), "a HEAD packed the mesh");
     for url in [&step.correction.url, &step.full.url] {
         let name = url.rsplit('/').next().unwrap();
         let got = http.get(url).send().await.unwrap();
@@ -414,7 +420,10 @@ async fn a_restarted_host_keeps_its_plugins_blobs_and_sessions() {
     let local = format!("{}/blobs/{correction}", client.base_url());
     assert_eq!(client.blob_size(&local).await.unwrap(), step.correction.bytes);
     let full = format!("{}/blobs/{}.mfm", client.base_url(), step.output_hash);
-    assert!(client.blob_size(&full).await.unwrap() > 0);
+    let packed = client.download(&full).await.unwrap();
+    let unpacked = meshflow_codec::pack::decode(&packed).unwrap();
+    assert_eq!(unpacked.content_hash().to_hex(), step.output_hash);
+    assert_eq!(client.blob_size(&full).await.unwrap(), packed.len() as u64);
     let next = filter(&client, &id, "ignore-bad-edits", serde_json::json!({})).await;
     assert_eq!(next.input_hash, step.output_hash);
 }

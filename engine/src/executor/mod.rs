@@ -562,7 +562,8 @@ impl Executor {
         sources
     }
 
-    /// Records where the final mesh is; packing it now also tells its size.
+    /// Records where the final mesh is, and its packed size when it has been packed (a
+    /// HEAD does not pack it: the result is packed when first downloaded).
     async fn finish(&mut self) -> Result<(), String> {
         let current = self.current.as_ref().expect("the input is loaded");
         let producer = self.replicas.iter().find(|r| r.hash == current.hash);

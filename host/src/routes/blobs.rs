@@ -11,6 +11,7 @@ use super::error::ApiError;
 use crate::meshes::{self, PACKED};
 use crate::state::Host;
 use meshflow_codec::pack;
+use meshflow_mesh::MeshData;
 
 /// `GET` and `HEAD /blobs/{name}`.
 pub async fn serve(
@@ -24,8 +25,17 @@ pub async fn serve(
     }
     let etag = format!("\"{name}\"");
     let path = host.blobs.path(&name);
-    if !path.exists() {
-        pack_full_mesh(&host, &name).await?;
+    if !path.exists()
+        && let Some(mesh) = unpacked_output(&host, &name)
+    {
+        // A HEAD asks for headers only: it must not cost a packing, so its answer has no
+        // length until someone GETs the mesh.
+        if method == Method::HEAD {
+            let unknown_length = futures_util::stream::empty::<Result<Vec<u8>, std::io::Error>>();
+            let body = Body::from_stream(unknown_length);
+            return Ok((StatusCode::OK, [(header::ETAG, etag)], body).into_response());
+        }
+        pack_full_mesh(&host, &name, mesh).await?;
     }
     let file = match tokio::fs::File::open(&path).await {
         Ok(file) => file,
@@ -58,13 +68,15 @@ pub async fn serve(
     Ok((content_headers, body).into_response())
 }
 
-/// Makes the full blob of an output mesh this host still holds (a recent output or a
-/// session's current mesh); does nothing for any other name.
-async fn pack_full_mesh(host: &Host, name: &str) -> Result<(), ApiError> {
-    let Some(hash) = name.strip_suffix(&format!(".{PACKED}")) else { return Ok(()) };
-    let Some(mesh) = host.blobs.recent(name).or_else(|| host.sessions.mesh_with_hash(hash)) else {
-        return Ok(());
-    };
+/// The mesh behind a full-mesh blob name that is not packed yet: a recent output or a
+/// session's current mesh.
+fn unpacked_output(host: &Host, name: &str) -> Option<Arc<MeshData>> {
+    let hash = name.strip_suffix(&format!(".{PACKED}"))?;
+    host.blobs.recent(name).or_else(|| host.sessions.mesh_with_hash(hash))
+}
+
+/// Packs an output mesh and stores it as its full blob.
+async fn pack_full_mesh(host: &Host, name: &str, mesh: Arc<MeshData>) -> Result<(), ApiError> {
     let packed = tokio::task::spawn_blocking(move || pack::encode(&mesh))
         .await?
         .map_err(|e| ApiError::internal(format!("packing {name}: {e}")))?;
