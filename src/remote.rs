@@ -8,6 +8,8 @@ use anyhow::{Context, bail};
 use clap::ValueEnum;
 use futures_util::StreamExt;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
+use meshflow_api::EngineClient;
+use meshflow_api::engine::{RunRecord, Status, StepRecord, SubmitRun};
 use serde_json::{Value as Json, json};
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -29,23 +31,20 @@ pub struct Submission {
 
 impl Submission {
     pub async fn execute(self, wait: bool) -> anyhow::Result<()> {
-        let http = reqwest::Client::new();
+        let engine = EngineClient::new(&self.engine);
         let workflow = self.read_workflow()?;
         let input = match &self.input {
             Some(url) if url.starts_with("http://") || url.starts_with("https://") => {
                 Some(url.clone())
             }
-            Some(file) => Some(upload_input(&http, &self.engine, Path::new(file)).await?),
+            Some(file) => Some(upload_input(&engine, Path::new(file)).await?),
             None => None,
         };
-        let answer = http
-            .post(format!("{}/runs", self.engine))
-            .json(&json!({"workflow": workflow, "input": input}))
-            .send()
+        let submitted = engine
+            .submit(&SubmitRun { workflow, input })
             .await
-            .with_context(|| format!("submitting to {}", self.engine))?;
-        let body = json_body(answer).await.context("the engine refused the workflow")?;
-        let id = body["id"].as_str().context("the engine gave no run id")?.to_owned();
+            .context("the engine refused the workflow")?;
+        let id = submitted.id;
         if !wait {
             match self.json {
                 true => println!("{}", json!({"id": id})),
@@ -53,18 +52,17 @@ impl Submission {
             }
             return Ok(());
         }
-        follow(&http, &self.engine, &id, !self.json).await?;
-        let record =
-            json_body(http.get(format!("{}/runs/{id}", self.engine)).send().await?).await?;
+        follow(&engine, &id, !self.json).await?;
+        let record = engine.run(&id).await?;
         if let Some(path) = &self.report {
             let text = serde_json::to_string_pretty(&record)?;
             crate::commands::pack::write_atomically(path, text.as_bytes())?;
         }
-        if record["status"] != "completed" {
-            bail!("run {id} failed: {}", record["error"].as_str().unwrap_or("no reason given"));
+        if record.status != Status::Completed {
+            bail!("run {id} failed: {}", record.error.as_deref().unwrap_or("no reason given"));
         }
         if let Some(path) = &self.output {
-            let bytes = download(&http, &format!("{}/runs/{id}/result", self.engine)).await?;
+            let bytes = engine.result(&id).await?;
             let mesh = meshflow_codec::pack::decode(&bytes).context("decoding the result")?;
             crate::commands::pack::save_mesh(path, &mesh)?;
         }
@@ -95,44 +93,19 @@ impl Submission {
     }
 }
 
-async fn upload_input(http: &reqwest::Client, engine: &str, path: &Path) -> anyhow::Result<String> {
+async fn upload_input(engine: &EngineClient, path: &Path) -> anyhow::Result<String> {
     let bytes =
         tokio::fs::read(path).await.with_context(|| format!("reading {}", path.display()))?;
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("input");
-    let answer = http
-        .post(format!("{engine}/inputs"))
-        .query(&[("name", name)])
-        .body(bytes)
-        .send()
+    let uploaded = engine
+        .upload_input(name, bytes)
         .await
-        .with_context(|| format!("uploading {} to {engine}", path.display()))?;
-    let body = json_body(answer).await.with_context(|| format!("uploading {}", path.display()))?;
-    Ok(body["url"].as_str().context("the engine gave no input URL")?.to_owned())
-}
-
-/// The JSON body of a successful answer, or the engine's error message.
-async fn json_body(answer: reqwest::Response) -> anyhow::Result<Json> {
-    let status = answer.status();
-    let body: Json = answer.json().await.context("the answer is not JSON")?;
-    if !status.is_success() {
-        let message = body["error"]["message"].as_str().unwrap_or("no message");
-        bail!("{status}: {message}");
-    }
-    Ok(body)
-}
-
-async fn download(http: &reqwest::Client, url: &str) -> anyhow::Result<Vec<u8>> {
-    let answer = http.get(url).send().await.with_context(|| format!("fetching {url}"))?;
-    if !answer.status().is_success() {
-        let status = answer.status();
-        let body: Json = answer.json().await.unwrap_or_default();
-        bail!("{url}: {status}: {}", body["error"]["message"].as_str().unwrap_or(""));
-    }
-    Ok(answer.bytes().await?.to_vec())
+        .with_context(|| format!("uploading {} to {}", path.display(), engine.base_url()))?;
+    Ok(uploaded.url)
 }
 
 /// Follows the run's events until it ends, with a line per finished step.
-async fn follow(http: &reqwest::Client, engine: &str, id: &str, show: bool) -> anyhow::Result<()> {
+async fn follow(engine: &EngineClient, id: &str, show: bool) -> anyhow::Result<()> {
     let bars = MultiProgress::new();
     if !show {
         bars.set_draw_target(indicatif::ProgressDrawTarget::hidden());
@@ -141,7 +114,7 @@ async fn follow(http: &reqwest::Client, engine: &str, id: &str, show: bool) -> a
     status.set_style(ProgressStyle::with_template("{spinner} {msg} [{elapsed}]")?);
     status.enable_steady_tick(Duration::from_millis(100));
     status.set_message(format!("run {id}: starting"));
-    let answer = http.get(format!("{engine}/runs/{id}/events")).send().await?;
+    let answer = engine.events(id).await?;
     let mut events = answer.bytes_stream();
     let mut buffer = String::new();
     while let Some(chunk) = events.next().await {
@@ -159,7 +132,10 @@ async fn follow(http: &reqwest::Client, engine: &str, id: &str, show: bool) -> a
                     );
                     finished_bar(&bars, &status, line);
                 }
-                "step" => finished_bar(&bars, &status, step_line(&data)),
+                "step" => {
+                    let Ok(step) = serde_json::from_value::<StepRecord>(data) else { continue };
+                    finished_bar(&bars, &status, step_line(&step));
+                }
                 "status" => {
                     let state = data["status"].as_str().unwrap_or("");
                     status.set_message(format!("run {id}: {state}"));
@@ -198,45 +174,29 @@ fn parse_event(block: &str) -> (String, String) {
     (kind, data)
 }
 
-fn step_line(step: &Json) -> String {
-    let mut line = format!(
-        "{} {} on {} — {:.0} ms",
-        step["path"].as_str().unwrap_or(""),
-        step["service"].as_str().unwrap_or(""),
-        step["host"].as_str().unwrap_or(""),
-        step["compute_ms"].as_f64().unwrap_or(0.0)
-    );
-    if let Some(bytes) = step["correction_bytes"].as_u64() {
+fn step_line(step: &StepRecord) -> String {
+    let mut line =
+        format!("{} {} on {} — {:.0} ms", step.path, step.service, step.host, step.compute_ms);
+    if let Some(bytes) = step.correction_bytes {
         line.push_str(&format!(", correction {:.1} KB", bytes as f64 / 1024.0));
     }
-    if !step["value"].is_null() {
-        line.push_str(&format!(", value {}", step["value"]));
+    if let Some(value) = &step.value {
+        line.push_str(&format!(", value {value}"));
     }
     line
 }
 
-fn print_summary(record: &Json, output: Option<&Path>) {
-    let steps = record["steps"].as_array().map(Vec::as_slice).unwrap_or_default();
-    if let Some(broadcast) = record.get("broadcast").filter(|b| !b.is_null()) {
-        let hosts = broadcast["hosts"].as_array().map_or(0, Vec::len);
-        println!(
-            "input broadcast to {hosts} hosts in {:.0} ms",
-            broadcast["ms"].as_f64().unwrap_or(0.0)
-        );
+fn print_summary(record: &RunRecord, output: Option<&Path>) {
+    if let Some(broadcast) = &record.broadcast {
+        println!("input broadcast to {} hosts in {:.0} ms", broadcast.hosts.len(), broadcast.ms);
     }
-    for step in steps {
-        let transfers: Vec<String> = step["transfers"]
-            .as_array()
-            .into_iter()
-            .flatten()
+    for step in &record.steps {
+        let transfers: Vec<String> = step
+            .transfers
+            .iter()
             .map(|t| {
-                let kb = t["bytes"].as_f64().unwrap_or(0.0) / 1024.0;
-                format!(
-                    "{} {kb:.1} KB in {:.0} ms",
-                    t["via"].as_str().unwrap_or(""),
-                    t["finished_ms"].as_f64().unwrap_or(0.0)
-                        - t["started_ms"].as_f64().unwrap_or(0.0)
-                )
+                let kb = t.bytes as f64 / 1024.0;
+                format!("{} {kb:.1} KB in {:.0} ms", t.via, t.finished_ms - t.started_ms)
             })
             .collect();
         let forwarded = match transfers.is_empty() {
@@ -245,18 +205,19 @@ fn print_summary(record: &Json, output: Option<&Path>) {
         };
         println!("  {}{forwarded}", step_line(step));
     }
-    let result = &record["result"];
-    println!(
-        "run {} completed: {} steps in {:.2} s; result {} vertices, {} triangles, hash {}",
-        record["id"].as_str().unwrap_or(""),
-        steps.len(),
-        record["total_ms"].as_f64().unwrap_or(0.0) / 1e3,
-        result["vertices"],
-        result["triangles"],
-        result["hash"].as_str().unwrap_or("")
-    );
-    for warning in record["warnings"].as_array().into_iter().flatten() {
-        println!("warning: {}", warning.as_str().unwrap_or(""));
+    if let Some(result) = &record.result {
+        println!(
+            "run {} completed: {} steps in {:.2} s; result {} vertices, {} triangles, hash {}",
+            record.id,
+            record.steps.len(),
+            record.total_ms.unwrap_or(0.0) / 1e3,
+            result.vertices,
+            result.triangles,
+            result.hash
+        );
+    }
+    for warning in &record.warnings {
+        println!("warning: {warning}");
     }
     if let Some(path) = output {
         println!("wrote {}", path.display());

@@ -1,12 +1,19 @@
-//! The wire: the bodies of the host HTTP API ([`host`]) as the project's own serde types,
-//! and [`HostClient`], the typed client the engine and the CLI call hosts with. Service
-//! descriptions and values come from `meshflow-params` and travel as plain JSON.
+//! The wire: the bodies of the host HTTP API ([`host`]) and of the engine HTTP API
+//! ([`engine`], the run record included) as the project's own serde types, and the typed
+//! clients of both: [`HostClient`] (the engine and the CLI call hosts with it) and
+//! [`EngineClient`] (the CLI). Service descriptions and values come from `meshflow-params`
+//! and travel as plain JSON; `docs/api.md` shows every route.
 //!
 //! This crate must not depend on wasmtime, the mesh store or the codecs: the engine links
 //! it, and the engine runs no plugins.
 
+pub mod engine;
+mod engine_client;
 pub mod host;
 mod host_client;
+mod transport;
 
-pub use host_client::{ClientError, HostClient, fetch};
+pub use engine_client::EngineClient;
+pub use host_client::HostClient;
 pub use meshflow_params as params;
+pub use transport::{ClientError, MAX_ERROR_BODY_BYTES, fetch};

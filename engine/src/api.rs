@@ -19,6 +19,9 @@ use tokio_stream::wrappers::BroadcastStream;
 use crate::record::Status;
 use crate::workflow::Workflow;
 use crate::{Engine, SubmitError};
+use meshflow_api::engine::{
+    HostInfo, InputUploaded, RegisterHost, RunSubmitted, RunSummary, ServiceOffer,
+};
 
 /// The largest mesh accepted by `POST /inputs`.
 pub const MAX_INPUT_BYTES: usize = 4 << 30;
@@ -53,37 +56,35 @@ fn not_found(what: &str, id: &str) -> ApiError {
     ApiError(StatusCode::NOT_FOUND, "not-found", format!("no {what} \"{id}\""))
 }
 
-#[derive(Deserialize)]
-struct HostRegistration {
-    url: String,
-}
-
 async fn register_host(
     State(engine): State<Arc<Engine>>,
     body: Bytes,
-) -> ApiResult<(StatusCode, Json<Json_>)> {
-    let registration: HostRegistration = serde_json::from_slice(&body).map_err(|e| {
+) -> ApiResult<(StatusCode, Json<HostInfo>)> {
+    let registration: RegisterHost = serde_json::from_slice(&body).map_err(|e| {
         ApiError(StatusCode::BAD_REQUEST, "bad-request", format!("expected {{\"url\": ...}}: {e}"))
     })?;
     let host = engine.registry.register(&registration.url).await;
     Ok((StatusCode::CREATED, Json(host_json(&host))))
 }
 
-fn host_json(host: &crate::registry::HostEntry) -> Json_ {
+fn host_json(host: &crate::registry::HostEntry) -> HostInfo {
     let state = host.state();
-    let services: Vec<&str> = state.services.iter().map(|s| s.info.name.as_str()).collect();
-    json!({
-        "url": host.url, "up": state.up, "running": state.running, "assigned": state.assigned,
-        "last_error": state.last_error, "services": services,
-    })
+    HostInfo {
+        url: host.url.clone(),
+        up: state.up,
+        running: state.running,
+        assigned: state.assigned,
+        last_error: state.last_error.clone(),
+        services: state.services.iter().map(|s| s.info.name.clone()).collect(),
+    }
 }
 
-async fn list_hosts(State(engine): State<Arc<Engine>>) -> Json<Json_> {
+async fn list_hosts(State(engine): State<Arc<Engine>>) -> Json<Vec<HostInfo>> {
     Json(engine.registry.hosts().iter().map(|h| host_json(h)).collect())
 }
 
-async fn services(State(engine): State<Arc<Engine>>) -> Json<Json_> {
-    Json(json!(engine.registry.catalogue().into_values().collect::<Vec<_>>()))
+async fn services(State(engine): State<Arc<Engine>>) -> Json<Vec<ServiceOffer>> {
+    Json(engine.registry.catalogue().into_values().collect())
 }
 
 #[derive(Deserialize)]
@@ -95,7 +96,7 @@ async fn upload_input(
     State(engine): State<Arc<Engine>>,
     Query(query): Query<InputQuery>,
     body: Bytes,
-) -> ApiResult<(StatusCode, Json<Json_>)> {
+) -> ApiResult<(StatusCode, Json<InputUploaded>)> {
     let name = query.name.ok_or_else(|| {
         ApiError(
             StatusCode::BAD_REQUEST,
@@ -107,7 +108,7 @@ async fn upload_input(
         .put_input(&name, &body)
         .await
         .map_err(|message| ApiError(StatusCode::BAD_REQUEST, "bad-input", message))?;
-    Ok((StatusCode::CREATED, Json(json!({"url": url, "bytes": body.len()}))))
+    Ok((StatusCode::CREATED, Json(InputUploaded { url, bytes: body.len() as u64 })))
 }
 
 async fn download_input(
@@ -125,7 +126,7 @@ async fn download_input(
 async fn submit(
     State(engine): State<Arc<Engine>>,
     body: Bytes,
-) -> ApiResult<(StatusCode, Json<Json_>)> {
+) -> ApiResult<(StatusCode, Json<RunSubmitted>)> {
     let request: Json_ = serde_json::from_slice(&body).map_err(|e| {
         ApiError(StatusCode::BAD_REQUEST, "bad-json", format!("the request is not JSON: {e}"))
     })?;
@@ -152,19 +153,19 @@ async fn submit(
         SubmitError::Invalid(error) => invalid(error.to_string()),
         SubmitError::NoInput => ApiError(StatusCode::BAD_REQUEST, "no-input", e.to_string()),
     })?;
-    Ok((StatusCode::ACCEPTED, Json(json!({"id": run.id, "status": run.record().status}))))
+    Ok((
+        StatusCode::ACCEPTED,
+        Json(RunSubmitted { id: run.id.clone(), status: run.record().status }),
+    ))
 }
 
-async fn list_runs(State(engine): State<Arc<Engine>>) -> Json<Json_> {
-    let runs: Vec<Json_> = engine
-        .runs()
-        .iter()
-        .map(|run| {
-            let record = run.record();
-            json!({"id": record.id, "status": record.status, "steps": record.steps.len()})
-        })
-        .collect();
-    Json(json!(runs))
+async fn list_runs(State(engine): State<Arc<Engine>>) -> Json<Vec<RunSummary>> {
+    let summary = |record: crate::record::RunRecord| RunSummary {
+        id: record.id,
+        status: record.status,
+        steps: record.steps.len(),
+    };
+    Json(engine.runs().iter().map(|run| summary(run.record())).collect())
 }
 
 async fn run_status(

@@ -99,13 +99,7 @@ pub struct Registry {
     hosts: Mutex<Vec<Arc<HostEntry>>>,
 }
 
-/// A service on offer and the hosts that offer it.
-#[derive(Clone, Serialize)]
-pub struct Offer {
-    #[serde(flatten)]
-    pub info: ServiceInfo,
-    pub hosts: Vec<String>,
-}
+pub use meshflow_api::engine::ServiceOffer as Offer;
 
 impl Registry {
     /// Adds a host (once per URL) and asks it for its services before returning.

@@ -57,16 +57,7 @@ pub enum Comparison {
     Greater,
 }
 
-/// How a step's result reaches the other hosts.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Transfer {
-    /// The smaller of the correction and the full mesh.
-    #[default]
-    Auto,
-    Correction,
-    Full,
-}
+pub use meshflow_api::engine::Transfer;
 
 /// A workflow that does not parse or does not fit the catalogue: where and why.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -79,17 +70,6 @@ pub struct WorkflowError {
 impl WorkflowError {
     pub fn new(path: impl Into<String>, message: impl Into<String>) -> Self {
         Self { path: path.into(), message: message.into() }
-    }
-}
-
-impl Transfer {
-    pub fn parse(text: &str) -> Option<Self> {
-        match text {
-            "auto" => Some(Self::Auto),
-            "correction" => Some(Self::Correction),
-            "full" => Some(Self::Full),
-            _ => None,
-        }
     }
 }
 

@@ -398,7 +398,7 @@ impl Executor {
         let mut record = StepRecord {
             index: 0,
             path: task.path.clone(),
-            kind,
+            kind: kind.to_owned(),
             service: task.service.clone(),
             host: host.url.clone(),
             plugin: String::new(),

@@ -1,0 +1,257 @@
+//! The engine HTTP API's bodies: what `POST /runs`, `POST /inputs`, `GET /runs`,
+//! `GET /hosts` and `GET /runs/{id}` (the run record, DESIGN §5) carry, shared by the
+//! engine server and [`EngineClient`](crate::EngineClient).
+
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value as Json};
+
+use meshflow_params::ServiceInfo;
+
+/// How a step's result reaches the other hosts (a workflow's `"transfer"`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Transfer {
+    /// The smaller of the correction and the full mesh.
+    #[default]
+    Auto,
+    Correction,
+    Full,
+}
+
+impl Transfer {
+    pub fn parse(text: &str) -> Option<Self> {
+        match text {
+            "auto" => Some(Self::Auto),
+            "correction" => Some(Self::Correction),
+            "full" => Some(Self::Full),
+            _ => None,
+        }
+    }
+}
+
+/// `POST /runs`: a workflow (its JSON as written) and, optionally, the input's URL.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SubmitRun {
+    pub workflow: Json,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub input: Option<String>,
+}
+
+/// `POST /runs` answer.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunSubmitted {
+    pub id: String,
+    pub status: Status,
+}
+
+/// One entry of `GET /runs`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunSummary {
+    pub id: String,
+    pub status: Status,
+    pub steps: usize,
+}
+
+/// `POST /inputs?name=…` answer.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InputUploaded {
+    pub url: String,
+    pub bytes: u64,
+}
+
+/// `POST /hosts` body.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RegisterHost {
+    pub url: String,
+}
+
+/// One entry of the engine's `GET /services`: a service and the hosts that offer it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ServiceOffer {
+    #[serde(flatten)]
+    pub info: ServiceInfo,
+    pub hosts: Vec<String>,
+}
+
+/// One entry of `GET /hosts`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HostInfo {
+    pub url: String,
+    pub up: bool,
+    pub running: u32,
+    pub assigned: u32,
+    pub last_error: Option<String>,
+    pub services: Vec<String>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Status {
+    Queued,
+    Running,
+    Completed,
+    Failed,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunRecord {
+    pub id: String,
+    pub status: Status,
+    /// Why the run failed, naming the step.
+    pub error: Option<String>,
+    /// Things the user should know about a run that completed (a WHILE cut at its cap).
+    pub warnings: Vec<String>,
+    pub transfer: Transfer,
+    pub input: Option<InputRecord>,
+    /// The input broadcast: the time until every host of the plan held the input.
+    pub broadcast: Option<BroadcastRecord>,
+    pub steps: Vec<StepRecord>,
+    pub result: Option<ResultRecord>,
+    pub total_ms: Option<f64>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InputRecord {
+    pub url: String,
+    pub hash: String,
+    pub vertices: u64,
+    pub triangles: u64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BroadcastRecord {
+    pub ms: f64,
+    pub hosts: Vec<HostLoad>,
+}
+
+/// One host's download and decoding of the input.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HostLoad {
+    pub host: String,
+    pub bytes: u64,
+    pub download_ms: f64,
+    pub load_ms: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StepRecord {
+    /// Position in execution order (a WHILE body appears once per iteration).
+    pub index: usize,
+    /// The task's place in the workflow, e.g. `steps[2].do[0]`.
+    pub path: String,
+    /// `filter` or `check`.
+    pub kind: String,
+    pub service: String,
+    pub host: String,
+    pub plugin: String,
+    pub params: Map<String, Json>,
+    /// Milliseconds since the run started.
+    pub started_ms: f64,
+    pub finished_ms: f64,
+    /// The plugin's own run time on the host.
+    pub compute_ms: f64,
+    /// Time the step waited for its host to catch up with earlier results.
+    pub wait_ms: f64,
+    /// Engine time from the previous step's reply to this trigger, waiting excluded.
+    pub overhead_ms: f64,
+    pub input_hash: String,
+    pub output_hash: Option<String>,
+    pub vertices: Option<u64>,
+    pub triangles: Option<u64>,
+    pub edits: Option<u64>,
+    pub correction_bytes: Option<u64>,
+    /// Known when some host downloaded the full mesh (always with `transfer: full`).
+    pub full_bytes: Option<u64>,
+    /// A check's value and, for conditions, whether the comparison held.
+    pub value: Option<Json>,
+    pub condition: Option<bool>,
+    pub report: String,
+    /// Hosts that failed this step before it succeeded elsewhere.
+    pub failed_hosts: Vec<String>,
+    pub transfers: Vec<TransferRecord>,
+}
+
+/// One host bringing itself up to date with a step's result.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TransferRecord {
+    pub host: String,
+    /// `correction` or `full`; the one actually used.
+    pub via: String,
+    pub bytes: u64,
+    pub download_ms: f64,
+    pub apply_ms: f64,
+    /// From the engine's forward to the host's reply.
+    pub started_ms: f64,
+    pub finished_ms: f64,
+    /// Why a correction was not used although asked for, or why the update failed.
+    pub fallback: Option<String>,
+    pub error: Option<String>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ResultRecord {
+    /// Where the final mesh (packed `.mfm`) can be fetched.
+    pub url: String,
+    pub hash: String,
+    pub bytes: Option<u64>,
+    pub vertices: u64,
+    pub triangles: u64,
+}
+
+impl RunRecord {
+    pub fn new(id: String, transfer: Transfer) -> Self {
+        Self {
+            id,
+            status: Status::Queued,
+            error: None,
+            warnings: Vec::new(),
+            transfer,
+            input: None,
+            broadcast: None,
+            steps: Vec::new(),
+            result: None,
+            total_ms: None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_run_record_reads_back_as_written() {
+        let mut record = RunRecord::new("r-1".into(), Transfer::Full);
+        record.status = Status::Completed;
+        record.steps.push(StepRecord {
+            index: 0,
+            path: "steps[0]".into(),
+            kind: "filter".into(),
+            service: "laplacian-smoothing".into(),
+            host: "http://127.0.0.1:7101".into(),
+            plugin: "ab".repeat(32),
+            params: serde_json::from_str(r#"{"iterations": 2}"#).unwrap(),
+            started_ms: 1.5,
+            finished_ms: 9.25,
+            compute_ms: 7.0,
+            wait_ms: 0.0,
+            overhead_ms: 0.75,
+            input_hash: "cd".repeat(32),
+            output_hash: Some("ef".repeat(32)),
+            vertices: Some(1839),
+            triangles: Some(3674),
+            edits: Some(1839),
+            correction_bytes: Some(152),
+            full_bytes: None,
+            value: None,
+            condition: None,
+            report: "smoothed".into(),
+            failed_hosts: vec![],
+            transfers: vec![],
+        });
+        let json = serde_json::to_value(&record).unwrap();
+        assert_eq!(json["transfer"], "full");
+        assert_eq!(json["status"], "completed");
+        assert_eq!(serde_json::from_value::<RunRecord>(json).unwrap(), record);
+    }
+}

@@ -1,0 +1,73 @@
+//! `EngineClient`: the engine HTTP API from Rust (async, reqwest), for the CLI and scripts.
+
+use reqwest::Method;
+
+use crate::engine::{
+    HostInfo, InputUploaded, RegisterHost, RunRecord, RunSubmitted, RunSummary, ServiceOffer,
+    SubmitRun,
+};
+use crate::transport::{ClientError, Endpoint, fetch, send};
+
+/// A client of one engine, e.g. `EngineClient::new("http://127.0.0.1:7000")`.
+#[derive(Clone, Debug)]
+pub struct EngineClient {
+    endpoint: Endpoint,
+}
+
+impl EngineClient {
+    pub fn new(base_url: &str) -> Self {
+        Self { endpoint: Endpoint::new(base_url, reqwest::Client::new()) }
+    }
+
+    pub fn base_url(&self) -> &str {
+        &self.endpoint.base
+    }
+
+    pub async fn hosts(&self) -> Result<Vec<HostInfo>, ClientError> {
+        self.endpoint.json(Method::GET, "/hosts", |r| r).await
+    }
+
+    pub async fn register_host(&self, url: &str) -> Result<HostInfo, ClientError> {
+        let body = RegisterHost { url: url.to_owned() };
+        self.endpoint.json(Method::POST, "/hosts", |r| r.json(&body)).await
+    }
+
+    pub async fn services(&self) -> Result<Vec<ServiceOffer>, ClientError> {
+        self.endpoint.json(Method::GET, "/services", |r| r).await
+    }
+
+    /// Uploads a mesh file as a run input; `name` (its file name) tells its format.
+    pub async fn upload_input(
+        &self,
+        name: &str,
+        bytes: Vec<u8>,
+    ) -> Result<InputUploaded, ClientError> {
+        self.endpoint
+            .json(Method::POST, "/inputs", |r| r.query(&[("name", name)]).body(bytes))
+            .await
+    }
+
+    pub async fn submit(&self, run: &SubmitRun) -> Result<RunSubmitted, ClientError> {
+        self.endpoint.json(Method::POST, "/runs", |r| r.json(run)).await
+    }
+
+    pub async fn runs(&self) -> Result<Vec<RunSummary>, ClientError> {
+        self.endpoint.json(Method::GET, "/runs", |r| r).await
+    }
+
+    pub async fn run(&self, id: &str) -> Result<RunRecord, ClientError> {
+        self.endpoint.json(Method::GET, &format!("/runs/{id}"), |r| r).await
+    }
+
+    /// The open event stream of a run (server-sent events: `record`, then each change).
+    pub async fn events(&self, id: &str) -> Result<reqwest::Response, ClientError> {
+        let url = format!("{}/runs/{id}/events", self.endpoint.base);
+        send(self.endpoint.http.get(&url), &url).await
+    }
+
+    /// The final mesh of a finished run, packed (`.mfm`).
+    pub async fn result(&self, id: &str) -> Result<Vec<u8>, ClientError> {
+        let url = format!("{}/runs/{id}/result", self.endpoint.base);
+        fetch(&self.endpoint.http, &url, u64::MAX).await
+    }
+}

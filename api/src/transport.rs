@@ -1,0 +1,167 @@
+//! What both clients share: one base URL over a connection pool, the sending of a request
+//! and the typing of its failure ([`ClientError`]), and size-capped downloads.
+
+use futures_util::StreamExt;
+use reqwest::{Method, RequestBuilder, Response, StatusCode};
+use serde::de::DeserializeOwned;
+
+use crate::host::ErrorBody;
+
+/// What went wrong with a request, typed by what a caller does about it: a host that is
+/// [`Unreachable`](Self::Unreachable), too slow ([`Timeout`](Self::Timeout)) or broken
+/// ([`Server`](Self::Server), [`Protocol`](Self::Protocol)) may be replaced by another; a
+/// [`Refused`](Self::Refused) request would fail the same way anywhere.
+#[derive(Debug, thiserror::Error)]
+pub enum ClientError {
+    #[error("{url}: cannot connect: {message}")]
+    Unreachable { url: String, message: String },
+    #[error("{url}: timed out: {message}")]
+    Timeout { url: String, message: String },
+    /// The host refused the request itself (bad parameters, a failing plugin, an input it
+    /// could not fetch): HTTP 4xx, or 502 for a download the request pointed it to.
+    #[error("{url}: HTTP {status} {code}: {message}")]
+    Refused { url: String, status: u16, code: String, message: String },
+    /// The host failed (HTTP 5xx).
+    #[error("{url}: HTTP {status} {code}: {message}")]
+    Server { url: String, status: u16, code: String, message: String },
+    /// The answer was cut off or not what the API promises.
+    #[error("{url}: {message}")]
+    Protocol { url: String, message: String },
+    #[error("{url}: the download is larger than the limit of {limit} bytes")]
+    TooLarge { url: String, limit: u64 },
+}
+
+/// Error bodies are read up to this size; the rest is not kept.
+pub const MAX_ERROR_BODY_BYTES: usize = 16 << 10;
+
+impl ClientError {
+    /// Whether another host might succeed where this one failed: it could not be reached,
+    /// timed out, broke, or answered nonsense.
+    pub fn is_host_failure(&self) -> bool {
+        matches!(
+            self,
+            Self::Unreachable { .. }
+                | Self::Timeout { .. }
+                | Self::Server { .. }
+                | Self::Protocol { .. }
+        )
+    }
+
+    fn transport(url: &str, error: reqwest::Error) -> Self {
+        // reqwest's own message hides the cause ("error sending request"): add the chain.
+        let mut message = error.to_string();
+        let mut source = std::error::Error::source(&error);
+        while let Some(cause) = source {
+            message = format!("{message}: {cause}");
+            source = cause.source();
+        }
+        let url = url.to_owned();
+        if error.is_timeout() {
+            ClientError::Timeout { url, message }
+        } else if error.is_connect() {
+            ClientError::Unreachable { url, message }
+        } else {
+            ClientError::Protocol { url, message }
+        }
+    }
+}
+
+/// A server's base URL and the pool its requests go through.
+#[derive(Clone, Debug)]
+pub(crate) struct Endpoint {
+    pub base: String,
+    pub http: reqwest::Client,
+}
+
+impl Endpoint {
+    pub fn new(base_url: &str, http: reqwest::Client) -> Self {
+        Self { base: base_url.trim_end_matches('/').to_owned(), http }
+    }
+
+    pub async fn json<T: DeserializeOwned>(
+        &self,
+        method: Method,
+        path: &str,
+        build: impl FnOnce(RequestBuilder) -> RequestBuilder,
+    ) -> Result<T, ClientError> {
+        let url = format!("{}{path}", self.base);
+        let response = send(build(self.http.request(method, &url)), &url).await?;
+        response.json().await.map_err(|e| ClientError::transport(&url, e))
+    }
+
+    pub async fn empty(
+        &self,
+        method: Method,
+        path: &str,
+        build: impl FnOnce(RequestBuilder) -> RequestBuilder,
+    ) -> Result<(), ClientError> {
+        let url = format!("{}{path}", self.base);
+        send(build(self.http.request(method, &url)), &url).await.map(drop)
+    }
+}
+
+pub(crate) fn authorized(request: RequestBuilder, token: Option<&str>) -> RequestBuilder {
+    match token {
+        Some(token) => request.bearer_auth(token),
+        None => request,
+    }
+}
+
+/// Sends a request; an error status becomes [`ClientError::Refused`] or
+/// [`ClientError::Server`] with the host's code and message (or the start of the body's
+/// text when it is not a host error).
+pub(crate) async fn send(request: RequestBuilder, url: &str) -> Result<Response, ClientError> {
+    let response = request.send().await.map_err(|e| ClientError::transport(url, e))?;
+    let status = response.status();
+    if status.is_success() {
+        return Ok(response);
+    }
+    let text = error_text(response).await;
+    let (code, message) = match serde_json::from_str::<ErrorBody>(&text) {
+        Ok(body) => (body.error.code, body.error.message),
+        Err(_) => (code_of(status), text),
+    };
+    let (url, status) = (url.to_owned(), status.as_u16());
+    if status == StatusCode::BAD_GATEWAY.as_u16() || status < 500 {
+        Err(ClientError::Refused { url, status, code, message })
+    } else {
+        Err(ClientError::Server { url, status, code, message })
+    }
+}
+
+/// The start of an error body, at most [`MAX_ERROR_BODY_BYTES`], as text.
+async fn error_text(response: Response) -> String {
+    let mut kept = Vec::new();
+    let mut body = response.bytes_stream();
+    while let Some(Ok(chunk)) = body.next().await {
+        kept.extend_from_slice(&chunk[..chunk.len().min(MAX_ERROR_BODY_BYTES - kept.len())]);
+        if kept.len() == MAX_ERROR_BODY_BYTES {
+            break;
+        }
+    }
+    String::from_utf8_lossy(&kept).into_owned()
+}
+
+fn code_of(status: StatusCode) -> String {
+    status.canonical_reason().unwrap_or("error").to_lowercase().replace(' ', "-")
+}
+
+/// Downloads `url` into memory, refusing more than `limit` bytes (checked against the
+/// announced length first, then while reading).
+pub async fn fetch(http: &reqwest::Client, url: &str, limit: u64) -> Result<Vec<u8>, ClientError> {
+    let response = send(http.get(url), url).await?;
+    let too_large = || ClientError::TooLarge { url: url.to_owned(), limit };
+    if response.content_length().is_some_and(|n| n > limit) {
+        return Err(too_large());
+    }
+    let mut bytes = Vec::with_capacity(response.content_length().unwrap_or(0).min(limit) as usize);
+    let mut body = response.bytes_stream();
+    while let Some(chunk) = body.next().await {
+        let chunk = chunk.map_err(|e| ClientError::transport(url, e))?;
+        if (bytes.len() + chunk.len()) as u64 > limit {
+            return Err(too_large());
+        }
+        bytes.extend_from_slice(&chunk);
+    }
+    Ok(bytes)
+}
