@@ -4,7 +4,6 @@
 mod commands;
 mod embedded;
 mod plugins;
-mod remote;
 
 use std::path::PathBuf;
 use std::process::ExitCode;

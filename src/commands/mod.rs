@@ -9,6 +9,7 @@ pub mod host;
 pub mod inspect;
 pub mod pack;
 pub mod plugin;
+mod remote;
 pub mod run;
 pub mod services;
 pub mod submit;

@@ -4,8 +4,8 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use super::remote::{Submission, TransferMode};
 use crate::embedded::{self, Layout};
-use crate::remote::{Submission, TransferMode};
 
 #[derive(Args)]
 pub struct RunArgs {

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use crate::remote::{Submission, TransferMode};
+use super::remote::{Submission, TransferMode};
 
 #[derive(Args)]
 pub struct SubmitArgs {

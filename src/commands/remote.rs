@@ -56,7 +56,7 @@ impl Submission {
         let record = engine.run(&id).await?;
         if let Some(path) = &self.report {
             let text = serde_json::to_string_pretty(&record)?;
-            crate::commands::pack::write_atomically(path, text.as_bytes())?;
+            super::pack::write_atomically(path, text.as_bytes())?;
         }
         if record.status != Status::Completed {
             bail!("run {id} failed: {}", record.error.as_deref().unwrap_or("no reason given"));
@@ -64,7 +64,7 @@ impl Submission {
         if let Some(path) = &self.output {
             let bytes = engine.result(&id).await?;
             let mesh = meshflow_codec::pack::decode(&bytes).context("decoding the result")?;
-            crate::commands::pack::save_mesh(path, &mesh)?;
+            super::pack::save_mesh(path, &mesh)?;
         }
         match self.json {
             true => println!("{}", serde_json::to_string_pretty(&record)?),
