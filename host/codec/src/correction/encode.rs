@@ -18,7 +18,8 @@ use crate::quantize::Grid;
 /// [`finish`](MeshStore::finish) returned them). The log is replayed to make the
 /// predictions; a log that does not apply to `base`, or does not give `result`, is refused.
 pub fn encode(base: &MeshData, log: &[Op], result: &MeshData) -> Result<Vec<u8>, CorrectionError> {
-    encode_with(Arc::new(base.clone()), None, log, result).map(|(bytes, _)| bytes)
+    // The replay edits its own copy in place while the original is hashed.
+    encode_with(Arc::new(base.clone()), || base.content_hash(), log, result).map(|(bytes, _)| bytes)
 }
 
 /// [`encode`] as a host calls it: the base is shared (the replay copies only what the log
@@ -30,12 +31,14 @@ pub fn encode_known(
     log: &[Op],
     result: &MeshData,
 ) -> Result<(Vec<u8>, ContentHash), CorrectionError> {
-    encode_with(base, Some(base_hash), log, result)
+    encode_with(base, move || base_hash, log, result)
 }
 
+/// The replay owns `base` (no other reference is taken here, so a base no one else holds is
+/// edited in place rather than copied); `base_hash` runs on a second thread meanwhile.
 fn encode_with(
     base: Arc<MeshData>,
-    base_hash: Option<ContentHash>,
+    base_hash: impl FnOnce() -> ContentHash + Send,
     log: &[Op],
     result: &MeshData,
 ) -> Result<(Vec<u8>, ContentHash), CorrectionError> {
@@ -45,9 +48,8 @@ fn encode_with(
     );
     // Hashing is a pass over each mesh: done on a second thread meanwhile.
     let (hashes, sections) = std::thread::scope(|s| {
-        let hashes =
-            s.spawn(|| (base_hash.unwrap_or_else(|| base.content_hash()), result.content_hash()));
-        let sections = encode_sections(base.clone(), log, result);
+        let hashes = s.spawn(|| (base_hash(), result.content_hash()));
+        let sections = encode_sections(base, log, result);
         (hashes.join().expect("hashing does not panic"), sections)
     });
     let (grid, sections) = sections?;
