@@ -1,5 +1,9 @@
 //! The meshflow engine: reads workflows, picks hosts, runs the concurrent transfer protocol
 //! between them, and serves the engine HTTP API (DESIGN §5–6).
+//!
+//! This crate must not depend on wasmtime, the mesh store, the codecs or the host server:
+//! it speaks to hosts only through `meshflow-api` (`cargo tree -p meshflow-engine -e normal`
+//! shows no wasmtime, cranelift or constriction).
 
 mod api;
 mod executor;

@@ -25,6 +25,9 @@
 //! Algorithms are best written as pure functions over the flat arrays
 //! ([`Mesh::positions`], [`Mesh::triangles`]); [`topology`] and [`geometry`] provide what
 //! most of them need, and work natively too, so they can be tested with `cargo test`.
+//!
+//! This crate must not depend on any host-side meshflow crate (mesh store, codec, runtime):
+//! it is compiled into plugins, for `wasm32-wasip2`.
 
 // The generated code names this crate by its public path, which must work inside it too.
 extern crate self as meshflow_sdk;
