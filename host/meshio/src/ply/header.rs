@@ -4,6 +4,8 @@
 //! keyed by name, so a file with a repeated name would be mis-sized silently, and its errors
 //! are multi-line debug dumps rather than one line with a line number.
 
+use std::collections::HashSet;
+
 use super::super::error::{Invalid, ReadResult};
 use super::super::text::{self, shown};
 
@@ -127,6 +129,9 @@ pub(super) struct Header {
 pub(super) fn parse(bytes: &[u8]) -> ReadResult<Header> {
     let mut encoding = None;
     let mut elements: Vec<Element> = Vec::new();
+    // Names seen so far, so that a header of many properties is read in linear time.
+    let mut element_names = HashSet::new();
+    let mut property_names = HashSet::new();
     let mut offset = 0;
     for (number, line) in text::lines(bytes) {
         offset += line.len() + 1;
@@ -168,9 +173,10 @@ pub(super) fn parse(bytes: &[u8]) -> ReadResult<Header> {
                         error(format!("element count '{}' is not a count", shown(count)))
                     })?;
                 let name = String::from_utf8_lossy(name).into_owned();
-                if elements.iter().any(|e| e.name == name) {
+                if !element_names.insert(name.clone()) {
                     return Err(error(format!("element '{name}' is declared twice")));
                 }
+                property_names.clear();
                 elements.push(Element { name, count, properties: Vec::new(), line: number });
             }
             Some(b"property") => {
@@ -178,7 +184,7 @@ pub(super) fn parse(bytes: &[u8]) -> ReadResult<Header> {
                     .last_mut()
                     .ok_or_else(|| error("property before any element".into()))?;
                 let property = parse_property(tokens).map_err(error)?;
-                if element.property(&property.name).is_some() {
+                if !property_names.insert(property.name.clone()) {
                     return Err(error(format!("property '{}' is declared twice", property.name)));
                 }
                 element.properties.push(property);
