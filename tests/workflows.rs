@@ -378,3 +378,23 @@ async fn a_while_that_stays_true_stops_at_max_iterations_with_a_warning() {
     let warning = text(&warnings[0]);
     assert!(warning.starts_with("steps[0]") && warning.contains("max-iterations = 3"), "{warning}");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn host_registrations_that_are_not_host_urls_are_refused() {
+    let cluster = Cluster::start(&[&["checks"]]).await;
+    for bad in ["not a url at all", "file:///etc/passwd", "http://user:pw@127.0.0.1:1/"] {
+        let answer = cluster
+            .http
+            .post(cluster.url("/hosts"))
+            .json(&json!({"url": bad}))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(answer.status(), 400, "{bad}");
+        let body: Json = answer.json().await.unwrap();
+        assert_eq!(body["error"]["code"], "bad-url", "{bad}: {body}");
+    }
+    let hosts: Json =
+        cluster.http.get(cluster.url("/hosts")).send().await.unwrap().json().await.unwrap();
+    assert_eq!(hosts.as_array().map(Vec::len), Some(1), "{hosts}");
+}

@@ -63,7 +63,11 @@ async fn register_host(
     let registration: RegisterHost = serde_json::from_slice(&body).map_err(|e| {
         ApiError(StatusCode::BAD_REQUEST, "bad-request", format!("expected {{\"url\": ...}}: {e}"))
     })?;
-    let host = engine.registry.register(&registration.url).await;
+    let host = engine
+        .registry
+        .register(&registration.url)
+        .await
+        .map_err(|e| ApiError(StatusCode::BAD_REQUEST, "bad-url", e.to_string()))?;
     Ok((StatusCode::CREATED, Json(host_json(&host))))
 }
 

@@ -142,7 +142,7 @@ pub async fn start(
     });
     let engine = Engine::new(EngineConfig { data_dir, public_url: url.clone() })?;
     for host in hosts {
-        let entry = engine.registry.register(host).await;
+        let entry = engine.registry.register(host).await?;
         if let Some(error) = entry.state().last_error {
             tracing::warn!("host {host} does not answer yet: {error}");
         }

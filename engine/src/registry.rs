@@ -101,10 +101,38 @@ pub struct Registry {
 
 pub use meshflow_api::engine::ServiceOffer as Offer;
 
+/// A host URL the registry refuses, and why.
+#[derive(Debug, thiserror::Error)]
+#[error("`{url}` is not a host's base URL: {reason}")]
+pub struct BadHostUrl {
+    pub url: String,
+    pub reason: &'static str,
+}
+
+/// The base URL of a host as the registry keeps it (no trailing `/`), or why it is none.
+fn host_base_url(text: &str) -> Result<String, BadHostUrl> {
+    let bad = |reason| BadHostUrl { url: text.chars().take(200).collect(), reason };
+    let url = reqwest::Url::parse(text).map_err(|_| bad("it does not parse as a URL"))?;
+    if !matches!(url.scheme(), "http" | "https") {
+        return Err(bad("only http and https are spoken"));
+    }
+    if url.host_str().is_none_or(str::is_empty) {
+        return Err(bad("it names no host"));
+    }
+    if !url.username().is_empty() || url.password().is_some() {
+        return Err(bad("it carries credentials"));
+    }
+    if url.query().is_some() || url.fragment().is_some() {
+        return Err(bad("it has a query or fragment"));
+    }
+    Ok(url.as_str().trim_end_matches('/').to_owned())
+}
+
 impl Registry {
-    /// Adds a host (once per URL) and asks it for its services before returning.
-    pub async fn register(&self, url: &str) -> Arc<HostEntry> {
-        let url = url.trim_end_matches('/').to_owned();
+    /// Adds a host (once per URL) and asks it for its services before returning. The URL
+    /// must be a plain `http(s)://host[:port][/path]` base: no credentials, query or fragment.
+    pub async fn register(&self, url: &str) -> Result<Arc<HostEntry>, BadHostUrl> {
+        let url = host_base_url(url)?;
         let entry = {
             let mut hosts = self.hosts.lock().unwrap();
             match hosts.iter().find(|h| h.url == url) {
@@ -121,7 +149,7 @@ impl Registry {
             }
         };
         entry.refresh().await;
-        entry
+        Ok(entry)
     }
 
     pub fn hosts(&self) -> Vec<Arc<HostEntry>> {
@@ -167,5 +195,29 @@ impl Registry {
 
     pub fn service(&self, name: &str) -> Option<ServiceInfo> {
         self.catalogue().remove(name).map(|offer| offer.info)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn host_urls_are_plain_http_bases() {
+        assert_eq!(host_base_url("http://127.0.0.1:7101/").unwrap(), "http://127.0.0.1:7101");
+        assert_eq!(
+            host_base_url("https://lab.example/meshflow").unwrap(),
+            "https://lab.example/meshflow"
+        );
+        for bad in [
+            "not a url at all",
+            "file:///etc/passwd",
+            "ftp://127.0.0.1/",
+            "http://user:secret@127.0.0.1:7101",
+            "http://127.0.0.1:7101/?x=1",
+            "http://127.0.0.1:7101/#top",
+        ] {
+            assert!(host_base_url(bad).is_err(), "{bad} was taken");
+        }
     }
 }
