@@ -487,3 +487,48 @@ fn the_cli_serves_a_host_and_uploads_a_plugin_to_it() {
     assert!(stdout.starts_with(&format!("plugin {digest}")), "{stdout}");
     assert!(stdout.contains("loop-forever (filter"), "{stdout}");
 }
+
+/// An HTTP server on 127.0.0.1 that announces a large body and sends one byte of it every
+/// 200 ms, for at most `for_at_most` (a hostile or very slow input).
+async fn dripping_url(for_at_most: Duration) -> (String, tokio::task::JoinHandle<()>) {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let url = format!("http://{}/slow.ply", listener.local_addr().unwrap());
+    let server = tokio::spawn(async move {
+        let Ok((mut socket, _)) = listener.accept().await else { return };
+        let mut request = [0u8; 4096];
+        let _ = socket.read(&mut request).await;
+        let head = "HTTP/1.1 200 OK\r\nContent-Length: 1000000\r\n\r\n";
+        if socket.write_all(head.as_bytes()).await.is_err() {
+            return;
+        }
+        let until = tokio::time::Instant::now() + for_at_most;
+        while tokio::time::Instant::now() < until {
+            if socket.write_all(b"p").await.is_err() {
+                return;
+            }
+            tokio::time::sleep(Duration::from_millis(200)).await;
+        }
+    });
+    (url, server)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_dripping_input_does_not_hold_up_other_sessions() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_host, client) = start_host(config(dir.path())).await;
+    let ready = ready_session(&client, &bunny_url().await).await;
+    let (slow_url, drip) = dripping_url(Duration::from_secs(40)).await;
+    let slow = client.create_session(&slow_url, None).await.unwrap();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert_eq!(client.session(&slow.id).await.unwrap().state, SessionState::Loading);
+    // Each run ends by enforcing the blob budget, which must not wait for the drip (it once
+    // did, for the whole download, and every session with it).
+    for seed in 0..3 {
+        let run = filter(&client, &ready, "add-noise", serde_json::json!({"seed": seed}));
+        let done = tokio::time::timeout(Duration::from_secs(20), run).await;
+        assert!(done.is_ok(), "run {seed} waited for another session's download");
+    }
+    client.delete_session(&slow.id).await.unwrap();
+    drip.abort();
+}

@@ -19,6 +19,12 @@ pub enum BlobError {
     Evict(String),
 }
 
+/// A blob just stored, safe from eviction while this lives (see [`BlobStore::put`]).
+#[must_use = "drop it only once a session record names the blob"]
+pub struct Stored<'a> {
+    _gate: tokio::sync::RwLockReadGuard<'a, ()>,
+}
+
 pub struct BlobStore {
     dir: PathBuf,
     budget: u64,
@@ -45,14 +51,13 @@ impl BlobStore {
         self.dir.join(name)
     }
 
-    /// Keeps blobs safe from eviction while held; see `gate`.
-    pub async fn writing(&self) -> tokio::sync::RwLockReadGuard<'_, ()> {
-        self.gate.read().await
-    }
-
     /// Stores `bytes` as `name`, atomically; a blob already present is left as it is
     /// (names are hashes of the content).
-    pub async fn put(&self, name: &str, bytes: Arc<Vec<u8>>) -> Result<(), BlobError> {
+    /// The answer keeps the blob safe from eviction until it is dropped: hold it until a
+    /// session record names the blob. Taken only here, after any download, so no network
+    /// transfer ever holds eviction (and with it every other writer) back.
+    pub async fn put(&self, name: &str, bytes: Arc<Vec<u8>>) -> Result<Stored<'_>, BlobError> {
+        let gate = self.gate.read().await;
         let path = self.path(name);
         let fail = |message: String| BlobError::Store { name: name.to_owned(), message };
         tokio::task::spawn_blocking(move || {
@@ -63,7 +68,8 @@ impl BlobStore {
         })
         .await
         .map_err(|e| fail(e.to_string()))?
-        .map_err(|e| fail(e.to_string()))
+        .map_err(|e| fail(e.to_string()))?;
+        Ok(Stored { _gate: gate })
     }
 
     pub async fn read(&self, name: &str) -> Result<Vec<u8>, String> {

@@ -4,6 +4,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
+use super::blobs::Stored;
 use super::meshes::{self, CORRECTION, MeshEncoding};
 use super::sessions::{CurrentMesh, LoadTimes, SessionRecord};
 use super::state::Host;
@@ -14,34 +15,38 @@ use meshflow_mesh::MeshData;
 /// Loads session `id` from its record; on failure the session is failed with the reason.
 pub async fn load(host: Arc<Host>, id: String, record: SessionRecord) {
     match build(&host, &record).await {
-        Ok((input, current, times)) => host.sessions.loaded(&id, input, current, times),
+        // The new input blob stays safe from eviction until the session record names it.
+        Ok((input, current, times, _stored)) => host.sessions.loaded(&id, input, current, times),
         Err(error) => host.sessions.fail(&id, error),
     }
 }
 
-async fn build(
-    host: &Host,
+async fn build<'a>(
+    host: &'a Host,
     record: &SessionRecord,
-) -> Result<(String, CurrentMesh, LoadTimes), String> {
-    let _writing = host.blobs.writing().await;
-    let (input, mut current, times) = match &record.input {
+) -> Result<(String, CurrentMesh, LoadTimes, Option<Stored<'a>>), String> {
+    let (input, mut current, times, stored) = match &record.input {
         Some(name) => {
             let mesh = read_mesh_blob(host, name).await?;
-            (name.clone(), hashed(mesh).await.map_err(|e| e.to_string())?, LoadTimes::default())
+            let current = hashed(mesh).await.map_err(|e| e.to_string())?;
+            (name.clone(), current, LoadTimes::default(), None)
         }
-        None => download_input(host, record).await?,
+        None => {
+            let (name, current, times, stored) = download_input(host, record).await?;
+            (name, current, times, Some(stored))
+        }
     };
     for step in &record.steps {
         let mesh = apply_blob(host, Arc::unwrap_or_clone(current.mesh), step).await?;
         current = hashed(mesh).await.map_err(|e| e.to_string())?;
     }
-    Ok((input, current, times))
+    Ok((input, current, times, stored))
 }
 
-async fn download_input(
-    host: &Host,
+async fn download_input<'a>(
+    host: &'a Host,
     record: &SessionRecord,
-) -> Result<(String, CurrentMesh, LoadTimes), String> {
+) -> Result<(String, CurrentMesh, LoadTimes, Stored<'a>), String> {
     let url = record.input_url.clone();
     let started = Instant::now();
     let bytes = host.download(&url).await?;
@@ -67,13 +72,13 @@ async fn download_input(
     }
     let load_ms = millis(started.elapsed());
     let name = meshes::blob_name(&bytes, encoding, hash);
-    host.blobs.put(&name, Arc::new(bytes)).await.map_err(|e| e.to_string())?;
+    let stored = host.blobs.put(&name, Arc::new(bytes)).await.map_err(|e| e.to_string())?;
     let times = LoadTimes {
         download_ms: Some(download_ms),
         load_ms: Some(load_ms),
         input_bytes: Some(input_bytes),
     };
-    Ok((name, current, times))
+    Ok((name, current, times, stored))
 }
 
 /// A stored mesh blob, decoded by its extension.

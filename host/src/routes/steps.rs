@@ -8,6 +8,7 @@ use axum::Json;
 use axum::extract::{Path, State};
 
 use super::error::{ApiError, ApiJson};
+use crate::blobs::Stored;
 use crate::meshes::{self, MeshEncoding};
 use crate::rebuild::hashed;
 use crate::sessions::CurrentMesh;
@@ -28,7 +29,6 @@ pub async fn update(
     ApiJson(update): ApiJson<Update>,
 ) -> Result<Json<Updated>, ApiError> {
     let session = host.sessions.begin(&id)?;
-    let _writing = host.blobs.writing().await;
     let mut downloaded = 0;
     let mut download_ms = 0.0;
     let fallback = match (update.use_, &update.correction) {
@@ -40,7 +40,7 @@ pub async fn update(
             downloaded += attempt.bytes;
             download_ms += attempt.download_ms;
             match attempt.result {
-                Ok((next, name)) => {
+                Ok((next, name, _stored)) => {
                     let updated = Updated {
                         hash: next.hash.clone(),
                         via: Transfer::Correction,
@@ -79,7 +79,7 @@ pub async fn update(
         ));
     }
     let name = meshes::blob_name(&bytes, encoding, &next.hash);
-    host.blobs.put(&name, Arc::new(bytes)).await?;
+    let stored = host.blobs.put(&name, Arc::new(bytes)).await?;
     let updated = Updated {
         hash: next.hash.clone(),
         via: Transfer::Full,
@@ -89,25 +89,26 @@ pub async fn update(
         fallback,
     };
     session.commit(next, name)?;
-    drop(_writing);
+    drop(stored);
     crate::eviction::enforce_budget(&host).await;
     Ok(Json(updated))
 }
 
-struct Attempt {
+struct Attempt<'a> {
     bytes: u64,
     download_ms: f64,
     apply_ms: f64,
-    /// The new mesh and the stored correction's name, or why the correction was not used.
-    result: Result<(CurrentMesh, String), String>,
+    /// The new mesh, the stored correction's name and its hold against eviction, or why
+    /// the correction was not used.
+    result: Result<(CurrentMesh, String, Stored<'a>), String>,
 }
 
-async fn replay_correction(
-    host: &Host,
+async fn replay_correction<'a>(
+    host: &'a Host,
     base: &CurrentMesh,
     correction: &BlobRef,
     expected: &str,
-) -> Attempt {
+) -> Attempt<'a> {
     let started = Instant::now();
     let downloaded = host.download(&correction.url).await;
     let download_ms = millis(started.elapsed());
@@ -140,7 +141,7 @@ async fn replay_correction(
             host.blobs
                 .put(&name, Arc::new(bytes))
                 .await
-                .map(|()| (next, name))
+                .map(|stored| (next, name, stored))
                 .map_err(|e| e.to_string())
         }
         Err(reason) => Err(reason),
@@ -199,8 +200,7 @@ pub async fn run(
     .map_err(|e| ApiError::internal(format!("encoding the correction: {e}")))?;
     let correction_name = meshes::correction_name(&correction);
     let correction_bytes = correction.len() as u64;
-    let writing = host.blobs.writing().await;
-    host.blobs.put(&correction_name, Arc::new(correction)).await?;
+    let stored = host.blobs.put(&correction_name, Arc::new(correction)).await?;
     let full_name = host.blobs.remember(next.mesh.clone(), &next.hash);
     let result = FilterResult {
         service,
@@ -216,7 +216,7 @@ pub async fn run(
         full: FullRef { url: host.blob_url(&full_name), hash: next.hash.clone() },
     };
     session.commit(next, correction_name)?;
-    drop(writing);
+    drop(stored);
     crate::eviction::enforce_budget(&host).await;
     Ok(Json(RunResult::Filter(result)))
 }
