@@ -532,3 +532,20 @@ async fn a_dripping_input_does_not_hold_up_other_sessions() {
     client.delete_session(&slow.id).await.unwrap();
     drip.abort();
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_input_answering_an_error_is_not_echoed() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_host, client) = start_host(config(dir.path())).await;
+    let app = axum::Router::new()
+        .fallback(|| async { (axum::http::StatusCode::FORBIDDEN, "TOP-SECRET internal page") });
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let url = format!("http://{}/scan.ply", listener.local_addr().unwrap());
+    tokio::spawn(async move { axum::serve(listener, app).await });
+    let created = client.create_session(&url, None).await.unwrap();
+    let status = client.wait_ready(&created.id).await.unwrap();
+    assert_eq!(status.state, SessionState::Failed);
+    let error = status.error.unwrap_or_default();
+    assert!(error.contains("403"), "{error}");
+    assert!(!error.contains("TOP-SECRET"), "the error repeats the fetched body: {error}");
+}

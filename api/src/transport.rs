@@ -121,11 +121,17 @@ pub(crate) async fn send(request: RequestBuilder, url: &str) -> Result<Response,
         Ok(body) => (body.error.code, body.error.message),
         Err(_) => (code_of(status), text),
     };
+    Err(status_error(url, status, code, message))
+}
+
+/// An error status as a [`ClientError`]: refused (4xx, and 502 for a download the request
+/// pointed the server to) or a server failure (other 5xx).
+fn status_error(url: &str, status: StatusCode, code: String, message: String) -> ClientError {
     let (url, status) = (url.to_owned(), status.as_u16());
     if status == StatusCode::BAD_GATEWAY.as_u16() || status < 500 {
-        Err(ClientError::Refused { url, status, code, message })
+        ClientError::Refused { url, status, code, message }
     } else {
-        Err(ClientError::Server { url, status, code, message })
+        ClientError::Server { url, status, code, message }
     }
 }
 
@@ -148,8 +154,16 @@ fn code_of(status: StatusCode) -> String {
 
 /// Downloads `url` into memory, refusing more than `limit` bytes (checked against the
 /// announced length first, then while reading).
+///
+/// The URL may be anyone's: an error answer's body is neither read nor repeated, only its
+/// status.
 pub async fn fetch(http: &reqwest::Client, url: &str, limit: u64) -> Result<Vec<u8>, ClientError> {
-    let response = send(http.get(url), url).await?;
+    let response = http.get(url).send().await.map_err(|e| ClientError::transport(url, e))?;
+    let status = response.status();
+    if !status.is_success() {
+        let message = format!("the server answered {status}");
+        return Err(status_error(url, status, code_of(status), message));
+    }
     let too_large = || ClientError::TooLarge { url: url.to_owned(), limit };
     if response.content_length().is_some_and(|n| n > limit) {
         return Err(too_large());
