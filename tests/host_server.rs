@@ -549,3 +549,26 @@ async fn an_input_answering_an_error_is_not_echoed() {
     assert!(error.contains("403"), "{error}");
     assert!(!error.contains("TOP-SECRET"), "the error repeats the fetched body: {error}");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_host_that_hangs_or_is_gone_is_told_apart_in_bounded_time() {
+    // Accepts connections and never answers.
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let hung = format!("http://{}", listener.local_addr().unwrap());
+    let hold = tokio::spawn(async move {
+        let mut held = Vec::new();
+        while let Ok((socket, _)) = listener.accept().await {
+            held.push(socket);
+        }
+    });
+    let bound = meshflow_api::QUERY_TIMEOUT * 3;
+    let answer = tokio::time::timeout(bound, HostClient::new(&hung).health()).await;
+    assert!(matches!(answer, Ok(Err(ClientError::Timeout { .. }))), "{answer:?}");
+    hold.abort();
+
+    let closed = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let gone = format!("http://{}", closed.local_addr().unwrap());
+    drop(closed);
+    let answer = tokio::time::timeout(bound, HostClient::new(&gone).services()).await;
+    assert!(matches!(answer, Ok(Err(ClientError::Unreachable { .. }))), "{answer:?}");
+}

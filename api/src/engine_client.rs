@@ -16,7 +16,7 @@ pub struct EngineClient {
 
 impl EngineClient {
     pub fn new(base_url: &str) -> Self {
-        Self { endpoint: Endpoint::new(base_url, reqwest::Client::new()) }
+        Self { endpoint: Endpoint::new(base_url, crate::transport::default_client()) }
     }
 
     pub fn base_url(&self) -> &str {

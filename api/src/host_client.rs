@@ -6,7 +6,7 @@ use crate::host::{
     CreateSession, Health, InputRef, PluginEntry, RunRequest, RunResult, ServiceEntry,
     SessionCreated, SessionStatus, Update, Updated, UploadedPlugin,
 };
-use crate::transport::{ClientError, Endpoint, authorized, fetch, send};
+use crate::transport::{ClientError, Endpoint, QUERY_TIMEOUT, authorized, fetch, send};
 
 /// A client of one host, e.g. `HostClient::new("http://127.0.0.1:7000")`.
 #[derive(Clone, Debug)]
@@ -15,8 +15,10 @@ pub struct HostClient {
 }
 
 impl HostClient {
+    /// A client with its own pool, which gives up connecting after
+    /// [`CONNECT_TIMEOUT`](crate::CONNECT_TIMEOUT).
     pub fn new(base_url: &str) -> Self {
-        Self::with_client(base_url, reqwest::Client::new())
+        Self::with_client(base_url, crate::transport::default_client())
     }
 
     /// Shares a connection pool (and its timeouts) with other clients.
@@ -29,15 +31,15 @@ impl HostClient {
     }
 
     pub async fn health(&self) -> Result<Health, ClientError> {
-        self.endpoint.json(Method::GET, "/health", |r| r).await
+        self.endpoint.json(Method::GET, "/health", |r| r.timeout(QUERY_TIMEOUT)).await
     }
 
     pub async fn services(&self) -> Result<Vec<ServiceEntry>, ClientError> {
-        self.endpoint.json(Method::GET, "/services", |r| r).await
+        self.endpoint.json(Method::GET, "/services", |r| r.timeout(QUERY_TIMEOUT)).await
     }
 
     pub async fn plugins(&self) -> Result<Vec<PluginEntry>, ClientError> {
-        self.endpoint.json(Method::GET, "/plugins", |r| r).await
+        self.endpoint.json(Method::GET, "/plugins", |r| r.timeout(QUERY_TIMEOUT)).await
     }
 
     /// Uploads a component; `token` is the host's `--token`.
@@ -71,7 +73,9 @@ impl HostClient {
     }
 
     pub async fn session(&self, id: &str) -> Result<SessionStatus, ClientError> {
-        self.endpoint.json(Method::GET, &format!("/sessions/{id}"), |r| r).await
+        self.endpoint
+            .json(Method::GET, &format!("/sessions/{id}"), |r| r.timeout(QUERY_TIMEOUT))
+            .await
     }
 
     /// The session's status once it is no longer loading (the host waits up to ~60 s;

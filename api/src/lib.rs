@@ -16,4 +16,4 @@ mod transport;
 pub use engine_client::EngineClient;
 pub use host_client::HostClient;
 pub use meshflow_params as params;
-pub use transport::{ClientError, MAX_ERROR_BODY_BYTES, fetch};
+pub use transport::{CONNECT_TIMEOUT, ClientError, MAX_ERROR_BODY_BYTES, QUERY_TIMEOUT, fetch};

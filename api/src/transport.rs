@@ -1,6 +1,8 @@
 //! What both clients share: one base URL over a connection pool, the sending of a request
 //! and the typing of its failure ([`ClientError`]), and size-capped downloads.
 
+use std::time::Duration;
+
 use futures_util::StreamExt;
 use reqwest::{Method, RequestBuilder, Response, StatusCode};
 use serde::de::DeserializeOwned;
@@ -29,6 +31,23 @@ pub enum ClientError {
     Protocol { url: String, message: String },
     #[error("{url}: the download is larger than the limit of {limit} bytes")]
     TooLarge { url: String, limit: u64 },
+}
+
+/// How long a client tries to connect before the server counts as unreachable.
+pub const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// The whole of a quick query (health, services, plugins, a session's status): a server
+/// that accepts but does not answer in this time counts as timed out, so one hung host
+/// cannot stall whoever polls it.
+pub const QUERY_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// A connection pool with [`CONNECT_TIMEOUT`]. Steps and transfers get no overall deadline
+/// here: a host bounds their work by its own run deadline and download limits.
+pub(crate) fn default_client() -> reqwest::Client {
+    reqwest::Client::builder()
+        .connect_timeout(CONNECT_TIMEOUT)
+        .build()
+        .expect("a client with only a connect timeout builds")
 }
 
 /// Error bodies are read up to this size; the rest is not kept.
