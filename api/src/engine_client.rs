@@ -6,7 +6,7 @@ use crate::engine::{
     HostInfo, InputUploaded, RegisterHost, RunRecord, RunSubmitted, RunSummary, ServiceOffer,
     SubmitRun,
 };
-use crate::transport::{ClientError, Endpoint, fetch, send};
+use crate::transport::{ClientError, Endpoint, read_capped, send};
 
 /// A client of one engine, e.g. `EngineClient::new("http://127.0.0.1:7000")`.
 #[derive(Clone, Debug)]
@@ -65,9 +65,11 @@ impl EngineClient {
         send(self.endpoint.http.get(&url), &url).await
     }
 
-    /// The final mesh of a finished run, packed (`.mfm`).
+    /// The final mesh of a finished run, packed (`.mfm`); the engine's error message when
+    /// there is none.
     pub async fn result(&self, id: &str) -> Result<Vec<u8>, ClientError> {
         let url = format!("{}/runs/{id}/result", self.endpoint.base);
-        fetch(&self.endpoint.http, &url, u64::MAX).await
+        let response = send(self.endpoint.http.get(&url), &url).await?;
+        read_capped(response, &url, u64::MAX).await
     }
 }

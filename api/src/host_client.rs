@@ -6,7 +6,7 @@ use crate::host::{
     CreateSession, Health, InputRef, PluginEntry, RunRequest, RunResult, ServiceEntry,
     SessionCreated, SessionStatus, Update, Updated, UploadedPlugin,
 };
-use crate::transport::{ClientError, Endpoint, QUERY_TIMEOUT, authorized, fetch, send};
+use crate::transport::{ClientError, Endpoint, QUERY_TIMEOUT, authorized, read_capped, send};
 
 /// A client of one host, e.g. `HostClient::new("http://127.0.0.1:7000")`.
 #[derive(Clone, Debug)]
@@ -117,8 +117,10 @@ impl HostClient {
         })
     }
 
-    /// The bytes at any URL (a blob of some host, an input).
+    /// A blob of this host (or another host's, by URL), with the host's error message when
+    /// it has none.
     pub async fn download(&self, url: &str) -> Result<Vec<u8>, ClientError> {
-        fetch(&self.endpoint.http, url, u64::MAX).await
+        let response = send(self.endpoint.http.get(url), url).await?;
+        read_capped(response, url, u64::MAX).await
     }
 }

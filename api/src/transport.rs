@@ -171,9 +171,7 @@ fn code_of(status: StatusCode) -> String {
     status.canonical_reason().unwrap_or("error").to_lowercase().replace(' ', "-")
 }
 
-/// Downloads `url` into memory, refusing more than `limit` bytes (checked against the
-/// announced length first, then while reading).
-///
+/// Downloads `url` into memory, refusing more than `limit` bytes (see [`read_capped`]).
 /// The URL may be anyone's: an error answer's body is neither read nor repeated, only its
 /// status.
 pub async fn fetch(http: &reqwest::Client, url: &str, limit: u64) -> Result<Vec<u8>, ClientError> {
@@ -183,6 +181,16 @@ pub async fn fetch(http: &reqwest::Client, url: &str, limit: u64) -> Result<Vec<
         let message = format!("the server answered {status}");
         return Err(status_error(url, status, code_of(status), message));
     }
+    read_capped(response, url, limit).await
+}
+
+/// A successful answer's body, refusing more than `limit` bytes (checked against the
+/// announced length first, then while reading).
+pub(crate) async fn read_capped(
+    response: Response,
+    url: &str,
+    limit: u64,
+) -> Result<Vec<u8>, ClientError> {
     let too_large = || ClientError::TooLarge { url: url.to_owned(), limit };
     if response.content_length().is_some_and(|n| n > limit) {
         return Err(too_large());

@@ -68,10 +68,10 @@ async fn register_host(
         .register(&registration.url)
         .await
         .map_err(|e| ApiError(StatusCode::BAD_REQUEST, "bad-url", e.to_string()))?;
-    Ok((StatusCode::CREATED, Json(host_json(&host))))
+    Ok((StatusCode::CREATED, Json(host_info(&host))))
 }
 
-fn host_json(host: &crate::registry::HostEntry) -> HostInfo {
+fn host_info(host: &crate::registry::HostEntry) -> HostInfo {
     let state = host.state();
     HostInfo {
         url: host.url.clone(),
@@ -84,7 +84,7 @@ fn host_json(host: &crate::registry::HostEntry) -> HostInfo {
 }
 
 async fn list_hosts(State(engine): State<Arc<Engine>>) -> Json<Vec<HostInfo>> {
-    Json(engine.registry.hosts().iter().map(|h| host_json(h)).collect())
+    Json(engine.registry.hosts().iter().map(|h| host_info(h)).collect())
 }
 
 async fn services(State(engine): State<Arc<Engine>>) -> Json<Vec<ServiceOffer>> {
