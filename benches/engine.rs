@@ -68,10 +68,8 @@ async fn main() -> anyhow::Result<()> {
     println!("|---|---|---|---:|---:|---|---:|---:|---:|");
     let mut totals = Vec::new();
     for transfer in ["auto", "full"] {
-        let workflow = meshflow_engine::workflow::Workflow::from_json(
-            &json!({"steps": steps, "transfer": transfer}),
-        )?;
-        let run = engine.engine.submit(workflow, Some(input_url.clone()))?;
+        let workflow = json!({"steps": steps, "transfer": transfer});
+        let run = engine.engine.submit(workflow, Some(input_url.clone()), "bench").await?;
         while !run.is_finished() {
             tokio::time::sleep(std::time::Duration::from_millis(20)).await;
         }

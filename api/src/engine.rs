@@ -87,10 +87,22 @@ pub struct HostInfo {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Status {
+    /// Waiting for one of its client's run slots.
     Queued,
     Running,
     Completed,
     Failed,
+    /// Stopped by `POST /runs/{id}/cancel`.
+    Cancelled,
+    /// The engine stopped while it ran and could not resume it; `error` says why.
+    Interrupted,
+}
+
+impl Status {
+    /// Whether the run has ended (nothing about it changes any more).
+    pub fn is_final(self) -> bool {
+        matches!(self, Self::Completed | Self::Failed | Self::Cancelled | Self::Interrupted)
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

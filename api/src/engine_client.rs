@@ -59,6 +59,11 @@ impl EngineClient {
         self.endpoint.json(Method::GET, &format!("/runs/{id}"), |r| r).await
     }
 
+    /// Asks the engine to stop a run; its state then is `cancelled`.
+    pub async fn cancel(&self, id: &str) -> Result<RunSummary, ClientError> {
+        self.endpoint.json(Method::POST, &format!("/runs/{id}/cancel"), |r| r).await
+    }
+
     /// The open event stream of a run (server-sent events: `record`, then each change).
     pub async fn events(&self, id: &str) -> Result<reqwest::Response, ClientError> {
         let url = format!("{}/runs/{id}/events", self.endpoint.base);

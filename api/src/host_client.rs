@@ -117,6 +117,17 @@ impl HostClient {
         })
     }
 
+    /// The size of a full-mesh blob, which the host packs and stores first if it has not
+    /// yet: a `GET` whose body is not read (a `HEAD` answers without packing). So the mesh
+    /// outlives the session that held it.
+    pub async fn packed_size(&self, url: &str) -> Result<u64, ClientError> {
+        let response = send(self.endpoint.http.get(url), url).await?;
+        response.content_length().ok_or_else(|| ClientError::Protocol {
+            url: url.to_owned(),
+            message: "no valid Content-Length in the answer".into(),
+        })
+    }
+
     /// A blob of this host (or another host's, by URL), with the host's error message when
     /// it has none.
     pub async fn download(&self, url: &str) -> Result<Vec<u8>, ClientError> {

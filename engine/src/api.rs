@@ -5,8 +5,9 @@ use std::convert::Infallible;
 use std::sync::Arc;
 
 use axum::body::{Body, Bytes};
+use axum::extract::rejection::BytesRejection;
 use axum::extract::{DefaultBodyLimit, Path, Query, State};
-use axum::http::{StatusCode, header};
+use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
 use axum::response::{Html, IntoResponse, Redirect, Response};
 use axum::routing::{get, post};
@@ -16,26 +17,30 @@ use serde::Deserialize;
 use serde_json::{Value as Json_, json};
 use tokio_stream::wrappers::BroadcastStream;
 
+use crate::inputs::InputError;
+use crate::limits::{MAX_REGISTER_BYTES, MAX_SUBMIT_BYTES, RETRY_AFTER};
 use crate::record::Status;
-use crate::workflow::Workflow;
+use crate::registry::RegisterError;
 use crate::{Engine, SubmitError};
 use meshflow_api::engine::{
     HostInfo, InputUploaded, RegisterHost, RunSubmitted, RunSummary, ServiceOffer,
 };
 
-/// The largest mesh accepted by `POST /inputs`.
-pub const MAX_INPUT_BYTES: usize = 4 << 30;
-
 pub fn router(engine: Arc<Engine>) -> Router {
     Router::new()
         .route("/", get(|| async { Html(crate::ui::PAGE) }))
         .route("/health", get(|| async { Json(json!({"status": "ok"})) }))
-        .route("/hosts", get(list_hosts).post(register_host))
+        .route(
+            "/hosts",
+            get(list_hosts).post(register_host).layer(DefaultBodyLimit::max(MAX_REGISTER_BYTES)),
+        )
         .route("/services", get(services))
-        .route("/inputs", post(upload_input).layer(DefaultBodyLimit::max(MAX_INPUT_BYTES)))
+        // Streamed to disk: the limit is applied while writing.
+        .route("/inputs", post(upload_input).layer(DefaultBodyLimit::disable()))
         .route("/inputs/{file}", get(download_input))
-        .route("/runs", get(list_runs).post(submit))
+        .route("/runs", get(list_runs).post(submit).layer(DefaultBodyLimit::max(MAX_SUBMIT_BYTES)))
         .route("/runs/{id}", get(run_status))
+        .route("/runs/{id}/cancel", post(cancel_run))
         .route("/runs/{id}/events", get(run_events))
         .route("/runs/{id}/result", get(run_result))
         .with_state(engine)
@@ -46,7 +51,36 @@ struct ApiError(StatusCode, &'static str, String);
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         let body = json!({"error": {"code": self.1, "message": self.2}});
-        (self.0, Json(body)).into_response()
+        let mut response = (self.0, Json(body)).into_response();
+        if self.0 == StatusCode::TOO_MANY_REQUESTS {
+            response.headers_mut().insert(header::RETRY_AFTER, RETRY_AFTER.as_secs().into());
+        }
+        response
+    }
+}
+
+/// A body over its route's limit, or one that broke off, as a JSON error.
+fn body_refused(rejection: BytesRejection) -> ApiError {
+    let status = rejection.status();
+    let code = if status == StatusCode::PAYLOAD_TOO_LARGE { "too-large" } else { "bad-body" };
+    ApiError(status, code, rejection.body_text())
+}
+
+fn internal(error: impl std::fmt::Display) -> ApiError {
+    tracing::error!("{error}");
+    ApiError(StatusCode::INTERNAL_SERVER_ERROR, "internal", error.to_string())
+}
+
+/// Who sends a request, for per-client limits: a digest of its bearer token, or
+/// `anonymous` (the token itself is never stored).
+fn client_of(headers: &HeaderMap) -> String {
+    let token = headers
+        .get(header::AUTHORIZATION)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.strip_prefix("Bearer "));
+    match token {
+        Some(token) => format!("token:{}", &blake3::hash(token.as_bytes()).to_hex()[..16]),
+        None => "anonymous".to_owned(),
     }
 }
 
@@ -58,16 +92,17 @@ fn not_found(what: &str, id: &str) -> ApiError {
 
 async fn register_host(
     State(engine): State<Arc<Engine>>,
-    body: Bytes,
+    body: Result<Bytes, BytesRejection>,
 ) -> ApiResult<(StatusCode, Json<HostInfo>)> {
+    let body = body.map_err(body_refused)?;
     let registration: RegisterHost = serde_json::from_slice(&body).map_err(|e| {
         ApiError(StatusCode::BAD_REQUEST, "bad-request", format!("expected {{\"url\": ...}}: {e}"))
     })?;
-    let host = engine
-        .registry
-        .register(&registration.url)
-        .await
-        .map_err(|e| ApiError(StatusCode::BAD_REQUEST, "bad-url", e.to_string()))?;
+    let host = engine.registry.register(&registration.url).await.map_err(|e| match e {
+        RegisterError::BadUrl(_) => ApiError(StatusCode::BAD_REQUEST, "bad-url", e.to_string()),
+        RegisterError::Full => ApiError(StatusCode::CONFLICT, "too-many-hosts", e.to_string()),
+        RegisterError::Store(error) => internal(error),
+    })?;
     Ok((StatusCode::CREATED, Json(host_info(&host))))
 }
 
@@ -99,7 +134,7 @@ struct InputQuery {
 async fn upload_input(
     State(engine): State<Arc<Engine>>,
     Query(query): Query<InputQuery>,
-    body: Bytes,
+    body: Body,
 ) -> ApiResult<(StatusCode, Json<InputUploaded>)> {
     let name = query.name.ok_or_else(|| {
         ApiError(
@@ -108,29 +143,40 @@ async fn upload_input(
             "give the file name, e.g. POST /inputs?name=bunny.ply".into(),
         )
     })?;
-    let url = engine
-        .put_input(&name, &body)
-        .await
-        .map_err(|message| ApiError(StatusCode::BAD_REQUEST, "bad-input", message))?;
-    Ok((StatusCode::CREATED, Json(InputUploaded { url, bytes: body.len() as u64 })))
+    let (url, bytes) =
+        engine.put_input(&name, body.into_data_stream()).await.map_err(|e| match e {
+            InputError::TooLarge(_) => {
+                ApiError(StatusCode::PAYLOAD_TOO_LARGE, "too-large", e.to_string())
+            }
+            InputError::Io(error) => internal(error),
+            _ => ApiError(StatusCode::BAD_REQUEST, "bad-input", e.to_string()),
+        })?;
+    Ok((StatusCode::CREATED, Json(InputUploaded { url, bytes })))
 }
 
+/// Streams a stored input (inputs may be gigabytes: never read whole).
 async fn download_input(
     State(engine): State<Arc<Engine>>,
     Path(file): Path<String>,
 ) -> ApiResult<Response> {
     let path = engine.inputs.path(&file).ok_or_else(|| not_found("input", &file))?;
-    let bytes = tokio::fs::read(&path)
-        .await
-        .map_err(|e| ApiError(StatusCode::INTERNAL_SERVER_ERROR, "io", e.to_string()))?;
-    Ok(([(header::CONTENT_TYPE, "application/octet-stream")], Body::from(bytes)).into_response())
+    let opened = tokio::fs::File::open(&path).await.map_err(internal)?;
+    let length = opened.metadata().await.map_err(internal)?.len();
+    let body = Body::from_stream(tokio_util::io::ReaderStream::new(opened));
+    let headers = [
+        (header::CONTENT_TYPE, "application/octet-stream".to_owned()),
+        (header::CONTENT_LENGTH, length.to_string()),
+    ];
+    Ok((headers, body).into_response())
 }
 
 /// `POST /runs` takes `{"workflow": W, "input"?: URL}` or a bare workflow `W`.
 async fn submit(
     State(engine): State<Arc<Engine>>,
-    body: Bytes,
+    headers: HeaderMap,
+    body: Result<Bytes, BytesRejection>,
 ) -> ApiResult<(StatusCode, Json<RunSubmitted>)> {
+    let body = body.map_err(body_refused)?;
     let request: Json_ = serde_json::from_slice(&body).map_err(|e| {
         ApiError(StatusCode::BAD_REQUEST, "bad-json", format!("the request is not JSON: {e}"))
     })?;
@@ -151,16 +197,42 @@ async fn submit(
         }
         None => (&request, None),
     };
-    let invalid = |message: String| ApiError(StatusCode::BAD_REQUEST, "invalid-workflow", message);
-    let workflow = Workflow::from_json(workflow).map_err(|e| invalid(e.to_string()))?;
-    let run = engine.submit(workflow, input).map_err(|e| match e {
-        SubmitError::Invalid(error) => invalid(error.to_string()),
-        SubmitError::NoInput => ApiError(StatusCode::BAD_REQUEST, "no-input", e.to_string()),
-    })?;
-    Ok((
-        StatusCode::ACCEPTED,
-        Json(RunSubmitted { id: run.id.clone(), status: run.record().status }),
-    ))
+    let run =
+        engine.submit(workflow.clone(), input, &client_of(&headers)).await.map_err(
+            |e| match e {
+                SubmitError::Invalid(_) => {
+                    ApiError(StatusCode::BAD_REQUEST, "invalid-workflow", e.to_string())
+                }
+                SubmitError::NoInput => {
+                    ApiError(StatusCode::BAD_REQUEST, "no-input", e.to_string())
+                }
+                SubmitError::Busy(_) => {
+                    ApiError(StatusCode::TOO_MANY_REQUESTS, "too-many-runs", e.to_string())
+                }
+                SubmitError::Store(error) => internal(error),
+            },
+        )?;
+    Ok((StatusCode::ACCEPTED, Json(RunSubmitted { id: run.id.clone(), status: run.status() })))
+}
+
+/// `POST /runs/{id}/cancel`: the run stops at once (a step running on a host is abandoned)
+/// and its host sessions are deleted.
+async fn cancel_run(
+    State(engine): State<Arc<Engine>>,
+    Path(id): Path<String>,
+) -> ApiResult<(StatusCode, Json<RunSummary>)> {
+    let run = engine.run(&id).ok_or_else(|| not_found("run", &id))?;
+    if run.is_finished() {
+        return Err(ApiError(
+            StatusCode::CONFLICT,
+            "finished",
+            format!("run {id} has ended already ({:?})", run.status()),
+        ));
+    }
+    run.cancel();
+    let record = run.record();
+    let summary = RunSummary { id: record.id, status: record.status, steps: record.steps.len() };
+    Ok((StatusCode::ACCEPTED, Json(summary)))
 }
 
 async fn list_runs(State(engine): State<Arc<Engine>>) -> Json<Vec<RunSummary>> {
@@ -190,7 +262,7 @@ async fn run_events(
     // Subscribe before taking the snapshot, so no change falls between the two.
     let live = BroadcastStream::new(run.subscribe());
     let snapshot = run.record();
-    let finished = matches!(snapshot.status, Status::Completed | Status::Failed);
+    let finished = snapshot.status.is_final();
     let first = stream::once(async move {
         Ok(SseEvent::default().event("record").json_data(&snapshot).expect("a record is JSON"))
     });
@@ -203,7 +275,8 @@ async fn run_events(
                 return std::future::ready(None);
             }
             *ended = event.kind == "status"
-                && matches!(event.data["status"].as_str(), Some("completed" | "failed"));
+                && serde_json::from_value::<Status>(event.data["status"].clone())
+                    .is_ok_and(Status::is_final);
             let sse = SseEvent::default().event(event.kind).json_data(&event.data);
             std::future::ready(Some(sse.map_err(|_| ()).ok()))
         })
@@ -219,10 +292,10 @@ async fn run_result(
     let record = run.record();
     match (record.status, record.result) {
         (Status::Completed, Some(result)) => Ok(Redirect::to(&result.url)),
-        (Status::Failed, _) => Err(ApiError(
+        (status, _) if status.is_final() => Err(ApiError(
             StatusCode::CONFLICT,
             "run-failed",
-            record.error.unwrap_or_else(|| "the run failed".into()),
+            record.error.unwrap_or_else(|| format!("the run ended {status:?} without a result")),
         )),
         _ => {
             Err(ApiError(StatusCode::CONFLICT, "not-finished", format!("run {id} is still going")))

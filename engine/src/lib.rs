@@ -1,17 +1,21 @@
 //! The meshflow engine: reads workflows, picks hosts, runs the concurrent transfer protocol
-//! between them, and serves the engine HTTP API (DESIGN §5–6).
+//! between them, and serves the engine HTTP API (DESIGN §5–6). Its state lives in SQLite
+//! under the data folder, so a restart loses no run (DESIGN §10).
 //!
 //! This crate must not depend on wasmtime, the mesh store, the codecs or the host server:
 //! it speaks to hosts only through `meshflow-api` (`cargo tree -p meshflow-engine -e normal`
 //! shows no wasmtime, cranelift or constriction).
 
+mod admission;
 mod api;
 mod executor;
 mod inputs;
+pub mod limits;
 pub mod plan;
 pub mod record;
 pub mod registry;
 pub mod run;
+mod store;
 mod ui;
 pub mod validate;
 pub mod workflow;
@@ -20,16 +24,19 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
+use serde_json::Value as Json;
+use tokio::sync::Notify;
+
 pub use api::router;
+use limits::{JANITOR_INTERVAL, KEPT_RUNS, PERSIST_INTERVAL, UNUSED_INPUT_TTL};
+use record::{RunRecord, Status};
 use registry::Registry;
-use run::Run;
+use run::{Run, RunParts};
+use store::{Store, StoreError, StoredRun};
 use workflow::{Workflow, WorkflowError};
 
-/// Finished runs kept for status queries; older ones are forgotten first.
-pub const KEPT_RUNS: usize = 1000;
-
 pub struct EngineConfig {
-    /// Where uploaded inputs are kept.
+    /// Holds the database (`engine.sqlite3`) and uploaded inputs (`inputs/`).
     pub data_dir: PathBuf,
     /// The URL hosts use to reach this engine (for uploaded inputs).
     pub public_url: String,
@@ -37,11 +44,20 @@ pub struct EngineConfig {
 
 pub struct Engine {
     pub registry: Arc<Registry>,
-    runs: Mutex<HashMap<String, Arc<Run>>>,
-    /// Run ids in the order they were submitted.
-    order: Mutex<Vec<String>>,
+    runs: Mutex<RunTable>,
     inputs: inputs::Inputs,
+    store: Store,
+    admission: admission::Admission,
+    /// Told of every change to a run, for the persister.
+    changed: Arc<Notify>,
     public_url: String,
+}
+
+/// Kept runs by id, in the order they were submitted.
+#[derive(Default)]
+struct RunTable {
+    by_id: HashMap<String, Arc<Run>>,
+    order: Vec<String>,
 }
 
 /// Why a run was not accepted.
@@ -51,66 +67,225 @@ pub enum SubmitError {
     Invalid(#[from] WorkflowError),
     #[error("the workflow has no input: give \"input\" in the workflow or with the request")]
     NoInput,
+    #[error(transparent)]
+    Busy(#[from] admission::Busy),
+    #[error(transparent)]
+    Store(#[from] StoreError),
 }
 
 impl Engine {
-    pub fn new(config: EngineConfig) -> std::io::Result<Arc<Self>> {
+    /// Opens (or creates) the engine's state under `config.data_dir`. Runs that were in
+    /// flight when the engine last stopped are returned to be resumed once hosts are known.
+    fn open(config: EngineConfig) -> anyhow::Result<(Arc<Self>, Vec<StoredRun>, Vec<String>)> {
+        std::fs::create_dir_all(&config.data_dir)?;
+        let store = Store::open(&config.data_dir.join("engine.sqlite3"))?;
+        let (stored, hosts) = store.now(|c| Ok((store::load_runs(c)?, store::load_hosts(c)?)))?;
+        let changed = Arc::new(Notify::new());
         let engine = Arc::new(Self {
-            registry: Arc::new(Registry::default()),
+            registry: Arc::new(Registry::new(store.clone())),
             runs: Mutex::default(),
-            order: Mutex::default(),
             inputs: inputs::Inputs::new(config.data_dir.join("inputs"))?,
+            store,
+            admission: admission::Admission::default(),
+            changed,
             public_url: config.public_url.trim_end_matches('/').to_owned(),
         });
+        let mut unfinished = Vec::new();
+        for stored in stored {
+            if stored.record.status.is_final() {
+                engine.keep(engine.revive(&stored));
+            } else {
+                unfinished.push(stored);
+            }
+        }
         engine.registry.spawn_poller();
-        Ok(engine)
+        tokio::spawn(persist(Arc::downgrade(&engine)));
+        tokio::spawn(janitor(Arc::downgrade(&engine)));
+        Ok((engine, unfinished, hosts))
     }
 
-    /// Validates the workflow against the catalogue and starts it; returns at once.
-    pub fn submit(
-        &self,
-        workflow: Workflow,
+    /// A run object for a stored run.
+    fn revive(&self, stored: &StoredRun) -> Arc<Run> {
+        Arc::new(Run::new(RunParts {
+            id: stored.id.clone(),
+            owner: stored.owner.clone(),
+            workflow: stored.workflow.clone(),
+            input: stored.input.clone(),
+            record: stored.record.clone(),
+            sessions: stored.sessions.clone(),
+            changed: self.changed.clone(),
+        }))
+    }
+
+    /// Validates the workflow against the catalogue, stores the run and starts it; returns
+    /// at once. `client` names who submits (see [`admission`]).
+    pub async fn submit(
+        self: &Arc<Self>,
+        workflow_json: Json,
         input: Option<String>,
+        client: &str,
     ) -> Result<Arc<Run>, SubmitError> {
+        let workflow = Workflow::from_json(&workflow_json)?;
         let input = input.or_else(|| workflow.input.clone()).ok_or(SubmitError::NoInput)?;
         validate::validate(&workflow, &|name| self.registry.service(name))?;
-        let id = self.new_run_id();
-        let run = Arc::new(Run::new(id.clone(), workflow.transfer));
+        let ticket = self.admission.admit(client)?;
+        let id = new_run_id();
+        let stored = StoredRun {
+            record: RunRecord::new(id.clone(), workflow.transfer),
+            id,
+            owner: client.to_owned(),
+            workflow: workflow_json,
+            input,
+            sessions: Vec::new(),
+        };
+        let row = stored.clone();
+        self.store.call(move |c| store::insert_run(c, &row)).await?;
+        let run = self.revive(&stored);
         self.keep(run.clone());
-        tokio::spawn(executor::execute(run.clone(), workflow, input, self.registry.clone()));
+        tokio::spawn(drive(self.clone(), run.clone(), workflow, ticket, false));
         Ok(run)
     }
 
+    /// Resumes a run the engine was executing when it stopped (see [`executor::execute`]);
+    /// one whose workflow no longer reads, or whose client is over its limit, ends
+    /// interrupted.
+    fn resume(self: &Arc<Self>, stored: StoredRun) {
+        let run = self.revive(&stored);
+        self.keep(run.clone());
+        let interrupted = |reason: String| {
+            run.set_status(Status::Interrupted, Some(format!("the engine restarted: {reason}")))
+        };
+        match (Workflow::from_json(&stored.workflow), self.admission.admit(&stored.owner)) {
+            (Ok(workflow), Ok(ticket)) => {
+                tokio::spawn(drive(self.clone(), run.clone(), workflow, ticket, true));
+            }
+            (Err(error), _) => interrupted(error.to_string()),
+            (_, Err(busy)) => interrupted(busy.to_string()),
+        }
+    }
+
     pub fn run(&self, id: &str) -> Option<Arc<Run>> {
-        self.runs.lock().unwrap().get(id).cloned()
+        self.runs.lock().unwrap().by_id.get(id).cloned()
     }
 
     pub fn runs(&self) -> Vec<Arc<Run>> {
-        let runs = self.runs.lock().unwrap();
-        self.order.lock().unwrap().iter().filter_map(|id| runs.get(id).cloned()).collect()
+        let table = self.runs.lock().unwrap();
+        table.order.iter().filter_map(|id| table.by_id.get(id).cloned()).collect()
     }
 
+    /// Keeps `run`, forgetting the oldest finished runs beyond [`KEPT_RUNS`] (in memory
+    /// here, in the database by the janitor).
     fn keep(&self, run: Arc<Run>) {
-        let mut runs = self.runs.lock().unwrap();
-        let mut order = self.order.lock().unwrap();
-        while order.len() >= KEPT_RUNS {
-            let Some(position) = order.iter().position(|id| runs[id].is_finished()) else { break };
-            runs.remove(&order.remove(position));
+        let mut table = self.runs.lock().unwrap();
+        while table.order.len() >= KEPT_RUNS {
+            let RunTable { by_id, order } = &mut *table;
+            let Some(position) = order.iter().position(|id| by_id[id].is_finished()) else {
+                break;
+            };
+            let id = order.remove(position);
+            by_id.remove(&id);
         }
-        order.push(run.id.clone());
-        runs.insert(run.id.clone(), run);
+        table.order.push(run.id.clone());
+        table.by_id.insert(run.id.clone(), run);
     }
 
-    fn new_run_id(&self) -> String {
-        let seed =
-            format!("{:?}{}", std::time::SystemTime::now(), self.order.lock().unwrap().len());
-        blake3::hash(seed.as_bytes()).to_hex()[..16].to_owned()
+    /// Streams an uploaded input to disk and returns the URL hosts fetch it from.
+    pub async fn put_input<E: std::fmt::Display>(
+        &self,
+        name: &str,
+        body: impl futures_util::Stream<Item = Result<bytes::Bytes, E>>,
+    ) -> Result<(String, u64), inputs::InputError> {
+        let stored = self.inputs.put(name, body, limits::MAX_INPUT_BYTES).await?;
+        let (file, bytes) = (stored.file.clone(), stored.bytes);
+        if let Err(error) = self.store.call(move |c| store::add_input(c, &file, bytes)).await {
+            tracing::warn!("recording input {}: {error}", stored.file);
+        }
+        Ok((format!("{}/inputs/{}", self.public_url, stored.file), stored.bytes))
     }
 
-    /// Stores an uploaded input and returns the URL hosts fetch it from.
-    pub async fn put_input(&self, name: &str, bytes: &[u8]) -> Result<String, String> {
-        let file = self.inputs.put(name, bytes).await?;
-        Ok(format!("{}/inputs/{file}", self.public_url))
+    /// Deletes a run's host sessions (best effort: a host that is gone drops them itself).
+    async fn close_sessions(&self, run: &Run) {
+        let deletions = run.take_sessions().into_iter().map(|open| {
+            let client = self.registry.client(&open.host);
+            async move {
+                if let Err(error) = client.delete_session(&open.session).await {
+                    tracing::debug!("deleting session {} on {}: {error}", open.session, open.host);
+                }
+            }
+        });
+        futures_util::future::join_all(deletions).await;
+    }
+}
+
+fn new_run_id() -> String {
+    static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let count = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let seed = format!("{:?}{count}{}", std::time::SystemTime::now(), std::process::id());
+    blake3::hash(seed.as_bytes()).to_hex()[..16].to_owned()
+}
+
+/// Runs `run` once one of its client's slots is free, until it ends or is cancelled, then
+/// deletes its host sessions.
+async fn drive(
+    engine: Arc<Engine>,
+    run: Arc<Run>,
+    workflow: Workflow,
+    ticket: admission::Ticket,
+    resumed: bool,
+) {
+    let cancelled = || run.set_status(Status::Cancelled, Some("cancelled on request".into()));
+    tokio::select! {
+        slot = ticket.slot() => {
+            tokio::select! {
+                () = executor::execute(run.clone(), workflow, engine.registry.clone(), resumed) => {}
+                () = run.cancelled() => cancelled(),
+            }
+            drop(slot);
+        }
+        () = run.cancelled() => cancelled(),
+    }
+    engine.close_sessions(&run).await;
+    drop(ticket);
+}
+
+/// Writes changed runs to the database, at most every [`PERSIST_INTERVAL`].
+async fn persist(engine: std::sync::Weak<Engine>) {
+    loop {
+        let Some(changed) = engine.upgrade().map(|e| e.changed.clone()) else { return };
+        changed.notified().await;
+        tokio::time::sleep(PERSIST_INTERVAL).await;
+        let Some(engine) = engine.upgrade() else { return };
+        let changes: Vec<_> = engine.runs().iter().filter_map(|run| run.take_changes()).collect();
+        if let Err(error) = engine.store.call(move |c| store::save_runs(c, &changes)).await {
+            tracing::error!("saving runs: {error}");
+        }
+    }
+}
+
+/// Deletes from the database the runs no longer kept, and inputs no kept run names.
+async fn janitor(engine: std::sync::Weak<Engine>) {
+    loop {
+        tokio::time::sleep(JANITOR_INTERVAL).await;
+        let Some(engine) = engine.upgrade() else { return };
+        engine.registry.forget_down_longer_than(limits::FORGET_DOWN_HOST_AFTER).await;
+        let kept: std::collections::HashSet<String> =
+            engine.runs().iter().map(|run| run.id.clone()).collect();
+        let before = store::unix_now() - UNUSED_INPUT_TTL.as_secs() as i64;
+        let swept = engine
+            .store
+            .call(move |c| {
+                for stored in store::load_runs(c)? {
+                    if !kept.contains(&stored.id) {
+                        store::delete_run(c, &stored.id)?;
+                    }
+                }
+                store::take_unused_inputs(c, before)
+            })
+            .await;
+        match swept {
+            Ok(files) => files.iter().for_each(|file| engine.inputs.remove(file)),
+            Err(error) => tracing::error!("sweeping old runs and inputs: {error}"),
+        }
     }
 }
 
@@ -128,7 +303,9 @@ impl EngineHandle {
     }
 }
 
-/// Starts an engine on `listener`, registers `hosts`, and serves in the background.
+/// Starts an engine on `listener` with its state under `data_dir`: registers `hosts` and
+/// the hosts it knew before, resumes the runs it was executing, and serves in the
+/// background.
 pub async fn start(
     data_dir: PathBuf,
     public_url: Option<String>,
@@ -140,12 +317,27 @@ pub async fn start(
         true => format!("http://127.0.0.1:{}", address.port()),
         false => format!("http://{address}"),
     });
-    let engine = Engine::new(EngineConfig { data_dir, public_url: url.clone() })?;
+    let (engine, unfinished, known) =
+        Engine::open(EngineConfig { data_dir, public_url: url.clone() })?;
+    // Hosts named at start are checked first (a bad URL stops the start); those known from
+    // before are polled again together.
     for host in hosts {
-        let entry = engine.registry.register(host).await?;
-        if let Some(error) = entry.state().last_error {
-            tracing::warn!("host {host} does not answer yet: {error}");
+        engine.registry.register(host).await?.keep_always();
+    }
+    let again = known.iter().map(|host| engine.registry.register(host));
+    for (host, registered) in known.iter().zip(futures_util::future::join_all(again).await) {
+        if let Err(error) = registered {
+            tracing::warn!("forgetting host {host}: {error}");
         }
+    }
+    for entry in engine.registry.hosts() {
+        if let Some(error) = entry.state().last_error {
+            tracing::warn!("host {} does not answer yet: {error}", entry.url);
+        }
+    }
+    for stored in unfinished {
+        tracing::info!("resuming run {}", stored.id);
+        engine.resume(stored);
     }
     let server = tokio::spawn(axum::serve(listener, router(engine.clone())).into_future());
     tracing::info!("engine listening on {address}, reached at {url}");

@@ -1,13 +1,17 @@
 //! The hosts an engine knows: their services, whether they answer, and how busy they are.
 
 use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use meshflow_api::HostClient;
 use meshflow_api::host::ServiceEntry;
 use meshflow_api::params::ServiceInfo;
 use serde::Serialize;
+
+use crate::limits::MAX_HOSTS;
+use crate::store::{self, Store};
 
 /// How often the engine asks every host for its health and services.
 pub const POLL_INTERVAL: Duration = Duration::from_secs(2);
@@ -16,6 +20,10 @@ pub struct HostEntry {
     pub url: String,
     pub client: HostClient,
     state: Mutex<HostState>,
+    /// Named at start (`--host`): never forgotten, however long it is down.
+    pinned: AtomicBool,
+    /// When the host last answered a poll (or was added).
+    last_seen: Mutex<Instant>,
 }
 
 #[derive(Default, Clone, Serialize)]
@@ -30,6 +38,20 @@ pub struct HostState {
 }
 
 impl HostEntry {
+    fn new(url: String) -> Self {
+        Self {
+            client: HostClient::new(&url),
+            url,
+            state: Mutex::new(HostState::default()),
+            pinned: AtomicBool::new(false),
+            last_seen: Mutex::new(Instant::now()),
+        }
+    }
+
+    pub fn keep_always(&self) {
+        self.pinned.store(true, Ordering::Relaxed);
+    }
+
     pub fn state(&self) -> HostState {
         self.state.lock().unwrap().clone()
     }
@@ -72,6 +94,7 @@ impl HostEntry {
         let mut state = self.state.lock().unwrap();
         match polled {
             Ok((health, services)) => {
+                *self.last_seen.lock().unwrap() = Instant::now();
                 state.up = true;
                 state.running = u32::try_from(health.running).unwrap_or(u32::MAX);
                 state.services = services;
@@ -94,12 +117,24 @@ impl Drop for Assignment {
     }
 }
 
-#[derive(Default)]
+/// The hosts, kept in the engine's database so a restart knows them again.
 pub struct Registry {
     hosts: Mutex<Vec<Arc<HostEntry>>>,
+    store: Store,
 }
 
 pub use meshflow_api::engine::ServiceOffer as Offer;
+
+/// A host the registry refuses, and why.
+#[derive(Debug, thiserror::Error)]
+pub enum RegisterError {
+    #[error(transparent)]
+    BadUrl(#[from] BadHostUrl),
+    #[error("the engine knows {MAX_HOSTS} hosts already")]
+    Full,
+    #[error(transparent)]
+    Store(#[from] store::StoreError),
+}
 
 /// A host URL the registry refuses, and why.
 #[derive(Debug, thiserror::Error)]
@@ -129,27 +164,64 @@ fn host_base_url(text: &str) -> Result<String, BadHostUrl> {
 }
 
 impl Registry {
-    /// Adds a host (once per URL) and asks it for its services before returning. The URL
-    /// must be a plain `http(s)://host[:port][/path]` base: no credentials, query or fragment.
-    pub async fn register(&self, url: &str) -> Result<Arc<HostEntry>, BadHostUrl> {
+    pub fn new(store: Store) -> Self {
+        Self { hosts: Mutex::default(), store }
+    }
+
+    /// Adds a host (once per URL, at most [`MAX_HOSTS`]), records it, and asks it for its
+    /// services before returning. The URL must be a plain `http(s)://host[:port][/path]`
+    /// base: no credentials, query or fragment.
+    pub async fn register(&self, url: &str) -> Result<Arc<HostEntry>, RegisterError> {
         let url = host_base_url(url)?;
-        let entry = {
+        let (entry, new) = {
             let mut hosts = self.hosts.lock().unwrap();
             match hosts.iter().find(|h| h.url == url) {
-                Some(entry) => entry.clone(),
+                Some(entry) => (entry.clone(), false),
+                None if hosts.len() >= MAX_HOSTS => return Err(RegisterError::Full),
                 None => {
-                    let entry = Arc::new(HostEntry {
-                        client: HostClient::new(&url),
-                        url,
-                        state: Mutex::new(HostState::default()),
-                    });
+                    let entry = Arc::new(HostEntry::new(url));
                     hosts.push(entry.clone());
-                    entry
+                    (entry, true)
                 }
             }
         };
+        if new {
+            let url = entry.url.clone();
+            self.store.call(move |c| store::add_host(c, &url)).await?;
+        }
         entry.refresh().await;
         Ok(entry)
+    }
+
+    /// A client of the host at `url`: the registered one's, or a new one for a host no
+    /// longer registered (to delete what a run left there).
+    pub fn client(&self, url: &str) -> HostClient {
+        let hosts = self.hosts.lock().unwrap();
+        match hosts.iter().find(|h| h.url == url) {
+            Some(entry) => entry.client.clone(),
+            None => HostClient::new(url),
+        }
+    }
+
+    /// Forgets hosts that have not answered for `age` ([`FORGET_DOWN_HOST_AFTER`] for the
+    /// janitor), unless they were named at start.
+    pub async fn forget_down_longer_than(&self, age: Duration) {
+        let forgotten: Vec<String> = {
+            let mut hosts = self.hosts.lock().unwrap();
+            let (gone, kept) = std::mem::take(&mut *hosts).into_iter().partition(|h| {
+                !h.pinned.load(Ordering::Relaxed)
+                    && !h.is_up()
+                    && h.last_seen.lock().unwrap().elapsed() > age
+            });
+            *hosts = kept;
+            gone.into_iter().map(|h: Arc<HostEntry>| h.url.clone()).collect()
+        };
+        for url in forgotten {
+            tracing::info!("forgetting host {url}: down for over {age:?}");
+            if let Err(error) = self.store.call(move |c| store::remove_host(c, &url)).await {
+                tracing::error!("{error}");
+            }
+        }
     }
 
     pub fn hosts(&self) -> Vec<Arc<HostEntry>> {
@@ -201,6 +273,26 @@ impl Registry {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::limits::FORGET_DOWN_HOST_AFTER;
+
+    #[tokio::test]
+    async fn hosts_down_too_long_are_forgotten_unless_named_at_start() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(&dir.path().join("engine.sqlite3")).unwrap();
+        let registry = Registry::new(store.clone());
+        // Nothing listens on port 9 of the loopback: both hosts are down at once.
+        let dead = registry.register("http://127.0.0.1:9/a").await.unwrap();
+        let named = registry.register("http://127.0.0.1:9/b").await.unwrap();
+        named.keep_always();
+        assert!(!dead.is_up() && !named.is_up());
+        registry.forget_down_longer_than(FORGET_DOWN_HOST_AFTER).await;
+        assert_eq!(registry.hosts().len(), 2, "down for a moment is not long");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+        registry.forget_down_longer_than(Duration::from_millis(10)).await;
+        let urls: Vec<String> = registry.hosts().iter().map(|h| h.url.clone()).collect();
+        assert_eq!(urls, ["http://127.0.0.1:9/b"]);
+        assert_eq!(store.now(store::load_hosts).unwrap(), ["http://127.0.0.1:9/b"]);
+    }
 
     #[test]
     fn host_urls_are_plain_http_bases() {

@@ -1,15 +1,17 @@
-//! A run as the API sees it: its record, updated as the executor goes, and a stream of
-//! progress events for whoever watches.
+//! A run as the API sees it: its record, updated as the executor goes, a stream of progress
+//! events for whoever watches, the host sessions it holds, and its cancellation.
 
-use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use serde::Serialize;
 use serde_json::Value as Json;
-use tokio::sync::broadcast;
+use tokio::sync::{Notify, broadcast};
+use tokio_util::sync::CancellationToken;
 
 use crate::record::{RunRecord, Status};
-use crate::workflow::Transfer;
+use crate::store::OpenSession;
 
 /// Events kept for a subscriber that lags; a slower one misses some and catches up from
 /// the record.
@@ -24,42 +26,96 @@ pub struct Event {
 
 pub struct Run {
     pub id: String,
+    /// Who submitted it: a digest of the API token, or `anonymous`.
+    pub owner: String,
+    /// The workflow as submitted and the input URL it runs on, kept to resume the run.
+    pub workflow: Json,
+    pub input: String,
     started: Instant,
+    /// Time the run had taken before this process took it over (a resumed run).
+    earlier_ms: f64,
     record: Mutex<RunRecord>,
     events: broadcast::Sender<Event>,
+    cancel: CancellationToken,
+    /// Host sessions opened for the run and not yet deleted.
+    sessions: Mutex<Vec<OpenSession>>,
+    /// Set by every change; the engine's persister clears it when it writes the record.
+    dirty: AtomicBool,
+    changed: Arc<Notify>,
+}
+
+/// What a run is made of; `changed` is told of every change (the engine's persister).
+pub struct RunParts {
+    pub id: String,
+    pub owner: String,
+    pub workflow: Json,
+    pub input: String,
+    pub record: RunRecord,
+    pub sessions: Vec<OpenSession>,
+    pub changed: Arc<Notify>,
 }
 
 impl Run {
-    pub fn new(id: String, transfer: Transfer) -> Self {
+    pub fn new(parts: RunParts) -> Self {
         let (events, _) = broadcast::channel(EVENT_BUFFER);
+        let earlier_ms = parts
+            .record
+            .total_ms
+            .or_else(|| parts.record.steps.last().map(|s| s.finished_ms))
+            .unwrap_or(0.0);
         Self {
-            record: Mutex::new(RunRecord::new(id.clone(), transfer)),
-            id,
+            id: parts.id,
+            owner: parts.owner,
+            workflow: parts.workflow,
+            input: parts.input,
             started: Instant::now(),
+            earlier_ms,
+            record: Mutex::new(parts.record),
             events,
+            cancel: CancellationToken::new(),
+            sessions: Mutex::new(parts.sessions),
+            dirty: AtomicBool::new(false),
+            changed: parts.changed,
         }
     }
 
-    /// Milliseconds since the run was created.
+    /// Milliseconds since the run was created (across engine restarts, approximately).
     pub fn elapsed_ms(&self) -> f64 {
-        self.started.elapsed().as_secs_f64() * 1e3
+        self.earlier_ms + self.started.elapsed().as_secs_f64() * 1e3
     }
 
     pub fn record(&self) -> RunRecord {
         self.record.lock().unwrap().clone()
     }
 
+    /// Steps recorded so far (without copying the record).
+    pub fn step_count(&self) -> usize {
+        self.record.lock().unwrap().steps.len()
+    }
+
+    pub fn status(&self) -> Status {
+        self.record.lock().unwrap().status
+    }
+
     pub fn is_finished(&self) -> bool {
-        matches!(self.record.lock().unwrap().status, Status::Completed | Status::Failed)
+        self.status().is_final()
     }
 
     pub fn subscribe(&self) -> broadcast::Receiver<Event> {
         self.events.subscribe()
     }
 
-    /// Changes the record and tells subscribers what changed.
+    /// Changes the record and tells subscribers what changed. A finished run's record no
+    /// longer changes (a cancelled run's last host answers are dropped).
     pub fn update(&self, kind: &'static str, change: impl FnOnce(&mut RunRecord) -> Json) {
-        let data = change(&mut self.record.lock().unwrap());
+        let data = {
+            let mut record = self.record.lock().unwrap();
+            if record.status.is_final() {
+                return;
+            }
+            change(&mut record)
+        };
+        self.mark_changed();
         // No subscriber is fine: the record keeps everything.
         let _ = self.events.send(Event { kind, data });
     }
@@ -69,10 +125,44 @@ impl Run {
         self.update("status", |record| {
             record.status = status;
             record.error = error;
-            if matches!(status, Status::Completed | Status::Failed) {
+            if status.is_final() {
                 record.total_ms = Some(total_ms);
             }
             serde_json::json!({"status": status, "error": record.error, "total_ms": record.total_ms})
         });
+    }
+
+    /// Asks the run to stop; its driver ends it as cancelled and frees its sessions.
+    pub fn cancel(&self) {
+        self.cancel.cancel();
+    }
+
+    pub async fn cancelled(&self) {
+        self.cancel.cancelled().await
+    }
+
+    pub fn session_opened(&self, host: &str, session: &str) {
+        let opened = OpenSession { host: host.to_owned(), session: session.to_owned() };
+        self.sessions.lock().unwrap().push(opened);
+        self.mark_changed();
+    }
+
+    /// The sessions still open, which the caller deletes on their hosts.
+    pub fn take_sessions(&self) -> Vec<OpenSession> {
+        let sessions = std::mem::take(&mut *self.sessions.lock().unwrap());
+        self.mark_changed();
+        sessions
+    }
+
+    /// The record and open sessions to write, if they changed since the last call.
+    pub fn take_changes(&self) -> Option<(RunRecord, Vec<OpenSession>)> {
+        self.dirty
+            .swap(false, Ordering::AcqRel)
+            .then(|| (self.record(), self.sessions.lock().unwrap().clone()))
+    }
+
+    fn mark_changed(&self) {
+        self.dirty.store(true, Ordering::Release);
+        self.changed.notify_one();
     }
 }

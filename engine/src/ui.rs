@@ -67,7 +67,7 @@ $("go").onclick = async () => {
     $("state").textContent = `run ${run.id}: ${s.status}` + (s.error ? ` — ${s.error}` : "") +
       (s.total_ms ? ` in ${(s.total_ms/1000).toFixed(2)} s` : "");
     if (s.status === "completed") $("result").innerHTML = `<a href="/runs/${run.id}/result">download the result (.mfm)</a>`;
-    if (s.status === "completed" || s.status === "failed") events.close();
+    if (["completed", "failed", "cancelled", "interrupted"].includes(s.status)) events.close();
   });
 };
 refresh(); setInterval(refresh, 3000);

@@ -6,6 +6,8 @@
 use serde::Serialize;
 use serde_json::{Map, Value as Json};
 
+use crate::limits::{MAX_ITERATIONS_CAP, MAX_NESTING, MAX_WORKFLOW_TASKS};
+
 /// A WHILE without `max-iterations` stops after this many rounds.
 pub const DEFAULT_MAX_ITERATIONS: u32 = 100;
 
@@ -135,7 +137,18 @@ impl Workflow {
                 WorkflowError::new("transfer", "must be \"auto\", \"correction\" or \"full\"")
             })?,
         };
-        Ok(Self { steps: parse_steps(steps, "steps")?, input, transfer })
+        if steps.is_empty() {
+            return Err(WorkflowError::new("steps", "a workflow needs at least one step"));
+        }
+        let workflow = Self { steps: parse_steps(steps, "steps", 0)?, input, transfer };
+        let tasks = workflow.tasks().len();
+        if tasks > MAX_WORKFLOW_TASKS {
+            return Err(WorkflowError::new(
+                "steps",
+                format!("{tasks} tasks; a workflow may have at most {MAX_WORKFLOW_TASKS}"),
+            ));
+        }
+        Ok(workflow)
     }
 
     /// Every task of the workflow, IF and WHILE conditions and bodies included, in order.
@@ -163,11 +176,26 @@ fn collect_tasks<'a>(steps: &'a [Step], out: &mut Vec<&'a Task>) {
     }
 }
 
-fn parse_steps(steps: &[Json], path: &str) -> Result<Vec<Step>, WorkflowError> {
-    steps.iter().enumerate().map(|(i, step)| parse_step(step, &format!("{path}[{i}]"))).collect()
+/// Parses a list of steps nested `depth` IF / WHILE blocks deep.
+fn parse_steps(steps: &[Json], path: &str, depth: usize) -> Result<Vec<Step>, WorkflowError> {
+    if depth > MAX_NESTING {
+        return Err(WorkflowError::new(
+            path,
+            format!("IF and WHILE blocks nest at most {MAX_NESTING} deep"),
+        ));
+    }
+    // Checked before parsing, so a huge list costs no more than the cap's worth of work.
+    if steps.len() > MAX_WORKFLOW_TASKS {
+        return Err(WorkflowError::new(
+            path,
+            format!("{} steps; a workflow may have at most {MAX_WORKFLOW_TASKS}", steps.len()),
+        ));
+    }
+    let parse = |(i, step)| parse_step(step, &format!("{path}[{i}]"), depth);
+    steps.iter().enumerate().map(parse).collect()
 }
 
-fn parse_step(json: &Json, path: &str) -> Result<Step, WorkflowError> {
+fn parse_step(json: &Json, path: &str, depth: usize) -> Result<Step, WorkflowError> {
     let object = json.as_object().ok_or_else(|| WorkflowError::new(path, "a step is an object"))?;
     if object.contains_key("run") {
         known_keys(object, path, &["run", "params"])?;
@@ -176,7 +204,7 @@ fn parse_step(json: &Json, path: &str) -> Result<Step, WorkflowError> {
         known_keys(object, path, &["if", "then", "else"])?;
         let branch = |key: &str| match object.get(key) {
             None => Ok(Vec::new()),
-            Some(Json::Array(steps)) => parse_steps(steps, &format!("{path}.{key}")),
+            Some(Json::Array(steps)) => parse_steps(steps, &format!("{path}.{key}"), depth + 1),
             Some(_) => Err(WorkflowError::new(format!("{path}.{key}"), "must be a list of steps")),
         };
         Ok(Step::If {
@@ -188,14 +216,19 @@ fn parse_step(json: &Json, path: &str) -> Result<Step, WorkflowError> {
     } else if object.contains_key("while") {
         known_keys(object, path, &["while", "do", "max-iterations"])?;
         let body = match object.get("do") {
-            Some(Json::Array(steps)) => parse_steps(steps, &format!("{path}.do"))?,
+            Some(Json::Array(steps)) => parse_steps(steps, &format!("{path}.do"), depth + 1)?,
             _ => return Err(WorkflowError::new(path, "a WHILE needs \"do\": [steps]")),
         };
         let max_iterations = match object.get("max-iterations") {
             None => DEFAULT_MAX_ITERATIONS,
-            Some(n) => n.as_u64().and_then(|n| u32::try_from(n).ok()).ok_or_else(|| {
-                WorkflowError::new(format!("{path}.max-iterations"), "must be a whole number ≥ 0")
-            })?,
+            Some(n) => {
+                n.as_u64().filter(|&n| n <= u64::from(MAX_ITERATIONS_CAP)).ok_or_else(|| {
+                    WorkflowError::new(
+                        format!("{path}.max-iterations"),
+                        format!("must be a whole number from 0 to {MAX_ITERATIONS_CAP}"),
+                    )
+                })? as u32
+            }
         };
         Ok(Step::While {
             path: path.to_owned(),
@@ -310,8 +343,31 @@ mod tests {
             error(
                 json!([{"while": {"check": "c", "op": "<", "value": 1}, "do": [], "max-iterations": -1}])
             ),
-            "steps[0].max-iterations: must be a whole number ≥ 0"
+            "steps[0].max-iterations: must be a whole number from 0 to 10000"
         );
+        assert_eq!(
+            error(
+                json!([{"while": {"check": "c", "op": "<", "value": 1}, "do": [], "max-iterations": 1e9}])
+            ),
+            "steps[0].max-iterations: must be a whole number from 0 to 10000"
+        );
+        assert_eq!(error(json!({"steps": []})), "steps: a workflow needs at least one step");
+    }
+
+    #[test]
+    fn workflows_are_bounded_in_size_and_nesting() {
+        let error = |json| Workflow::from_json(&json).unwrap_err().to_string();
+        let many: Vec<Json> = (0..=MAX_WORKFLOW_TASKS).map(|_| json!({"run": "s"})).collect();
+        assert_eq!(error(json!(many)), "steps: 1001 steps; a workflow may have at most 1000");
+        // 600 IFs of two tasks each: every list is short, the whole is too large.
+        let pair = json!({"if": {"check": "c", "op": "<", "value": 1}, "then": [{"run": "s"}]});
+        let pairs: Vec<Json> = (0..600).map(|_| pair.clone()).collect();
+        assert_eq!(error(json!(pairs)), "steps: 1200 tasks; a workflow may have at most 1000");
+        let mut nested = json!([{"run": "s"}]);
+        for _ in 0..=MAX_NESTING {
+            nested = json!([{"while": {"check": "c", "op": "<", "value": 1}, "do": nested}]);
+        }
+        assert!(error(nested).ends_with("IF and WHILE blocks nest at most 16 deep"));
     }
 
     #[test]

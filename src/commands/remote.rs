@@ -59,7 +59,9 @@ impl Submission {
             super::pack::write_atomically(path, text.as_bytes())?;
         }
         if record.status != Status::Completed {
-            bail!("run {id} failed: {}", record.error.as_deref().unwrap_or("no reason given"));
+            let status = json!(record.status);
+            let reason = record.error.as_deref().unwrap_or("no reason given");
+            bail!("run {id} {}: {reason}", status.as_str().unwrap_or("ended"));
         }
         if let Some(path) = &self.output {
             let bytes = engine.result(&id).await?;
@@ -104,7 +106,14 @@ async fn upload_input(engine: &EngineClient, path: &Path) -> anyhow::Result<Stri
     Ok(uploaded.url)
 }
 
-/// Follows the run's events until it ends, with a line per finished step.
+/// How long `follow` keeps trying to reach the engine again after losing it (an engine
+/// restart takes seconds; the run resumes there).
+const RECONNECT_FOR: Duration = Duration::from_secs(120);
+const RECONNECT_PAUSE: Duration = Duration::from_secs(1);
+
+/// Follows the run's events until it ends, with a line per finished step. A dropped
+/// connection is re-attached: the engine starts every stream with the whole record, so
+/// nothing is missed.
 async fn follow(engine: &EngineClient, id: &str, show: bool) -> anyhow::Result<()> {
     let bars = MultiProgress::new();
     if !show {
@@ -114,7 +123,49 @@ async fn follow(engine: &EngineClient, id: &str, show: bool) -> anyhow::Result<(
     status.set_style(ProgressStyle::with_template("{spinner} {msg} [{elapsed}]")?);
     status.enable_steady_tick(Duration::from_millis(100));
     status.set_message(format!("run {id}: starting"));
-    let answer = engine.events(id).await?;
+    let mut shown = Shown::default();
+    let mut lost_since: Option<std::time::Instant> = None;
+    loop {
+        let ended = match engine.events(id).await {
+            Ok(answer) => {
+                lost_since = None;
+                watch(answer, id, &bars, &status, &mut shown).await
+            }
+            Err(error) if error.is_host_failure() => Err(error.into()),
+            Err(error) => return Err(error.into()),
+        };
+        match ended {
+            Ok(true) => break,
+            Ok(false) => {}
+            Err(error) => {
+                let since = *lost_since.get_or_insert_with(std::time::Instant::now);
+                if since.elapsed() > RECONNECT_FOR {
+                    return Err(error.context(format!("lost the engine for {RECONNECT_FOR:?}")));
+                }
+                status.set_message(format!("run {id}: reconnecting ({error:#})"));
+            }
+        }
+        tokio::time::sleep(RECONNECT_PAUSE).await;
+    }
+    status.finish_and_clear();
+    Ok(())
+}
+
+/// What `follow` has printed already, so a re-attached stream does not repeat it.
+#[derive(Default)]
+struct Shown {
+    broadcast: bool,
+    steps: usize,
+}
+
+/// Reads one event stream; true when the run ended, false when the stream closed early.
+async fn watch(
+    answer: reqwest::Response,
+    id: &str,
+    bars: &MultiProgress,
+    status: &ProgressBar,
+    shown: &mut Shown,
+) -> anyhow::Result<bool> {
     let mut events = answer.bytes_stream();
     let mut buffer = String::new();
     while let Some(chunk) = events.next().await {
@@ -123,33 +174,69 @@ async fn follow(engine: &EngineClient, id: &str, show: bool) -> anyhow::Result<(
             let block: String = buffer.drain(..end + 2).collect();
             let (kind, data) = parse_event(&block);
             let Ok(data) = serde_json::from_str::<Json>(&data) else { continue };
-            match kind.as_str() {
+            let mut show = |broadcast: Option<&Json>, steps: &[StepRecord], state| {
+                show(bars, status, shown, id, broadcast, steps, state)
+            };
+            let ended = match kind.as_str() {
+                // The whole record, first on every stream: what is new in it is shown.
+                "record" => {
+                    let Ok(record) = serde_json::from_value::<RunRecord>(data) else { continue };
+                    let broadcast = record.broadcast.as_ref().map(|b| json!(b));
+                    show(broadcast.as_ref(), &record.steps, Some(record.status));
+                    record.status.is_final()
+                }
                 "broadcast" => {
-                    let line = format!(
-                        "input on {} hosts in {:.0} ms",
-                        data["hosts"].as_array().map_or(0, Vec::len),
-                        data["ms"].as_f64().unwrap_or(0.0)
-                    );
-                    finished_bar(&bars, &status, line);
+                    show(Some(&data), &[], None);
+                    false
                 }
                 "step" => {
                     let Ok(step) = serde_json::from_value::<StepRecord>(data) else { continue };
-                    finished_bar(&bars, &status, step_line(&step));
+                    show(None, &[step], None);
+                    false
                 }
                 "status" => {
-                    let state = data["status"].as_str().unwrap_or("");
-                    status.set_message(format!("run {id}: {state}"));
-                    if matches!(state, "completed" | "failed") {
-                        status.finish_and_clear();
-                        return Ok(());
-                    }
+                    let state = serde_json::from_value::<Status>(data["status"].clone()).ok();
+                    show(None, &[], state);
+                    state.is_some_and(Status::is_final)
                 }
-                _ => {}
+                _ => false,
+            };
+            if ended {
+                return Ok(true);
             }
         }
     }
-    status.finish_and_clear();
-    Ok(())
+    Ok(false)
+}
+
+/// Prints the broadcast and the steps not shown yet, and the run's state.
+fn show(
+    bars: &MultiProgress,
+    status: &ProgressBar,
+    shown: &mut Shown,
+    id: &str,
+    broadcast: Option<&Json>,
+    steps: &[StepRecord],
+    state: Option<Status>,
+) {
+    if let Some(data) = broadcast.filter(|_| !shown.broadcast) {
+        let line = format!(
+            "input on {} hosts in {:.0} ms",
+            data["hosts"].as_array().map_or(0, Vec::len),
+            data["ms"].as_f64().unwrap_or(0.0)
+        );
+        finished_bar(bars, status, line);
+        shown.broadcast = true;
+    }
+    for step in steps {
+        if step.index >= shown.steps {
+            finished_bar(bars, status, step_line(step));
+            shown.steps = step.index + 1;
+        }
+    }
+    if let Some(state) = state {
+        status.set_message(format!("run {id}: {}", json!(state).as_str().unwrap_or("")));
+    }
 }
 
 fn finished_bar(bars: &MultiProgress, status: &ProgressBar, line: String) {

@@ -52,13 +52,27 @@ impl Input {
     }
 }
 
-/// An engine and the hosts it knows.
+/// An engine and the hosts it knows; its API through [`EngineApi`] (deref).
 pub struct Cluster {
     pub engine: EngineHandle,
     /// In-process hosts, in registration order (empty when the hosts run elsewhere).
     pub hosts: Vec<HostHandle>,
-    pub http: reqwest::Client,
+    api: EngineApi,
     _data: tempfile::TempDir,
+}
+
+impl std::ops::Deref for Cluster {
+    type Target = EngineApi;
+
+    fn deref(&self) -> &EngineApi {
+        &self.api
+    }
+}
+
+/// An engine's HTTP API as the tests use it, wherever the engine runs.
+pub struct EngineApi {
+    pub base: String,
+    pub http: reqwest::Client,
 }
 
 impl Cluster {
@@ -71,28 +85,25 @@ impl Cluster {
     /// In-process hosts as [`Cluster::start`] makes them, then hosts running elsewhere.
     pub async fn start_with(families: &[&[&str]], other_hosts: &[String]) -> Self {
         let data = tempfile::tempdir().unwrap();
-        let mut hosts = Vec::new();
-        for (index, names) in families.iter().enumerate() {
-            let config = HostConfig {
-                builtins: builtins(names),
-                artefact_cache: Some(components_cache()),
-                token: Some(TOKEN.into()),
-                ..HostConfig::new(data.path().join(format!("host-{index}")))
-            };
-            let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
-            hosts.push(meshflow_host::start(config, listener).await.unwrap());
-        }
+        let hosts = start_hosts(families, data.path()).await;
         let urls: Vec<String> =
             hosts.iter().map(|h| h.url.clone()).chain(other_hosts.iter().cloned()).collect();
         let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
         let engine = meshflow_engine::start(data.path().join("engine"), None, &urls, listener)
             .await
             .unwrap();
-        Self { engine, hosts, http: reqwest::Client::new(), _data: data }
+        let api = EngineApi::new(&engine.url);
+        Self { engine, hosts, api, _data: data }
+    }
+}
+
+impl EngineApi {
+    pub fn new(base: &str) -> Self {
+        Self { base: base.to_owned(), http: reqwest::Client::new() }
     }
 
     pub fn url(&self, path: &str) -> String {
-        format!("{}{path}", self.engine.url)
+        format!("{}{path}", self.base)
     }
 
     /// `POST /inputs`: the URL hosts fetch the input from.
@@ -125,12 +136,12 @@ impl Cluster {
         answer.json().await.unwrap()
     }
 
-    /// Polls the run until it completes or fails; its record.
+    /// Polls the run until it ends; its record.
     pub async fn finished(&self, id: &str) -> Json {
         let deadline = tokio::time::Instant::now() + RUN_TIMEOUT;
         loop {
             let record = self.record(id).await;
-            if matches!(record["status"].as_str(), Some("completed" | "failed")) {
+            if has_ended(&record) {
                 return record;
             }
             assert!(tokio::time::Instant::now() < deadline, "run {id} still going: {record:#}");
@@ -171,6 +182,28 @@ impl Cluster {
     pub async fn services(&self) -> Json {
         self.http.get(self.url("/services")).send().await.unwrap().json().await.unwrap()
     }
+}
+
+/// In-process hosts under `data`, one per entry of `families` (the built-in plugin
+/// families it offers); uploads allowed with [`TOKEN`].
+pub async fn start_hosts(families: &[&[&str]], data: &Path) -> Vec<HostHandle> {
+    let mut hosts = Vec::new();
+    for (index, names) in families.iter().enumerate() {
+        let config = HostConfig {
+            builtins: builtins(names),
+            artefact_cache: Some(components_cache()),
+            token: Some(TOKEN.into()),
+            ..HostConfig::new(data.join(format!("host-{index}")))
+        };
+        let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
+        hosts.push(meshflow_host::start(config, listener).await.unwrap());
+    }
+    hosts
+}
+
+/// Whether a run record's status is final.
+pub fn has_ended(record: &Json) -> bool {
+    matches!(record["status"].as_str(), Some("completed" | "failed" | "cancelled" | "interrupted"))
 }
 
 /// The component bytes of the named built-in plugin families.

@@ -1,10 +1,10 @@
-//! Hosts as separate `meshflow host` processes, so a test can kill one outright.
+//! Hosts and engines as separate `meshflow` processes, so a test can kill one outright.
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
-use meshflow_api::HostClient;
+use meshflow_api::{EngineClient, HostClient};
 
 /// How long a fresh host may take to compile its plugins and answer.
 const START_TIMEOUT: Duration = Duration::from_secs(60);
@@ -49,6 +49,69 @@ impl HostProcess {
 }
 
 impl Drop for HostProcess {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+/// A `meshflow engine` child process on a fixed port and data folder, so it can be killed
+/// and started again where it was; killed when dropped.
+pub struct EngineProcess {
+    pub url: String,
+    port: u16,
+    data: std::path::PathBuf,
+    child: Child,
+}
+
+impl EngineProcess {
+    /// Starts `meshflow engine` with its state under `data` and the given `--host`s, and
+    /// waits until it answers `/health`.
+    pub async fn start(data: &Path, hosts: &[String]) -> Self {
+        let port = free_port();
+        let child = Self::spawn(port, data, hosts);
+        let engine =
+            Self { url: format!("http://127.0.0.1:{port}"), port, data: data.into(), child };
+        engine.wait_healthy().await;
+        engine
+    }
+
+    /// SIGKILL, then a new engine on the same port and data, knowing no host but what it
+    /// stored.
+    pub async fn kill_and_restart(&mut self) {
+        self.kill();
+        self.child = Self::spawn(self.port, &self.data, &[]);
+        self.wait_healthy().await;
+    }
+
+    fn spawn(port: u16, data: &Path, hosts: &[String]) -> Child {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_meshflow"));
+        command.args(["engine", "--listen", &format!("127.0.0.1:{port}"), "--data"]).arg(data);
+        for host in hosts {
+            command.args(["--host", host]);
+        }
+        command.stdout(Stdio::null()).stderr(Stdio::null()).spawn().expect("starting the engine")
+    }
+
+    async fn wait_healthy(&self) {
+        let health = format!("{}/health", self.url);
+        let deadline = tokio::time::Instant::now() + START_TIMEOUT;
+        while reqwest::get(&health).await.is_err() {
+            assert!(tokio::time::Instant::now() < deadline, "{} did not start", self.url);
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+    }
+
+    pub fn client(&self) -> EngineClient {
+        EngineClient::new(&self.url)
+    }
+
+    pub fn kill(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for EngineProcess {
     fn drop(&mut self) {
         self.kill();
     }

@@ -15,6 +15,7 @@ use meshflow_api::host::{
 };
 use serde_json::{Value as Json, json};
 
+use crate::limits::MAX_STEPS_PER_RUN;
 use crate::plan::{Plan, pick};
 use crate::record::{BroadcastRecord, HostLoad, InputRecord, ResultRecord, Status, StepRecord};
 use crate::registry::{HostEntry, Registry};
@@ -22,23 +23,65 @@ use crate::run::Run;
 use crate::workflow::{Condition, Step, Task, Transfer, Workflow};
 use replica::Replica;
 
-/// Runs `workflow` on `input` and records everything in `run`; never panics on a bad host
-/// or input, ends with the run completed or failed.
-pub async fn execute(run: Arc<Run>, workflow: Workflow, input: String, registry: Arc<Registry>) {
+/// Runs `workflow` on the run's input and records everything in `run`; never panics on a
+/// bad host or input, ends with the run completed or failed. The caller deletes the host
+/// sessions the run opened (`Run::take_sessions`).
+///
+/// `resumed`: the engine restarted while the run was going. Its recorded steps are taken
+/// as done (the control flow is walked again over their recorded results, no host is
+/// asked), and the first new task's host fetches the current mesh from a host that held
+/// it, or rebuilds it from the input. A resumed run that fails before finishing a new step
+/// ends `interrupted` with the reason.
+pub async fn execute(run: Arc<Run>, workflow: Workflow, registry: Arc<Registry>, resumed: bool) {
+    let done = match resumed {
+        true => recorded_steps(&run),
+        false => VecDeque::new(),
+    };
+    let resuming_at = done.len();
+    if resumed && done.is_empty() {
+        // Nothing finished before the restart: start over.
+        run.update("restart", |r| {
+            *r = crate::record::RunRecord::new(r.id.clone(), r.transfer);
+            json!(null)
+        });
+    }
     run.set_status(Status::Running, None);
+    let input = run.input.clone();
+    let mut executor = None;
     let outcome = match Plan::new(&workflow, &registry) {
         Ok(plan) => {
-            let mut executor = Executor::new(run.clone(), registry, plan, workflow.transfer);
-            let outcome = executor.execute(&workflow, &input).await;
-            executor.close_sessions();
-            outcome
+            let executor = executor.insert(Executor::new(run.clone(), registry, plan, &workflow));
+            executor.execute(&workflow, &input, done).await
         }
         Err(error) => Err(error.to_string()),
     };
+    let fresh_steps = run.record().steps.len() > resuming_at;
     match outcome {
         Ok(()) => run.set_status(Status::Completed, None),
+        Err(error) if resumed && !fresh_steps => run.set_status(
+            Status::Interrupted,
+            Some(format!(
+                "the engine restarted and could not resume after {resuming_at} step(s): {error}"
+            )),
+        ),
         Err(error) => run.set_status(Status::Failed, Some(error)),
     }
+}
+
+/// The steps of a stored record that count as done: all but a trailing check whose
+/// condition was not yet recorded (it runs again); the record is cut to them.
+fn recorded_steps(run: &Run) -> VecDeque<StepRecord> {
+    let mut done = VecDeque::new();
+    run.update("resume", |r| {
+        while r.steps.last().is_some_and(|s| s.kind == "check" && s.condition.is_none()) {
+            r.steps.pop();
+        }
+        r.result = None;
+        r.error = None;
+        done = r.steps.iter().cloned().collect();
+        json!({"resumed_after_steps": r.steps.len()})
+    });
+    done
 }
 
 /// The mesh as of the last finished filter, and how to get it.
@@ -50,6 +93,8 @@ struct Current {
     triangles: u64,
     /// The size of the last full mesh seen, to choose the smaller transfer in `auto`.
     full_bytes_estimate: u64,
+    /// The host whose filter made this mesh (none for the input).
+    producer: Option<String>,
 }
 
 /// Why a task could not run on its host.
@@ -86,6 +131,10 @@ struct Executor {
     history: Vec<(Task, String)>,
     /// When the last host reply arrived, for the engine-overhead figure.
     last_reply: Instant,
+    /// Steps done before an engine restart, taken in order instead of running them.
+    done: VecDeque<StepRecord>,
+    /// Hosts that held the current mesh when the engine stopped (a resumed run).
+    holders: Vec<String>,
 }
 
 /// An entry of the active task list: a step, and for a WHILE the rounds already done.
@@ -95,23 +144,35 @@ struct Active {
 }
 
 impl Executor {
-    fn new(run: Arc<Run>, registry: Arc<Registry>, plan: Plan, transfer: Transfer) -> Self {
+    fn new(run: Arc<Run>, registry: Arc<Registry>, plan: Plan, workflow: &Workflow) -> Self {
         Self {
             run,
             registry,
             plan,
-            transfer,
+            transfer: workflow.transfer,
             replicas: Vec::new(),
             current: None,
             input: String::new(),
             history: Vec::new(),
             last_reply: Instant::now(),
+            done: VecDeque::new(),
+            holders: Vec::new(),
         }
     }
 
-    async fn execute(&mut self, workflow: &Workflow, input: &str) -> Result<(), String> {
+    async fn execute(
+        &mut self,
+        workflow: &Workflow,
+        input: &str,
+        done: VecDeque<StepRecord>,
+    ) -> Result<(), String> {
         self.input = input.to_owned();
-        self.broadcast(input).await?;
+        if done.is_empty() {
+            self.broadcast(input).await?;
+        } else {
+            self.restore_input()?;
+            self.done = done;
+        }
         let mut active: VecDeque<Active> =
             workflow.steps.iter().map(|step| Active { step: step.clone(), rounds: 0 }).collect();
         while let Some(Active { step, rounds }) = active.pop_front() {
@@ -135,8 +196,11 @@ impl Executor {
                             "{path}: stopped after max-iterations = {max_iterations} rounds with \
                              its condition still true"
                         );
+                        // A resumed run walks past it again: warn once.
                         self.run.update("warning", |r| {
-                            r.warnings.push(warning.clone());
+                            if !r.warnings.contains(&warning) {
+                                r.warnings.push(warning.clone());
+                            }
                             json!(warning)
                         });
                         continue;
@@ -159,7 +223,8 @@ impl Executor {
         let mut loads = Vec::new();
         let mut excluded = Vec::new();
         while !hosts.is_empty() {
-            let attempts = hosts.iter().map(|host| load_input(host.clone(), input, None));
+            let run = &self.run;
+            let attempts = hosts.iter().map(|host| load_input(run, host.clone(), input, None));
             let outcomes = futures_util::future::join_all(attempts).await;
             let mut retry = Vec::new();
             for (host, outcome) in hosts.iter().zip(outcomes) {
@@ -215,6 +280,7 @@ impl Executor {
             vertices,
             triangles,
             full_bytes_estimate: status.input_bytes.unwrap_or(u64::MAX),
+            producer: None,
         });
         self.run.update("input", |r| {
             let record = InputRecord { url: url.to_owned(), hash, vertices, triangles };
@@ -266,6 +332,9 @@ impl Executor {
         task: &Task,
         receivers: &[Arc<HostEntry>],
     ) -> Result<(), String> {
+        if let Some(step) = self.take_done(task, "filter")? {
+            return self.restore_filter(task, &step);
+        }
         let (index, result, host) = self.run_task(task, "filter").await?;
         let RunResult::Filter(filter) = result else {
             return Err(format!(
@@ -302,8 +371,10 @@ impl Executor {
 
     /// The filter's output becomes the current mesh; the producer already holds it.
     fn advance(&mut self, filter: &FilterResult, producer: &Arc<HostEntry>) {
+        self.holders.clear();
         let current = self.current.as_mut().expect("the input is loaded");
         current.hash = filter.output_hash.clone();
+        current.producer = Some(producer.url.clone());
         current.full = filter.full.clone();
         current.correction = Some(filter.correction.clone());
         current.vertices = filter.vertices as u64;
@@ -314,6 +385,9 @@ impl Executor {
     }
 
     async fn evaluate(&mut self, condition: &Condition) -> Result<bool, String> {
+        if let Some(step) = self.take_done(&condition.check, "check")? {
+            return step.condition.ok_or_else(|| format!("{}: no recorded outcome", step.path));
+        }
         let (index, result, _) = self.run_task(&condition.check, "check").await?;
         let RunResult::Check(check) = result else {
             return Err(format!(
@@ -336,6 +410,12 @@ impl Executor {
         task: &Task,
         kind: &'static str,
     ) -> Result<(usize, RunResult, Arc<HostEntry>), String> {
+        if self.run.step_count() >= MAX_STEPS_PER_RUN {
+            return Err(format!(
+                "{}: the run has executed {MAX_STEPS_PER_RUN} steps, the most one run may",
+                task.path
+            ));
+        }
         let mut failed: Vec<Arc<HostEntry>> = Vec::new();
         loop {
             let host = self.plan.host(&task.path).clone();
@@ -478,7 +558,7 @@ impl Executor {
             self.replicas.remove(index);
         }
         for url in &sources {
-            match load_input(host.clone(), url, Some(hash.clone())).await {
+            match load_input(&self.run, host.clone(), url, Some(hash.clone())).await {
                 Ok((session, _)) => {
                     self.replicas.push(Replica::new(host.clone(), session.clone(), hash));
                     return Ok(session);
@@ -513,7 +593,7 @@ impl Executor {
     /// each output hash against the record.
     async fn replay_from_input(&mut self, host: &Arc<HostEntry>) -> Result<String, Failure> {
         let input_hash = self.run.record().input.map(|i| i.hash);
-        let (session, _) = load_input(host.clone(), &self.input, input_hash).await?;
+        let (session, _) = load_input(&self.run, host.clone(), &self.input, input_hash).await?;
         for (task, expected) in &self.history {
             let request = RunRequest {
                 service: task.service.clone(),
@@ -551,24 +631,73 @@ impl Executor {
     fn full_sources(&self, except: &Arc<HostEntry>) -> Vec<String> {
         let current = self.current.as_ref().expect("the input is loaded");
         let mut sources = vec![current.full.url.clone()];
-        for replica in &self.replicas {
-            if replica.hash == current.hash && !Arc::ptr_eq(&replica.host, except) {
-                let url = format!("{}/blobs/{}.mfm", replica.host.url, current.hash);
-                if !sources.contains(&url) {
-                    sources.push(url);
-                }
+        let holders = self.replicas.iter().filter(|r| r.hash == current.hash).map(|r| &r.host.url);
+        for host in holders.chain(&self.holders) {
+            let url = format!("{host}/blobs/{}.mfm", current.hash);
+            if *host != except.url && !sources.contains(&url) {
+                sources.push(url);
             }
         }
         sources
     }
 
-    /// Records where the final mesh is, and its packed size when it has been packed (a
-    /// HEAD does not pack it: the result is packed when first downloaded).
+    /// The next step done before a restart, if any is left: it must be `task`.
+    fn take_done(&mut self, task: &Task, kind: &str) -> Result<Option<StepRecord>, String> {
+        let Some(step) = self.done.pop_front() else { return Ok(None) };
+        if step.path != task.path || step.kind != kind {
+            return Err(format!(
+                "the record has {} {} where the workflow has {kind} {}",
+                step.kind, step.path, task.path
+            ));
+        }
+        Ok(Some(step))
+    }
+
+    /// A resumed run starts from the input as recorded.
+    fn restore_input(&mut self) -> Result<(), String> {
+        let input = self.run.record().input.ok_or("the record has steps but no input")?;
+        self.current = Some(Current {
+            full: FullRef { url: self.input.clone(), hash: input.hash.clone() },
+            hash: input.hash,
+            correction: None,
+            vertices: input.vertices,
+            triangles: input.triangles,
+            full_bytes_estimate: u64::MAX,
+            producer: None,
+        });
+        Ok(())
+    }
+
+    /// A filter done before a restart: its output is the current mesh, held by its
+    /// producer and by every host that took the update.
+    fn restore_filter(&mut self, task: &Task, step: &StepRecord) -> Result<(), String> {
+        let hash =
+            step.output_hash.clone().ok_or_else(|| format!("{}: no output hash", step.path))?;
+        self.history.push((task.clone(), hash.clone()));
+        self.holders = std::iter::once(step.host.clone())
+            .chain(step.transfers.iter().filter(|t| t.error.is_none()).map(|t| t.host.clone()))
+            .collect();
+        let current = self.current.as_mut().expect("the input is restored first");
+        current.full =
+            FullRef { url: format!("{}/blobs/{hash}.mfm", step.host), hash: hash.clone() };
+        current.hash = hash;
+        current.producer = Some(step.host.clone());
+        current.correction = None;
+        current.vertices = step.vertices.unwrap_or(0);
+        current.triangles = step.triangles.unwrap_or(0);
+        if let Some(bytes) = step.full_bytes {
+            current.full_bytes_estimate = bytes;
+        }
+        Ok(())
+    }
+
+    /// Records where the final mesh is and its packed size: its host packs and stores it
+    /// now, so the result outlives the run's sessions (and the host's memory of recent
+    /// outputs).
     async fn finish(&mut self) -> Result<(), String> {
         let current = self.current.as_ref().expect("the input is loaded");
-        let producer = self.replicas.iter().find(|r| r.hash == current.hash);
-        let bytes = match producer {
-            Some(replica) => replica.host.client.blob_size(&current.full.url).await.ok(),
+        let bytes = match &current.producer {
+            Some(host) => self.registry.client(host).packed_size(&current.full.url).await.ok(),
             None => None,
         };
         let result = ResultRecord {
@@ -585,25 +714,18 @@ impl Executor {
         });
         Ok(())
     }
-
-    /// Sessions are closed in the background once the run is over; the result stays as a
-    /// blob on its host.
-    fn close_sessions(&mut self) {
-        for replica in self.replicas.drain(..) {
-            tokio::spawn(async move {
-                let _ = replica.host.client.delete_session(&replica.session).await;
-            });
-        }
-    }
 }
 
-/// Opens a session on `host` from `url` and waits until it is loaded.
+/// Opens a session on `host` from `url` (the run deletes it when it ends) and waits until
+/// it is loaded.
 async fn load_input(
+    run: &Run,
     host: Arc<HostEntry>,
     url: &str,
     hash: Option<String>,
 ) -> Result<(String, meshflow_api::host::SessionStatus), Failure> {
     let created = host.client.create_session(url, hash.as_deref()).await?;
+    run.session_opened(&host.url, &created.id);
     let status = host.client.wait_ready(&created.id).await?;
     match status.state {
         SessionState::Failed => Err(Failure::Step(

@@ -1,0 +1,44 @@
+//! Every limit the engine enforces, in one place: what a client may send, how much a run may
+//! grow, how many runs one client may have going, and how long state is kept.
+
+use std::time::Duration;
+
+/// Largest `POST /runs` body (a workflow and its input URL).
+pub const MAX_SUBMIT_BYTES: usize = 1 << 20;
+/// Largest `POST /hosts` body.
+pub const MAX_REGISTER_BYTES: usize = 4 << 10;
+/// The largest mesh accepted by `POST /inputs`; it is streamed to disk, never held whole.
+pub const MAX_INPUT_BYTES: u64 = 4 << 30;
+
+/// Tasks (runs and checks, bodies included) in one workflow.
+pub const MAX_WORKFLOW_TASKS: usize = 1000;
+/// How deep IF and WHILE blocks may nest.
+pub const MAX_NESTING: usize = 16;
+/// The highest `max-iterations` a WHILE may ask for.
+pub const MAX_ITERATIONS_CAP: u32 = 10_000;
+/// Steps one run may execute (WHILE rounds included) before it is stopped; this bounds the
+/// size of its record.
+pub const MAX_STEPS_PER_RUN: usize = 20_000;
+
+/// Runs of one API token (or of all anonymous clients together) executing at once; more
+/// wait in a queue of [`MAX_QUEUED_RUNS_PER_CLIENT`], and beyond that `POST /runs` answers
+/// 429.
+pub const MAX_ACTIVE_RUNS_PER_CLIENT: usize = 8;
+pub const MAX_QUEUED_RUNS_PER_CLIENT: usize = 64;
+/// What a 429 asks the client to wait before trying again.
+pub const RETRY_AFTER: Duration = Duration::from_secs(5);
+
+/// Finished runs kept (in the database and in memory); older ones are deleted first.
+pub const KEPT_RUNS: usize = 1000;
+/// Uploaded inputs no kept run names are deleted after this long (an upload is normally
+/// followed by its submission at once).
+pub const UNUSED_INPUT_TTL: Duration = Duration::from_secs(3600);
+/// A registered host that has not answered for this long is forgotten (hosts given at start
+/// with `--host` are kept).
+pub const FORGET_DOWN_HOST_AFTER: Duration = Duration::from_secs(3600);
+/// Most hosts the registry keeps; registrations beyond it are refused.
+pub const MAX_HOSTS: usize = 256;
+/// How often forgotten runs, inputs and hosts are looked for.
+pub const JANITOR_INTERVAL: Duration = Duration::from_secs(300);
+/// Changes to a run's record are written to the database at most this often.
+pub const PERSIST_INTERVAL: Duration = Duration::from_millis(200);

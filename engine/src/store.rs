@@ -1,0 +1,266 @@
+//! The engine's durable state in one SQLite file (`DATA/engine.sqlite3`): runs with their
+//! workflow, input, owner and record; the host sessions each run opened; registered hosts;
+//! uploaded inputs. A restart reads it back (DESIGN §10).
+//!
+//! Calls are short (one statement or one transaction of them); the async callers run them
+//! on the blocking pool through [`Store::call`], never while holding another lock.
+
+use std::path::Path;
+use std::sync::{Arc, Mutex};
+
+use rusqlite::{Connection, params};
+
+use crate::record::{RunRecord, Status};
+
+/// Bumped when the schema changes; an older file is migrated, a newer one refused.
+const SCHEMA_VERSION: i64 = 1;
+
+const SCHEMA: &str = "
+CREATE TABLE IF NOT EXISTS runs (
+    id TEXT PRIMARY KEY,
+    seq INTEGER NOT NULL,
+    created_unix INTEGER NOT NULL,
+    owner TEXT NOT NULL,
+    workflow TEXT NOT NULL,
+    input TEXT NOT NULL,
+    status TEXT NOT NULL,
+    record TEXT NOT NULL
+);
+CREATE INDEX IF NOT EXISTS runs_by_seq ON runs (seq);
+CREATE TABLE IF NOT EXISTS sessions (
+    run_id TEXT NOT NULL,
+    host TEXT NOT NULL,
+    session TEXT NOT NULL,
+    PRIMARY KEY (run_id, host, session)
+);
+CREATE TABLE IF NOT EXISTS hosts (
+    url TEXT PRIMARY KEY,
+    added_unix INTEGER NOT NULL
+);
+CREATE TABLE IF NOT EXISTS inputs (
+    file TEXT PRIMARY KEY,
+    bytes INTEGER NOT NULL,
+    stored_unix INTEGER NOT NULL
+);
+";
+
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    #[error("engine database: {0}")]
+    Sql(#[from] rusqlite::Error),
+    #[error("engine database: a stored record does not read back: {0}")]
+    Record(#[from] serde_json::Error),
+    #[error(
+        "engine database was written by a newer meshflow (schema {0}, this one knows {SCHEMA_VERSION})"
+    )]
+    NewerSchema(i64),
+    #[error("engine database: the blocking task failed: {0}")]
+    Join(#[from] tokio::task::JoinError),
+}
+
+/// A run as stored: what is needed to show it, and to resume it after a restart.
+#[derive(Debug, Clone)]
+pub struct StoredRun {
+    pub id: String,
+    pub owner: String,
+    pub workflow: serde_json::Value,
+    pub input: String,
+    pub record: RunRecord,
+    pub sessions: Vec<OpenSession>,
+}
+
+/// A host session a run opened, to be deleted when the run ends (even after a restart).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OpenSession {
+    pub host: String,
+    pub session: String,
+}
+
+#[derive(Clone)]
+pub struct Store {
+    connection: Arc<Mutex<Connection>>,
+}
+
+impl Store {
+    pub fn open(path: &Path) -> Result<Self, StoreError> {
+        let connection = Connection::open(path)?;
+        // WAL: readers never wait for the writer; NORMAL is durable across a process kill
+        // (only a power loss may lose the last transactions).
+        connection.pragma_update(None, "journal_mode", "WAL")?;
+        connection.pragma_update(None, "synchronous", "NORMAL")?;
+        connection.busy_timeout(std::time::Duration::from_secs(5))?;
+        let version: i64 = connection.pragma_query_value(None, "user_version", |r| r.get(0))?;
+        if version > SCHEMA_VERSION {
+            return Err(StoreError::NewerSchema(version));
+        }
+        connection.execute_batch(SCHEMA)?;
+        connection.pragma_update(None, "user_version", SCHEMA_VERSION)?;
+        Ok(Self { connection: Arc::new(Mutex::new(connection)) })
+    }
+
+    /// Runs `work` on the connection on the blocking pool.
+    pub async fn call<T: Send + 'static>(
+        &self,
+        work: impl FnOnce(&mut Connection) -> Result<T, StoreError> + Send + 'static,
+    ) -> Result<T, StoreError> {
+        let connection = self.connection.clone();
+        tokio::task::spawn_blocking(move || work(&mut connection.lock().unwrap())).await?
+    }
+
+    /// Runs `work` on the connection in the calling thread (start-up, tests).
+    pub fn now<T>(
+        &self,
+        work: impl FnOnce(&mut Connection) -> Result<T, StoreError>,
+    ) -> Result<T, StoreError> {
+        work(&mut self.connection.lock().unwrap())
+    }
+}
+
+pub fn unix_now() -> i64 {
+    let now = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH);
+    now.map_or(0, |d| d.as_secs() as i64)
+}
+
+fn status_text(status: Status) -> String {
+    serde_json::to_value(status)
+        .ok()
+        .and_then(|v| v.as_str().map(str::to_owned))
+        .unwrap_or_default()
+}
+
+pub fn insert_run(connection: &mut Connection, run: &StoredRun) -> Result<(), StoreError> {
+    connection.execute(
+        "INSERT INTO runs (id, seq, created_unix, owner, workflow, input, status, record)
+         VALUES (?1, (SELECT COALESCE(MAX(seq), 0) + 1 FROM runs), ?2, ?3, ?4, ?5, ?6, ?7)",
+        params![
+            run.id,
+            unix_now(),
+            run.owner,
+            run.workflow.to_string(),
+            run.input,
+            status_text(run.record.status),
+            serde_json::to_string(&run.record)?,
+        ],
+    )?;
+    Ok(())
+}
+
+/// Writes the latest record and open sessions of runs that changed, in one transaction.
+pub fn save_runs(
+    connection: &mut Connection,
+    runs: &[(RunRecord, Vec<OpenSession>)],
+) -> Result<(), StoreError> {
+    let transaction = connection.transaction()?;
+    {
+        let mut update =
+            transaction.prepare_cached("UPDATE runs SET status = ?2, record = ?3 WHERE id = ?1")?;
+        let mut forget = transaction.prepare_cached("DELETE FROM sessions WHERE run_id = ?1")?;
+        let mut keep = transaction.prepare_cached(
+            "INSERT OR IGNORE INTO sessions (run_id, host, session) VALUES (?1, ?2, ?3)",
+        )?;
+        for (record, sessions) in runs {
+            update.execute(params![
+                record.id,
+                status_text(record.status),
+                serde_json::to_string(record)?
+            ])?;
+            forget.execute([&record.id])?;
+            for open in sessions {
+                keep.execute(params![record.id, open.host, open.session])?;
+            }
+        }
+    }
+    transaction.commit()?;
+    Ok(())
+}
+
+/// Every kept run, oldest first.
+pub fn load_runs(connection: &mut Connection) -> Result<Vec<StoredRun>, StoreError> {
+    let mut statement =
+        connection.prepare("SELECT id, owner, workflow, input, record FROM runs ORDER BY seq")?;
+    let rows = statement.query_map([], |row| {
+        Ok((
+            row.get::<_, String>(0)?,
+            row.get::<_, String>(1)?,
+            row.get::<_, String>(2)?,
+            row.get::<_, String>(3)?,
+            row.get::<_, String>(4)?,
+        ))
+    })?;
+    let rows: Vec<_> = rows.collect::<Result<_, _>>()?;
+    let mut sessions =
+        connection.prepare("SELECT host, session FROM sessions WHERE run_id = ?1")?;
+    let mut runs = Vec::new();
+    for (id, owner, workflow, input, record) in rows {
+        let open = sessions
+            .query_map([&id], |row| Ok(OpenSession { host: row.get(0)?, session: row.get(1)? }))?
+            .collect::<Result<_, _>>()?;
+        runs.push(StoredRun {
+            id,
+            owner,
+            workflow: serde_json::from_str(&workflow)?,
+            input,
+            record: serde_json::from_str(&record)?,
+            sessions: open,
+        });
+    }
+    Ok(runs)
+}
+
+pub fn delete_run(connection: &mut Connection, id: &str) -> Result<(), StoreError> {
+    let transaction = connection.transaction()?;
+    transaction.execute("DELETE FROM sessions WHERE run_id = ?1", [id])?;
+    transaction.execute("DELETE FROM runs WHERE id = ?1", [id])?;
+    transaction.commit()?;
+    Ok(())
+}
+
+pub fn add_host(connection: &mut Connection, url: &str) -> Result<(), StoreError> {
+    connection.execute(
+        "INSERT OR IGNORE INTO hosts (url, added_unix) VALUES (?1, ?2)",
+        params![url, unix_now()],
+    )?;
+    Ok(())
+}
+
+pub fn remove_host(connection: &mut Connection, url: &str) -> Result<(), StoreError> {
+    connection.execute("DELETE FROM hosts WHERE url = ?1", [url])?;
+    Ok(())
+}
+
+pub fn load_hosts(connection: &mut Connection) -> Result<Vec<String>, StoreError> {
+    let mut statement = connection.prepare("SELECT url FROM hosts ORDER BY added_unix, url")?;
+    let rows = statement.query_map([], |row| row.get(0))?;
+    Ok(rows.collect::<Result<_, _>>()?)
+}
+
+pub fn add_input(connection: &mut Connection, file: &str, bytes: u64) -> Result<(), StoreError> {
+    connection.execute(
+        "INSERT INTO inputs (file, bytes, stored_unix) VALUES (?1, ?2, ?3)
+         ON CONFLICT (file) DO UPDATE SET stored_unix = excluded.stored_unix",
+        params![file, bytes as i64, unix_now()],
+    )?;
+    Ok(())
+}
+
+/// Inputs stored before `before` that no kept run names (by their file name in its input
+/// URL); they are removed from the table and returned for deletion from disk.
+pub fn take_unused_inputs(
+    connection: &mut Connection,
+    before: i64,
+) -> Result<Vec<String>, StoreError> {
+    let transaction = connection.transaction()?;
+    let files: Vec<String> = {
+        let mut statement = transaction.prepare(
+            "SELECT file FROM inputs WHERE stored_unix < ?1 AND NOT EXISTS
+             (SELECT 1 FROM runs WHERE runs.input LIKE '%/inputs/' || inputs.file)",
+        )?;
+        let rows = statement.query_map([before], |row| row.get(0))?;
+        rows.collect::<Result<_, _>>()?
+    };
+    for file in &files {
+        transaction.execute("DELETE FROM inputs WHERE file = ?1", [file])?;
+    }
+    transaction.commit()?;
+    Ok(files)
+}

@@ -1,0 +1,172 @@
+//! The engine keeps its state across a crash (DESIGN §10): an engine killed with SIGKILL in
+//! the middle of runs and started again on the same data knows its hosts and every run;
+//! runs in flight resume from their last finished step (or end `interrupted` with the
+//! reason), finished runs read back the same. Runs can be cancelled, and free their host
+//! sessions. Workflows that would grow without bound are refused.
+
+mod common;
+
+use std::collections::BTreeSet;
+use std::path::Path;
+use std::time::Duration;
+
+use common::local::Local;
+use common::process::EngineProcess;
+use common::{Cluster, EngineApi, Input, components_cache, executed, has_ended, start_hosts, text};
+use meshflow_engine::workflow::Workflow;
+use serde_json::{Value as Json, json};
+
+const SPREAD: &[&[&str]] =
+    &[&["cleanup", "checks"], &["smoothing", "checks"], &["holes", "checks"]];
+
+fn example(name: &str) -> Json {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("examples/workflows/{name}.json"));
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// Every run's record through `GET /runs/{id}`, once all have ended.
+async fn all_ended(api: &EngineApi, ids: &[String]) -> Vec<Json> {
+    futures_util::future::join_all(ids.iter().map(|id| api.finished(id))).await
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_engine_killed_mid_runs_resumes_them_after_a_restart_and_loses_none() {
+    let data = tempfile::tempdir().unwrap();
+    let hosts = start_hosts(SPREAD, data.path()).await;
+    let urls: Vec<String> = hosts.iter().map(|h| h.url.clone()).collect();
+    let mut engine = EngineProcess::start(&data.path().join("engine"), &urls).await;
+    let api = EngineApi::new(&engine.url);
+
+    let (workflow, input) = (example("repair"), Input::scan(30_000, 7));
+    let expected = Local::new(&components_cache())
+        .run(&Workflow::from_json(&workflow).unwrap(), input.mesh.clone());
+    let input_url = api.upload(&input).await;
+    let finished_before = api.run(&workflow, &input_url).await;
+    assert_eq!(finished_before["status"], "completed", "{}", finished_before["error"]);
+
+    let ids: Vec<String> =
+        futures_util::future::join_all((0..20).map(|_| api.submit(&workflow, &input_url))).await;
+    // Kill the engine once some run is part-way: a step done, the run not finished.
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(120);
+    let part_way = loop {
+        let records = futures_util::future::join_all(ids.iter().map(|id| api.record(id))).await;
+        let started = records
+            .iter()
+            .find(|r| !has_ended(r) && r["steps"].as_array().is_some_and(|s| !s.is_empty()));
+        if let Some(record) = started {
+            break record.clone();
+        }
+        assert!(tokio::time::Instant::now() < deadline, "no run got part-way");
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    };
+    engine.kill_and_restart().await;
+
+    // The hosts come back from the database: the restart named none.
+    let known: Json = api.http.get(api.url("/hosts")).send().await.unwrap().json().await.unwrap();
+    let known: BTreeSet<&str> = known.as_array().unwrap().iter().map(|h| text(&h["url"])).collect();
+    assert_eq!(known, urls.iter().map(String::as_str).collect());
+    // The run finished before the crash reads back the same.
+    assert_eq!(api.record(text(&finished_before["id"])).await, finished_before);
+
+    let records = all_ended(&api, &ids).await;
+    for record in &records {
+        match text(&record["status"]) {
+            "completed" => {
+                assert_eq!(text(&record["result"]["hash"]), expected.hash(), "{record:#}");
+                // Resuming repeats no step and skips none.
+                assert_eq!(executed(record), expected.steps, "{}", record["id"]);
+            }
+            "interrupted" => {
+                let reason = text(&record["error"]);
+                assert!(reason.contains("the engine restarted"), "{reason}");
+            }
+            other => panic!("run {} ended {other}: {}", record["id"], record["error"]),
+        }
+    }
+    // The run caught part-way resumed from its finished steps, on the hosts that kept them.
+    let resumed = records.iter().find(|r| r["id"] == part_way["id"]).unwrap();
+    assert_eq!(resumed["status"], "completed", "{}", resumed["error"]);
+    let listed: Json = api.http.get(api.url("/runs")).send().await.unwrap().json().await.unwrap();
+    let listed: BTreeSet<&str> =
+        listed.as_array().unwrap().iter().map(|r| text(&r["id"])).collect();
+    assert!(ids.iter().all(|id| listed.contains(id.as_str())), "GET /runs lost a run");
+    assert_eq!(listed.len(), 21);
+
+    // Every session the runs opened, before and after the restart, is deleted in the end.
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
+    for host in &hosts {
+        let health = format!("{}/health", host.url);
+        loop {
+            let health: Json = reqwest::get(&health).await.unwrap().json().await.unwrap();
+            if health["sessions"] == 0 {
+                break;
+            }
+            assert!(tokio::time::Instant::now() < deadline, "{}: {health}", host.url);
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_cancelled_run_stops_within_a_second_and_frees_its_host_sessions() {
+    let cluster = Cluster::start(SPREAD).await;
+    let endless = json!([{
+        "while": {"check": "vertex-count", "op": ">", "value": 0},
+        "do": [{"run": "laplacian-smoothing"}],
+        "max-iterations": 10000
+    }]);
+    let id = cluster.submit(&endless, &cluster.upload(&Input::bunny()).await).await;
+    cluster.under_way_until(&id, |r| r["steps"].as_array().is_some_and(|s| s.len() >= 4)).await;
+    let cancel = cluster.url(&format!("/runs/{id}/cancel"));
+    let answer = cluster.http.post(&cancel).send().await.unwrap();
+    assert_eq!(answer.status(), 202);
+    let asked = tokio::time::Instant::now();
+    let record = cluster.finished(&id).await;
+    assert!(asked.elapsed() < Duration::from_secs(1), "took {:?}", asked.elapsed());
+    assert_eq!(record["status"], "cancelled", "{record:#}");
+    // Its record no longer grows, and a second cancel is refused.
+    let steps = record["steps"].as_array().unwrap().len();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert_eq!(cluster.record(&id).await["steps"].as_array().unwrap().len(), steps);
+    assert_eq!(cluster.http.post(&cancel).send().await.unwrap().status(), 409);
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
+    for host in &cluster.hosts {
+        loop {
+            let health: Json =
+                reqwest::get(format!("{}/health", host.url)).await.unwrap().json().await.unwrap();
+            if health["sessions"] == 0 {
+                break;
+            }
+            assert!(tokio::time::Instant::now() < deadline, "{}: {health}", host.url);
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn workflows_that_would_grow_without_bound_are_refused() {
+    let cluster = Cluster::start(&[&["smoothing", "checks"]]).await;
+    let url = cluster.upload(&Input::bunny()).await;
+    let refused = |workflow: Json| {
+        let body = json!({"workflow": workflow, "input": url}).to_string();
+        async { cluster.post_run(body).await }
+    };
+    let (status, answer) = refused(json!([{
+        "while": {"check": "vertex-count", "op": ">", "value": 0},
+        "do": [{"run": "laplacian-smoothing"}],
+        "max-iterations": 1_000_000_000u64
+    }]))
+    .await;
+    assert_eq!(status, 400, "{answer}");
+    assert!(text(&answer["error"]["message"]).contains("from 0 to 10000"), "{answer}");
+    let (status, answer) = refused(json!({"steps": []})).await;
+    assert_eq!(status, 400, "{answer}");
+    let many: Vec<Json> = (0..1001).map(|_| json!({"run": "laplacian-smoothing"})).collect();
+    let (status, answer) = refused(json!(many)).await;
+    assert_eq!(status, 400, "{answer}");
+    // A body over the submission limit is refused before it is parsed.
+    let huge = format!("{{\"workflow\": [], \"padding\": \"{}\"}}", "x".repeat(2 << 20));
+    let (status, _) = cluster.post_run(huge).await;
+    assert_eq!(status, 413);
+}
