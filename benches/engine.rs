@@ -48,11 +48,11 @@ async fn main() -> anyhow::Result<()> {
         TcpListener::bind("127.0.0.1:0").await?,
     )
     .await?;
-    let input_url = engine
+    let bytes = axum::body::Bytes::from(std::fs::read(&input)?);
+    let (input_url, _) = engine
         .engine
-        .put_input("scan.mfm", &std::fs::read(&input)?)
-        .await
-        .map_err(anyhow::Error::msg)?;
+        .put_input("scan.mfm", futures_util::stream::once(async { Ok::<_, String>(bytes) }))
+        .await?;
 
     let steps: Vec<Value> = (0..ROUNDS)
         .flat_map(|_| {

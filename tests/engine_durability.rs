@@ -13,6 +13,7 @@ use std::time::Duration;
 use common::local::Local;
 use common::process::EngineProcess;
 use common::{Cluster, EngineApi, Input, components_cache, executed, has_ended, start_hosts, text};
+use meshflow_engine::limits::PERSIST_INTERVAL;
 use meshflow_engine::workflow::Workflow;
 use serde_json::{Value as Json, json};
 
@@ -47,18 +48,23 @@ async fn an_engine_killed_mid_runs_resumes_them_after_a_restart_and_loses_none()
 
     let ids: Vec<String> =
         futures_util::future::join_all((0..20).map(|_| api.submit(&workflow, &input_url))).await;
-    // Kill the engine once some run is part-way: a step done, the run not finished.
+    // Kill the engine once some run is part-way: a step done and written (the engine
+    // writes a record's changes within PERSIST_INTERVAL), the run not finished.
     let deadline = tokio::time::Instant::now() + Duration::from_secs(120);
     let part_way = loop {
+        assert!(tokio::time::Instant::now() < deadline, "no run got part-way");
         let records = futures_util::future::join_all(ids.iter().map(|id| api.record(id))).await;
         let started = records
             .iter()
             .find(|r| !has_ended(r) && r["steps"].as_array().is_some_and(|s| !s.is_empty()));
-        if let Some(record) = started {
+        let Some(record) = started else {
+            tokio::time::sleep(Duration::from_millis(20)).await;
+            continue;
+        };
+        tokio::time::sleep(PERSIST_INTERVAL * 3).await;
+        if !has_ended(&api.record(text(&record["id"])).await) {
             break record.clone();
         }
-        assert!(tokio::time::Instant::now() < deadline, "no run got part-way");
-        tokio::time::sleep(Duration::from_millis(20)).await;
     };
     engine.kill_and_restart().await;
 
@@ -87,6 +93,17 @@ async fn an_engine_killed_mid_runs_resumes_them_after_a_restart_and_loses_none()
     // The run caught part-way resumed from its finished steps, on the hosts that kept them.
     let resumed = records.iter().find(|r| r["id"] == part_way["id"]).unwrap();
     assert_eq!(resumed["status"], "completed", "{}", resumed["error"]);
+    let identity = |step: &Json| {
+        (
+            step["path"].clone(),
+            step["host"].clone(),
+            step["started_ms"].clone(),
+            step["output_hash"].clone(),
+        )
+    };
+    let before: Vec<_> = part_way["steps"].as_array().unwrap().iter().map(identity).collect();
+    let after: Vec<_> = resumed["steps"].as_array().unwrap().iter().map(identity).collect();
+    assert_eq!(after[..before.len()], before[..], "the steps done before the kill were run again");
     let listed: Json = api.http.get(api.url("/runs")).send().await.unwrap().json().await.unwrap();
     let listed: BTreeSet<&str> =
         listed.as_array().unwrap().iter().map(|r| text(&r["id"])).collect();

@@ -274,9 +274,9 @@ async fn janitor(engine: std::sync::Weak<Engine>) {
         let swept = engine
             .store
             .call(move |c| {
-                for stored in store::load_runs(c)? {
-                    if !kept.contains(&stored.id) {
-                        store::delete_run(c, &stored.id)?;
+                for id in store::run_ids(c)? {
+                    if !kept.contains(&id) {
+                        store::delete_run(c, &id)?;
                     }
                 }
                 store::take_unused_inputs(c, before)

@@ -1,6 +1,7 @@
 //! A run as the API sees it: its record, updated as the executor goes, a stream of progress
 //! events for whoever watches, the host sessions it holds, and its cancellation.
 
+use std::collections::BTreeSet;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
@@ -10,7 +11,7 @@ use serde_json::Value as Json;
 use tokio::sync::{Notify, broadcast};
 use tokio_util::sync::CancellationToken;
 
-use crate::record::{RunRecord, Status};
+use crate::record::{RunRecord, Status, StepRecord};
 use crate::store::OpenSession;
 
 /// Events kept for a subscriber that lags; a slower one misses some and catches up from
@@ -41,7 +42,19 @@ pub struct Run {
     sessions: Mutex<Vec<OpenSession>>,
     /// Set by every change; the engine's persister clears it when it writes the record.
     dirty: AtomicBool,
+    /// Steps changed since the persister last wrote them (a record's steps are written
+    /// one by one, so a long run's writes stay small).
+    dirty_steps: Mutex<BTreeSet<usize>>,
     changed: Arc<Notify>,
+}
+
+/// What changed in a run since the last [`Run::take_changes`]: the record without its
+/// steps, the changed steps, how many steps there are now, and the open sessions.
+pub struct Changes {
+    pub head: RunRecord,
+    pub steps: Vec<StepRecord>,
+    pub step_count: usize,
+    pub sessions: Vec<OpenSession>,
 }
 
 /// What a run is made of; `changed` is told of every change (the engine's persister).
@@ -75,6 +88,7 @@ impl Run {
             cancel: CancellationToken::new(),
             sessions: Mutex::new(parts.sessions),
             dirty: AtomicBool::new(false),
+            dirty_steps: Mutex::default(),
             changed: parts.changed,
         }
     }
@@ -120,6 +134,33 @@ impl Run {
         let _ = self.events.send(Event { kind, data });
     }
 
+    /// Changes step `index` of the record (it must exist) and tells subscribers.
+    pub fn update_step(
+        &self,
+        kind: &'static str,
+        index: usize,
+        change: impl FnOnce(&mut StepRecord) -> Json,
+    ) {
+        self.update(kind, |record| {
+            self.dirty_steps.lock().unwrap().insert(index);
+            change(&mut record.steps[index])
+        });
+    }
+
+    /// Appends a step to the record (setting its index) and tells subscribers; its index.
+    pub fn push_step(&self, mut step: StepRecord) -> usize {
+        let mut index = 0;
+        self.update("step", |record| {
+            index = record.steps.len();
+            step.index = index;
+            self.dirty_steps.lock().unwrap().insert(index);
+            let json = serde_json::json!(step);
+            record.steps.push(step);
+            json
+        });
+        index
+    }
+
     pub fn set_status(&self, status: Status, error: Option<String>) {
         let total_ms = self.elapsed_ms();
         self.update("status", |record| {
@@ -154,11 +195,28 @@ impl Run {
         sessions
     }
 
-    /// The record and open sessions to write, if they changed since the last call.
-    pub fn take_changes(&self) -> Option<(RunRecord, Vec<OpenSession>)> {
-        self.dirty
-            .swap(false, Ordering::AcqRel)
-            .then(|| (self.record(), self.sessions.lock().unwrap().clone()))
+    /// What to write, if anything changed since the last call.
+    pub fn take_changes(&self) -> Option<Changes> {
+        if !self.dirty.swap(false, Ordering::AcqRel) {
+            return None;
+        }
+        let record = self.record.lock().unwrap();
+        let changed = std::mem::take(&mut *self.dirty_steps.lock().unwrap());
+        let steps = changed.into_iter().filter_map(|i| record.steps.get(i).cloned()).collect();
+        let head = RunRecord {
+            id: record.id.clone(),
+            status: record.status,
+            error: record.error.clone(),
+            warnings: record.warnings.clone(),
+            transfer: record.transfer,
+            input: record.input.clone(),
+            broadcast: record.broadcast.clone(),
+            steps: Vec::new(),
+            result: record.result.clone(),
+            total_ms: record.total_ms,
+        };
+        let sessions = self.sessions.lock().unwrap().clone();
+        Some(Changes { head, steps, step_count: record.steps.len(), sessions })
     }
 
     fn mark_changed(&self) {

@@ -1,6 +1,7 @@
 //! The engine's durable state in one SQLite file (`DATA/engine.sqlite3`): runs with their
-//! workflow, input, owner and record; the host sessions each run opened; registered hosts;
-//! uploaded inputs. A restart reads it back (DESIGN §10).
+//! workflow, input, owner and record (its steps one row each, so a long run's record is
+//! written step by step, not whole every time); the host sessions each run opened;
+//! registered hosts; uploaded inputs. A restart reads it back (DESIGN §10).
 //!
 //! Calls are short (one statement or one transaction of them); the async callers run them
 //! on the blocking pool through [`Store::call`], never while holding another lock.
@@ -11,6 +12,7 @@ use std::sync::{Arc, Mutex};
 use rusqlite::{Connection, params};
 
 use crate::record::{RunRecord, Status};
+use crate::run::Changes;
 
 /// Bumped when the schema changes; an older file is migrated, a newer one refused.
 const SCHEMA_VERSION: i64 = 1;
@@ -27,6 +29,12 @@ CREATE TABLE IF NOT EXISTS runs (
     record TEXT NOT NULL
 );
 CREATE INDEX IF NOT EXISTS runs_by_seq ON runs (seq);
+CREATE TABLE IF NOT EXISTS steps (
+    run_id TEXT NOT NULL,
+    idx INTEGER NOT NULL,
+    step TEXT NOT NULL,
+    PRIMARY KEY (run_id, idx)
+);
 CREATE TABLE IF NOT EXISTS sessions (
     run_id TEXT NOT NULL,
     host TEXT NOT NULL,
@@ -145,28 +153,35 @@ pub fn insert_run(connection: &mut Connection, run: &StoredRun) -> Result<(), St
     Ok(())
 }
 
-/// Writes the latest record and open sessions of runs that changed, in one transaction.
-pub fn save_runs(
-    connection: &mut Connection,
-    runs: &[(RunRecord, Vec<OpenSession>)],
-) -> Result<(), StoreError> {
+/// Writes what changed in runs, in one transaction.
+pub fn save_runs(connection: &mut Connection, runs: &[Changes]) -> Result<(), StoreError> {
     let transaction = connection.transaction()?;
     {
-        let mut update =
+        let mut head =
             transaction.prepare_cached("UPDATE runs SET status = ?2, record = ?3 WHERE id = ?1")?;
+        let mut cut =
+            transaction.prepare_cached("DELETE FROM steps WHERE run_id = ?1 AND idx >= ?2")?;
+        let mut step = transaction.prepare_cached(
+            "INSERT OR REPLACE INTO steps (run_id, idx, step) VALUES (?1, ?2, ?3)",
+        )?;
         let mut forget = transaction.prepare_cached("DELETE FROM sessions WHERE run_id = ?1")?;
         let mut keep = transaction.prepare_cached(
             "INSERT OR IGNORE INTO sessions (run_id, host, session) VALUES (?1, ?2, ?3)",
         )?;
-        for (record, sessions) in runs {
-            update.execute(params![
-                record.id,
-                status_text(record.status),
-                serde_json::to_string(record)?
+        for run in runs {
+            let id = &run.head.id;
+            head.execute(params![
+                id,
+                status_text(run.head.status),
+                serde_json::to_string(&run.head)?
             ])?;
-            forget.execute([&record.id])?;
-            for open in sessions {
-                keep.execute(params![record.id, open.host, open.session])?;
+            cut.execute(params![id, run.step_count as i64])?;
+            for changed in &run.steps {
+                step.execute(params![id, changed.index as i64, serde_json::to_string(changed)?])?;
+            }
+            forget.execute([id])?;
+            for open in &run.sessions {
+                keep.execute(params![id, open.host, open.session])?;
             }
         }
     }
@@ -190,26 +205,40 @@ pub fn load_runs(connection: &mut Connection) -> Result<Vec<StoredRun>, StoreErr
     let rows: Vec<_> = rows.collect::<Result<_, _>>()?;
     let mut sessions =
         connection.prepare("SELECT host, session FROM sessions WHERE run_id = ?1")?;
+    let mut steps = connection.prepare("SELECT step FROM steps WHERE run_id = ?1 ORDER BY idx")?;
     let mut runs = Vec::new();
     for (id, owner, workflow, input, record) in rows {
         let open = sessions
             .query_map([&id], |row| Ok(OpenSession { host: row.get(0)?, session: row.get(1)? }))?
             .collect::<Result<_, _>>()?;
+        let mut record: RunRecord = serde_json::from_str(&record)?;
+        for step in steps.query_map([&id], |row| row.get::<_, String>(0))? {
+            let step: String = step?;
+            record.steps.push(serde_json::from_str(&step)?);
+        }
         runs.push(StoredRun {
             id,
             owner,
             workflow: serde_json::from_str(&workflow)?,
             input,
-            record: serde_json::from_str(&record)?,
+            record,
             sessions: open,
         });
     }
     Ok(runs)
 }
 
+/// The ids of every stored run.
+pub fn run_ids(connection: &mut Connection) -> Result<Vec<String>, StoreError> {
+    let mut statement = connection.prepare("SELECT id FROM runs")?;
+    let rows = statement.query_map([], |row| row.get(0))?;
+    Ok(rows.collect::<Result<_, _>>()?)
+}
+
 pub fn delete_run(connection: &mut Connection, id: &str) -> Result<(), StoreError> {
     let transaction = connection.transaction()?;
     transaction.execute("DELETE FROM sessions WHERE run_id = ?1", [id])?;
+    transaction.execute("DELETE FROM steps WHERE run_id = ?1", [id])?;
     transaction.execute("DELETE FROM runs WHERE id = ?1", [id])?;
     transaction.commit()?;
     Ok(())

@@ -4,7 +4,7 @@ use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
 
-use meshflow_api::{EngineClient, HostClient};
+use meshflow_api::HostClient;
 
 /// How long a fresh host may take to compile its plugins and answer.
 const START_TIMEOUT: Duration = Duration::from_secs(60);
@@ -99,10 +99,6 @@ impl EngineProcess {
             assert!(tokio::time::Instant::now() < deadline, "{} did not start", self.url);
             tokio::time::sleep(Duration::from_millis(100)).await;
         }
-    }
-
-    pub fn client(&self) -> EngineClient {
-        EngineClient::new(&self.url)
     }
 
     pub fn kill(&mut self) {

@@ -397,8 +397,8 @@ impl Executor {
         };
         let holds = compare(&check.value, condition)
             .map_err(|message| format!("{}: {message}", condition.check.path))?;
-        self.run.update("condition", |r| {
-            r.steps[index].condition = Some(holds);
+        self.run.update_step("condition", index, |step| {
+            step.condition = Some(holds);
             json!({"step": index, "condition": holds})
         });
         Ok(holds)
@@ -519,14 +519,7 @@ impl Executor {
                 record.value = Some(c.value.clone());
             }
         }
-        let mut index = 0;
-        self.run.update("step", |r| {
-            index = r.steps.len();
-            record.index = index;
-            let json = json!(record);
-            r.steps.push(record);
-            json
-        });
+        let index = self.run.push_step(record);
         Ok((index, result))
     }
 

@@ -40,13 +40,13 @@ impl Replica {
             let started_ms = run.elapsed_ms();
             let outcome = client.update(&session, &update).await;
             let record = transfer_record(host, started_ms, run.elapsed_ms(), &update, &outcome);
-            run.update("transfer", |r| {
+            run.update_step("transfer", step, |s| {
                 let json = serde_json::json!({"step": step, "transfer": record});
                 // A full-mesh download tells the step's full-mesh size.
                 if record.via == "full" && record.error.is_none() {
-                    r.steps[step].full_bytes = Some(record.bytes);
+                    s.full_bytes = Some(record.bytes);
                 }
-                r.steps[step].transfers.push(record);
+                s.transfers.push(record);
                 json
             });
             outcome
