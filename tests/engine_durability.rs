@@ -187,3 +187,23 @@ async fn workflows_that_would_grow_without_bound_are_refused() {
     let (status, _) = cluster.post_run(huge).await;
     assert_eq!(status, 413);
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn event_streams_end_with_their_run_and_at_once_for_a_finished_one() {
+    let cluster = Cluster::start(&[&["smoothing", "checks"]]).await;
+    let url = cluster.upload(&Input::bunny()).await;
+    let workflow = json!([{"run": "laplacian-smoothing"}]);
+    let id = cluster.submit(&workflow, &url).await;
+    let events = cluster.url(&format!("/runs/{id}/events"));
+    let read_all = |url: String| async move {
+        let answer = reqwest::get(url).await.unwrap();
+        let body = tokio::time::timeout(Duration::from_secs(60), answer.text()).await;
+        body.expect("the event stream ended").unwrap()
+    };
+    let live = read_all(events.clone()).await;
+    assert!(live.starts_with("event: record"), "{live}");
+    assert!(live.contains("\"status\":\"completed\""), "{live}");
+    let after = read_all(events).await;
+    assert_eq!(after.matches("event: ").count(), 1, "only the record: {after}");
+    assert!(after.contains("\"status\":\"completed\""), "{after}");
+}

@@ -266,21 +266,28 @@ async fn run_events(
     let first = stream::once(async move {
         Ok(SseEvent::default().event("record").json_data(&snapshot).expect("a record is JSON"))
     });
-    let changes = live
-        .take_while(move |_| std::future::ready(!finished))
-        .filter_map(|event| std::future::ready(event.ok()))
-        .scan(false, |ended, event| {
-            // Stop after the event that finishes the run.
-            if *ended {
-                return std::future::ready(None);
+    // Each change as it happens, ending after the one that finishes the run (at once for
+    // a run that had finished). A subscriber that fell behind gets the whole record again.
+    let changes = stream::unfold((live, finished), move |(mut live, ended)| {
+        let run = run.clone();
+        async move {
+            if ended {
+                return None;
             }
-            *ended = event.kind == "status"
-                && serde_json::from_value::<Status>(event.data["status"].clone())
-                    .is_ok_and(Status::is_final);
-            let sse = SseEvent::default().event(event.kind).json_data(&event.data);
-            std::future::ready(Some(sse.map_err(|_| ()).ok()))
-        })
-        .filter_map(|event| std::future::ready(event.map(Ok)));
+            let (kind, data) = match live.next().await? {
+                Ok(event) => (event.kind, event.data),
+                Err(_lagged) => ("record", json!(run.record())),
+            };
+            let last = match kind {
+                "status" => serde_json::from_value::<Status>(data["status"].clone())
+                    .is_ok_and(Status::is_final),
+                "record" => run.is_finished(),
+                _ => false,
+            };
+            let event = SseEvent::default().event(kind).json_data(&data).expect("events are JSON");
+            Some((Ok(event), (live, last)))
+        }
+    });
     Ok(Sse::new(first.chain(changes)).keep_alive(KeepAlive::default()))
 }
 
