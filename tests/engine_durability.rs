@@ -207,3 +207,50 @@ async fn event_streams_end_with_their_run_and_at_once_for_a_finished_one() {
     assert_eq!(after.matches("event: ").count(), 1, "only the record: {after}");
     assert!(after.contains("\"status\":\"completed\""), "{after}");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn submit_wait_follows_its_run_across_an_engine_restart() {
+    let data = tempfile::tempdir().unwrap();
+    let hosts = start_hosts(SPREAD, data.path()).await;
+    let urls: Vec<String> = hosts.iter().map(|h| h.url.clone()).collect();
+    let mut engine = EngineProcess::start(&data.path().join("engine"), &urls).await;
+    let api = EngineApi::new(&engine.url);
+    let input = Input::scan(30_000, 11);
+    let repair = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/workflows/repair.json");
+    let expected = Local::new(&components_cache())
+        .run(&Workflow::from_json(&example("repair")).unwrap(), input.mesh.clone());
+    let input_url = api.upload(&input).await;
+    let output = data.path().join("repaired.ply");
+    let mut submit = std::process::Command::new(env!("CARGO_BIN_EXE_meshflow"))
+        .args(["submit", "--engine", &engine.url, "--json", "--input", &input_url, "-o"])
+        .arg(&output)
+        .arg(&repair)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Once its run has a step, the engine dies under it and comes back.
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(120);
+    loop {
+        assert!(tokio::time::Instant::now() < deadline, "the run never started");
+        let runs: Json = api.http.get(api.url("/runs")).send().await.unwrap().json().await.unwrap();
+        if runs.as_array().unwrap().iter().any(|r| r["steps"].as_u64() > Some(0)) {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    engine.kill_and_restart().await;
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(180);
+    let status = loop {
+        if let Some(status) = submit.try_wait().unwrap() {
+            break status;
+        }
+        assert!(tokio::time::Instant::now() < deadline, "submit --wait did not return");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    };
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(&mut submit.stderr.take().unwrap(), &mut stderr).unwrap();
+    assert!(status.success(), "submit failed: {stderr}");
+    let written = meshflow_meshio::load(&output).unwrap();
+    assert_eq!(written.content_hash().to_hex(), expected.hash());
+}
