@@ -572,3 +572,69 @@ async fn a_host_that_hangs_or_is_gone_is_told_apart_in_bounded_time() {
     let answer = tokio::time::timeout(bound, HostClient::new(&gone).services()).await;
     assert!(matches!(answer, Ok(Err(ClientError::Unreachable { .. }))), "{answer:?}");
 }
+
+/// Polls `GET /health` until the host counts `runs` runs in progress (queued included).
+async fn wait_running(client: &HostClient, runs: usize) {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
+    while client.health().await.unwrap().running < runs {
+        assert!(tokio::time::Instant::now() < deadline, "never {runs} runs in progress");
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+    // Counted means admitted; give the run a moment to take its slot or its place in line.
+    tokio::time::sleep(Duration::from_millis(300)).await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn beyond_the_run_slots_and_queue_a_run_gets_429_and_queueing_is_not_compute_time() {
+    let data = tempfile::tempdir().unwrap();
+    let mut config = config(data.path());
+    config.builtins.push(meshflow_builtin_plugins::fixture("hostile"));
+    // One slot, one place in line; the looping run holds the slot until its deadline.
+    let deadline = Duration::from_secs(3);
+    config.limits = Limits { concurrent_runs: 1, queued_runs: 1, deadline, ..Limits::default() };
+    let (_host, client) = start_host(config).await;
+    let url = bunny_url().await;
+    let mut sessions = Vec::new();
+    for _ in 0..3 {
+        sessions.push(ready_session(&client, &url).await);
+    }
+    let run = |session: &String, service: &str| {
+        let (client, session, request) =
+            (client.clone(), session.clone(), request(service, serde_json::json!({})));
+        tokio::spawn(async move { client.run(&session, &request).await })
+    };
+    let looping = run(&sessions[0], "loop-forever");
+    wait_running(&client, 1).await;
+    let queued = run(&sessions[1], "vertex-count");
+    wait_running(&client, 2).await;
+
+    // The third: slot and queue are full. 429, a code and when to come back.
+    let answer = reqwest::Client::new()
+        .post(format!("{}/sessions/{}/run", client.base_url(), sessions[2]))
+        .json(&request("vertex-count", serde_json::json!({})))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(answer.status(), 429);
+    assert_eq!(answer.headers()["retry-after"], "1");
+    let body: serde_json::Value = answer.json().await.unwrap();
+    assert_eq!(body["error"]["code"], "busy", "{body}");
+    // The client tells it apart from a refusal, so the engine can come back later.
+    let refused = client.run(&sessions[2], &request("vertex-count", serde_json::json!({}))).await;
+    assert!(
+        matches!(refused, Err(ClientError::Busy { retry_after: Some(d), .. }) if d == Duration::from_secs(1)),
+        "{refused:?}"
+    );
+
+    let (status, code, _) = api_error(looping.await.unwrap());
+    assert_eq!((status, code.as_str()), (422, "plugin-failed"));
+    let RunResult::Check(check) = queued.await.unwrap().unwrap() else { panic!("a check") };
+    assert_eq!(check.value, serde_json::json!(1839));
+    // It waited for most of the looping run's deadline, and its compute time is its own.
+    assert!(check.queue_ms > 1500.0, "queue_ms {}", check.queue_ms);
+    assert!(check.compute_ms < 1000.0, "compute_ms {} counts the queue", check.compute_ms);
+    // Once the slot is free the session that was refused runs normally.
+    assert!(
+        client.run(&sessions[2], &request("vertex-count", serde_json::json!({}))).await.is_ok()
+    );
+}

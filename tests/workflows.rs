@@ -2,6 +2,7 @@
 //! the same services applied locally in sequence.
 
 mod common;
+mod fake_host;
 
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -9,8 +10,10 @@ use std::path::Path;
 use common::local::{Local, Trace};
 use common::process::HostProcess;
 use common::{Cluster, Input, TOKEN, builtin, components_cache, executed, steps, text};
+use fake_host::{FakeHost, Script};
 use meshflow_api::HostClient;
 use meshflow_engine::workflow::Workflow;
+use meshflow_host::HostHandle;
 use serde_json::{Value as Json, json};
 
 /// Each filter family on its own host and the checks with the hole filler, so every example
@@ -397,4 +400,136 @@ async fn host_registrations_that_are_not_host_urls_are_refused() {
     let hosts: Json =
         cluster.http.get(cluster.url("/hosts")).send().await.unwrap().json().await.unwrap();
     assert_eq!(hosts.as_array().map(Vec::len), Some(1), "{hosts}");
+}
+
+/// A host answer for a smoothing step on `input_hash`, as `laplacian-smoothing` would give
+/// one, claiming the result `output_hash` at `full_url`.
+fn claimed_filter(
+    input_hash: &str,
+    output_hash: &str,
+    full_url: &str,
+    correction_url: &str,
+) -> Json {
+    json!({
+        "kind": "filter", "service": "laplacian-smoothing", "plugin": "e".repeat(64),
+        "input_hash": input_hash, "output_hash": output_hash, "vertices": 1839,
+        "triangles": 3674, "edits": 1839, "compute_ms": 1.0, "queue_ms": 0.0, "report": "",
+        "correction": {"url": correction_url, "bytes": 100},
+        "full": {"url": full_url, "hash": output_hash}
+    })
+}
+
+/// A real host offering smoothing, and its `GET /services` for a fake to copy.
+async fn smoothing_host(data: &Path) -> (HostHandle, Json) {
+    let host = common::start_hosts(&[&["smoothing"]], data).await.remove(0);
+    let services = HostClient::new(&host.url).services().await.unwrap();
+    (host, json!(services))
+}
+
+/// `GET /hosts` entry of the host at `url`.
+async fn host_entry(cluster: &Cluster, url: &str) -> Json {
+    let hosts: Json =
+        cluster.http.get(cluster.url("/hosts")).send().await.unwrap().json().await.unwrap();
+    hosts.as_array().unwrap().iter().find(|h| h["url"] == url).cloned().expect("the host")
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_host_whose_answers_cannot_be_true_is_suspect_and_its_step_moves_to_a_real_host() {
+    let data = tempfile::tempdir().unwrap();
+    let (real, services) = smoothing_host(data.path()).await;
+    let input = Input::bunny();
+    let hash = input.mesh.content_hash().to_hex();
+    // The issue's fake: a hash that is none, its result on another origin, absurd counts.
+    let mut lie = claimed_filter(
+        &hash,
+        "not-a-hash",
+        "http://evil.example/r.mfm",
+        "http://evil.example/r.mfc",
+    );
+    lie["vertices"] = json!(123_456_789);
+    let fake = FakeHost::start(|_| Script {
+        services,
+        session: (hash.clone(), 1839, 3674),
+        run: lie,
+        blobs: Default::default(),
+    })
+    .await;
+    let workflow = json!([{"run": "laplacian-smoothing"}]);
+
+    // Registered first, the fake gets the step; its answer is refused, the step moves on.
+    let cluster = Cluster::start_with(&[], &[fake.url.clone(), real.url.clone()]).await;
+    let url = cluster.upload(&input).await;
+    let id = cluster.submit(&workflow, &url).await;
+    let record = cluster.finished(&id).await;
+    assert_eq!(record["status"], "completed", "{}", record["error"]);
+    assert_eq!(fake.runs(), 1, "the plan did not try the fake");
+    let step = &steps(&record)[0];
+    assert_eq!(
+        (text(&step["host"]), &step["failed_hosts"]),
+        (real.url.as_str(), &json!([fake.url]))
+    );
+    let expected = locally(&workflow, &input).hash();
+    assert_eq!(text(&record["result"]["hash"]), expected);
+    assert_eq!(cluster.result(&id).await.content_hash().to_hex(), expected);
+    let suspect = host_entry(&cluster, &fake.url).await["suspect"].clone();
+    assert!(text(&suspect).contains(r#"output_hash "not-a-hash""#), "{suspect}");
+    assert_eq!(host_entry(&cluster, &real.url).await["suspect"], Json::Null);
+    // A suspect host is planned on no more.
+    let again = cluster.run(&workflow, &url).await;
+    assert_eq!(again["status"], "completed", "{}", again["error"]);
+    assert_eq!(fake.runs(), 1, "the suspect host was asked again");
+
+    // With no one else to turn to, the run fails, naming the host and what it claimed.
+    let alone = Cluster::start_with(&[], &[fake.url.clone()]).await;
+    let record = alone.run(&workflow, &url).await;
+    let error = text(&record["error"]);
+    assert_eq!(record["status"], "failed");
+    assert!(error.contains(&fake.url) && error.contains("not a content hash"), "{error}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn submit_refuses_a_result_that_is_not_the_recorded_mesh_and_writes_nothing() {
+    let data = tempfile::tempdir().unwrap();
+    let (_real, services) = smoothing_host(data.path()).await;
+    // A consistent liar: every claim well formed, but the mesh it serves is another one.
+    let claimed = "b".repeat(64);
+    let served = meshflow_codec::pack::encode(&Input::bunny().mesh).unwrap();
+    let fake = FakeHost::start(|me| Script {
+        services,
+        session: ("a".repeat(64), 1839, 3674),
+        run: claimed_filter(
+            &"a".repeat(64),
+            &claimed,
+            &format!("{me}/blobs/{claimed}.mfm"),
+            &format!("{me}/blobs/{}.mfc", "c".repeat(64)),
+        ),
+        blobs: [(format!("{claimed}.mfm"), served)].into(),
+    })
+    .await;
+    let cluster = Cluster::start_with(&[], &[fake.url.clone()]).await;
+    let workflow = data.path().join("smooth.json");
+    std::fs::write(&workflow, r#"[{"run": "laplacian-smoothing"}]"#).unwrap();
+    let output = data.path().join("result.ply");
+    let engine = cluster.engine.url.clone();
+    let args = [
+        "submit",
+        "--engine",
+        &engine,
+        workflow.to_str().unwrap(),
+        "--input",
+        "http://127.0.0.1:9/never-fetched.obj",
+        "-o",
+        output.to_str().unwrap(),
+    ]
+    .map(str::to_owned);
+    let ran = tokio::task::spawn_blocking(move || {
+        std::process::Command::new(env!("CARGO_BIN_EXE_meshflow")).args(args).output().unwrap()
+    })
+    .await
+    .unwrap();
+    let stderr = String::from_utf8_lossy(&ran.stderr);
+    assert!(!ran.status.success(), "submit took the fake's mesh: {stderr}");
+    assert!(stderr.contains(&format!("not the recorded {claimed}")), "{stderr}");
+    assert!(!output.exists(), "a file was written");
+    assert_eq!(fake.runs(), 1);
 }

@@ -82,6 +82,10 @@ pub struct HostInfo {
     pub assigned: u32,
     pub last_error: Option<String>,
     pub services: Vec<String>,
+    /// Why the engine distrusts the host (an answer that cannot be true); it is left out of
+    /// plans while this is set.
+    #[serde(default)]
+    pub suspect: Option<String>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -160,8 +164,12 @@ pub struct StepRecord {
     /// Milliseconds since the run started.
     pub started_ms: f64,
     pub finished_ms: f64,
-    /// The plugin's own run time on the host.
+    /// The plugin's own run time on the host, its wait for a run slot excluded.
     pub compute_ms: f64,
+    /// The time the step waited on its host for a free run slot (and for a busy host to
+    /// take it at all).
+    #[serde(default)]
+    pub queue_ms: f64,
     /// Time the step waited for its host to catch up with earlier results.
     pub wait_ms: f64,
     /// Engine time from the previous step's reply to this trigger, waiting excluded.
@@ -246,6 +254,7 @@ mod tests {
             started_ms: 1.5,
             finished_ms: 9.25,
             compute_ms: 7.0,
+            queue_ms: 0.5,
             wait_ms: 0.0,
             overhead_ms: 0.75,
             input_hash: "cd".repeat(32),

@@ -156,7 +156,11 @@ pub struct FilterResult {
     pub vertices: usize,
     pub triangles: usize,
     pub edits: usize,
+    /// The plugin's run, from instantiation to its result.
     pub compute_ms: f64,
+    /// The time the run waited for a free run slot on the host before that.
+    #[serde(default)]
+    pub queue_ms: f64,
     pub report: String,
     pub correction: BlobRef,
     pub full: FullRef,
@@ -168,6 +172,8 @@ pub struct CheckResult {
     pub plugin: String,
     pub value: serde_json::Value,
     pub compute_ms: f64,
+    #[serde(default)]
+    pub queue_ms: f64,
     pub report: String,
 }
 

@@ -31,6 +31,9 @@ pub enum ClientError {
     Protocol { url: String, message: String },
     #[error("{url}: the download is larger than the limit of {limit} bytes")]
     TooLarge { url: String, limit: u64 },
+    /// The server is busy (HTTP 429): ask again after `retry_after`, or elsewhere.
+    #[error("{url}: busy: {message}")]
+    Busy { url: String, retry_after: Option<Duration>, message: String },
 }
 
 /// How long a client tries to connect before the server counts as unreachable.
@@ -126,8 +129,8 @@ pub(crate) fn authorized(request: RequestBuilder, token: Option<&str>) -> Reques
     }
 }
 
-/// Sends a request; an error status becomes [`ClientError::Refused`] or
-/// [`ClientError::Server`] with the host's code and message (or the start of the body's
+/// Sends a request; an error status becomes [`ClientError::Busy`] (429),
+/// [`ClientError::Refused`] or [`ClientError::Server`] with the host's code and message (or the start of the body's
 /// text when it is not a host error).
 pub(crate) async fn send(request: RequestBuilder, url: &str) -> Result<Response, ClientError> {
     let response = request.send().await.map_err(|e| ClientError::transport(url, e))?;
@@ -135,12 +138,22 @@ pub(crate) async fn send(request: RequestBuilder, url: &str) -> Result<Response,
     if status.is_success() {
         return Ok(response);
     }
+    let retry_after = retry_after(&response);
     let text = error_text(response).await;
     let (code, message) = match serde_json::from_str::<ErrorBody>(&text) {
         Ok(body) => (body.error.code, body.error.message),
         Err(_) => (code_of(status), text),
     };
+    if status == StatusCode::TOO_MANY_REQUESTS {
+        return Err(ClientError::Busy { url: url.to_owned(), retry_after, message });
+    }
     Err(status_error(url, status, code, message))
+}
+
+/// A `Retry-After` in whole seconds (the HTTP-date form is not used by our servers).
+fn retry_after(response: &Response) -> Option<Duration> {
+    let value = response.headers().get(reqwest::header::RETRY_AFTER)?;
+    value.to_str().ok()?.trim().parse().ok().map(Duration::from_secs)
 }
 
 /// An error status as a [`ClientError`]: refused (4xx, and 502 for a download the request

@@ -115,6 +115,7 @@ fn host_info(host: &crate::registry::HostEntry) -> HostInfo {
         assigned: state.assigned,
         last_error: state.last_error.clone(),
         services: state.services.iter().map(|s| s.info.name.clone()).collect(),
+        suspect: host.suspicion(),
     }
 }
 
@@ -298,7 +299,23 @@ async fn run_result(
     let run = engine.run(&id).ok_or_else(|| not_found("run", &id))?;
     let record = run.record();
     match (record.status, record.result) {
-        (Status::Completed, Some(result)) => Ok(Redirect::to(&result.url)),
+        (Status::Completed, Some(result)) => {
+            // Only to where a host of ours serves the recorded mesh: the record's URL passed
+            // the executor's checks, and is checked again here before anyone is sent there.
+            let hosts = engine.registry.hosts();
+            let served = crate::executor::is_content_hash(&result.hash)
+                && hosts
+                    .iter()
+                    .any(|h| result.url == crate::executor::full_mesh_url(&h.url, &result.hash));
+            match served {
+                true => Ok(Redirect::to(&result.url)),
+                false => Err(ApiError(
+                    StatusCode::BAD_GATEWAY,
+                    "unverified-result",
+                    format!("run {id}: no known host serves its result mesh {}", result.hash),
+                )),
+            }
+        }
         (status, _) if status.is_final() => Err(ApiError(
             StatusCode::CONFLICT,
             "run-failed",

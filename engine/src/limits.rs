@@ -42,3 +42,24 @@ pub const MAX_HOSTS: usize = 256;
 pub const JANITOR_INTERVAL: Duration = Duration::from_secs(300);
 /// Changes to a run's record are written to the database at most this often.
 pub const PERSIST_INTERVAL: Duration = Duration::from_millis(200);
+
+// ---- what the engine believes of a host ----
+
+/// Vertices and triangles a mesh may claim: far beyond what a host's default sandbox
+/// (2 GiB of memory, ~60M vertices with their triangles) lets a plugin produce.
+pub const MAX_VERTICES: u64 = 100_000_000;
+pub const MAX_TRIANGLES: u64 = 200_000_000;
+/// The largest correction a host may announce: what a host downloads at most by default.
+pub const MAX_CORRECTION_BYTES: u64 = 2 << 30;
+/// How long a host that gave an answer which cannot be true is left out of plans. Answering
+/// polls well proves nothing (a fake host does that too), so only time clears it, and each
+/// new false answer starts it again.
+pub const SUSPECT_FOR: Duration = Duration::from_secs(15 * 60);
+/// A host answering 429 (all run slots and its queue taken) is asked again this often,
+/// pausing as it asks but at least [`BUSY_FIRST_PAUSE`], doubling, at most [`BUSY_MAX_PAUSE`],
+/// before the task moves to another host.
+pub const BUSY_RETRIES: u32 = 6;
+/// The first pause after a 429; each next one doubles, up to [`BUSY_MAX_PAUSE`].
+pub const BUSY_FIRST_PAUSE: Duration = Duration::from_millis(250);
+/// No pause is longer, whatever the host's `Retry-After` says.
+pub const BUSY_MAX_PAUSE: Duration = Duration::from_secs(8);

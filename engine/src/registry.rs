@@ -10,7 +10,7 @@ use meshflow_api::host::ServiceEntry;
 use meshflow_api::params::ServiceInfo;
 use serde::Serialize;
 
-use crate::limits::MAX_HOSTS;
+use crate::limits::{MAX_HOSTS, SUSPECT_FOR};
 use crate::store::{self, Store};
 
 /// How often the engine asks every host for its health and services.
@@ -24,6 +24,8 @@ pub struct HostEntry {
     pinned: AtomicBool,
     /// When the host last answered a poll (or was added).
     last_seen: Mutex<Instant>,
+    /// Why and since when the host is suspect.
+    suspect: Mutex<Option<(Instant, String)>>,
 }
 
 #[derive(Default, Clone, Serialize)]
@@ -45,6 +47,7 @@ impl HostEntry {
             state: Mutex::new(HostState::default()),
             pinned: AtomicBool::new(false),
             last_seen: Mutex::new(Instant::now()),
+            suspect: Mutex::default(),
         }
     }
 
@@ -60,9 +63,28 @@ impl HostEntry {
         self.state.lock().unwrap().up
     }
 
+    /// Whether the host is up, not suspect and offers `service`.
     pub fn offers(&self, service: &str) -> bool {
         let state = self.state.lock().unwrap();
-        state.up && state.services.iter().any(|s| s.info.name == service)
+        state.up && state.services.iter().any(|s| s.info.name == service) && !self.is_suspect()
+    }
+
+    /// Takes the host out of plans for [`SUSPECT_FOR`], saying why.
+    pub fn mark_suspect(&self, reason: String) {
+        *self.suspect.lock().unwrap() = Some((Instant::now(), reason));
+    }
+
+    /// Why the host is suspect, while it is.
+    pub fn suspicion(&self) -> Option<String> {
+        let suspect = self.suspect.lock().unwrap();
+        suspect
+            .as_ref()
+            .filter(|(since, _)| since.elapsed() < SUSPECT_FOR)
+            .map(|(_, why)| why.clone())
+    }
+
+    pub fn is_suspect(&self) -> bool {
+        self.suspicion().is_some()
     }
 
     /// The load used to pick among hosts: what it runs plus what we are about to send it.

@@ -23,22 +23,35 @@ table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 6px;text-
 <table id="steps"></table><p id="result"></p>
 <script>
 const $ = id => document.getElementById(id);
-const esc = s => String(s ?? "").replace(/[&<>]/g, c => ({"&":"&amp;","<":"&lt;",">":"&gt;"})[c]);
+/* escaping: begin. Every value from a host, a run or the user goes through one of these,
+   by the context it lands in; ui.rs's tests run them under node. */
+const esc = s => String(s ?? "").replace(/[&<>"']/g,
+  c => ({"&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&#39;"})[c]);
+const num = (n, digits = 0) => typeof n === "number" && Number.isFinite(n) ? n.toFixed(digits) : "";
+const link = (url, text) => {
+  let parsed;
+  try { parsed = new URL(String(url), location.href); } catch { return esc(text); }
+  if (parsed.protocol !== "http:" && parsed.protocol !== "https:") return esc(text);
+  return `<a href="${esc(parsed.href)}" rel="noopener noreferrer">${esc(text)}</a>`;
+};
+/* escaping: end */
 async function refresh() {
   const hosts = await (await fetch("/hosts")).json();
   $("hosts").innerHTML = "<tr><th>host</th><th>state</th><th>running</th><th>services</th></tr>" +
-    hosts.map(h => `<tr><td>${esc(h.url)}</td><td class="${h.up?"ok":"down"}">${h.up?"up":"down"}</td>` +
-      `<td>${h.running}</td><td>${esc(h.services.join(", "))}</td></tr>`).join("");
+    hosts.map(h => `<tr><td>${link(h.url, h.url)}</td>` +
+      `<td class="${h.suspect ? "down" : h.up ? "ok" : "down"}" title="${esc(h.suspect ?? h.last_error)}">` +
+      `${h.suspect ? "suspect" : h.up ? "up" : "down"}</td>` +
+      `<td>${num(h.running)}</td><td>${esc(h.services.join(", "))}</td></tr>`).join("");
   const services = await (await fetch("/services")).json();
   $("services").innerHTML = "<tr><th>service</th><th>kind</th><th>parameters</th><th>hosts</th></tr>" +
     services.map(s => `<tr><td title="${esc(s.doc)}">${esc(s.name)}</td><td>${esc(s.kind)}</td>` +
-      `<td>${esc(s.params.map(p => p.name).join(", "))}</td><td>${s.hosts.length}</td></tr>`).join("");
+      `<td>${esc(s.params.map(p => p.name).join(", "))}</td><td>${num(s.hosts.length)}</td></tr>`).join("");
 }
 function showStep(s) {
   const row = document.createElement("tr");
-  const size = s.correction_bytes == null ? "" : `${(s.correction_bytes/1024).toFixed(1)} KB`;
-  row.innerHTML = `<td>${s.index}</td><td>${esc(s.path)}</td><td>${esc(s.service)}</td>` +
-    `<td>${esc(s.host)}</td><td>${s.compute_ms.toFixed(1)} ms</td><td>${size}</td>` +
+  const size = s.correction_bytes == null ? "" : `${num(s.correction_bytes / 1024, 1)} KB`;
+  row.innerHTML = `<td>${num(s.index)}</td><td>${esc(s.path)}</td><td>${esc(s.service)}</td>` +
+    `<td>${esc(s.host)}</td><td>${num(s.compute_ms, 1)} ms</td><td>${esc(size)}</td>` +
     `<td>${esc(s.value == null ? "" : JSON.stringify(s.value))}</td>`;
   $("steps").appendChild(row);
 }
@@ -60,16 +73,93 @@ $("go").onclick = async () => {
   const run = await answer.json();
   if (!answer.ok) { $("state").textContent = run.error.message; return; }
   $("state").textContent = "run " + run.id + ": running";
-  const events = new EventSource(`/runs/${run.id}/events`);
+  const id = encodeURIComponent(run.id);
+  const events = new EventSource(`/runs/${id}/events`);
   events.addEventListener("step", e => showStep(JSON.parse(e.data)));
   events.addEventListener("status", e => {
     const s = JSON.parse(e.data);
     $("state").textContent = `run ${run.id}: ${s.status}` + (s.error ? ` — ${s.error}` : "") +
       (s.total_ms ? ` in ${(s.total_ms/1000).toFixed(2)} s` : "");
-    if (s.status === "completed") $("result").innerHTML = `<a href="/runs/${run.id}/result">download the result (.mfm)</a>`;
+    if (s.status === "completed") $("result").innerHTML = link(`/runs/${id}/result`, "download the result (.mfm)");
     if (["completed", "failed", "cancelled", "interrupted"].includes(s.status)) events.close();
   });
 };
 refresh(); setInterval(refresh, 3000);
 </script></body></html>
 "##;
+
+#[cfg(test)]
+mod tests {
+    use std::process::Command;
+
+    use super::PAGE;
+
+    /// The page's script, with the browser replaced by stubs: `fetch` answers `hosts` and
+    /// `services` as a hostile host registered them; the page's tables are plain objects.
+    fn page_under_node(checks: &str) -> String {
+        let script = &PAGE[PAGE.find("<script>").unwrap() + 8..PAGE.find("</script>").unwrap()];
+        let evil = r#"x" onmouseover="alert(1)" '<img src=x onerror=alert(2)>&"#;
+        let stubs = format!(
+            r#"
+            const evil = {evil:?};
+            const elements = {{}};
+            globalThis.location = {{href: "http://127.0.0.1:7000/"}};
+            globalThis.document = {{getElementById: id => elements[id] ??= {{innerHTML: ""}}}};
+            globalThis.setInterval = () => {{}};
+            const answers = {{
+              "/hosts": [{{url: "javascript:alert(3)", up: true, suspect: evil, running: evil,
+                           assigned: 0, last_error: evil, services: [evil]}},
+                         {{url: "http://127.0.0.1:7101", up: true, running: 1, assigned: 0,
+                           last_error: null, services: ["fill-holes"]}}],
+              "/services": [{{name: evil, kind: evil, doc: evil, params: [{{name: evil}}],
+                              hosts: [evil]}}],
+            }};
+            globalThis.fetch = async url => ({{json: async () => answers[url]}});
+            "#
+        );
+        let program =
+            format!("{stubs}\n{script}\n(async () => {{ await refresh(); {checks} }})();");
+        let output = Command::new("node")
+            .args(["-e", &program])
+            .output()
+            .expect("node runs the web UI's script (install Node.js to run this test)");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(output.status.success(), "node failed: {stderr}");
+        String::from_utf8_lossy(&output.stdout).into_owned()
+    }
+
+    #[test]
+    fn every_context_escapes_what_hosts_send() {
+        let out = page_under_node(
+            r#"console.log(JSON.stringify({
+                 esc: esc(`<>&"'`),
+                 num: [num("1e3"), num(2.5, 1), num(null)],
+                 links: [link("javascript:alert(1)", "a"), link("data:text/html,x", "b"),
+                         link("http://h/x?a=1&b=\"", "c"), link("/runs/1/result", "d")],
+                 hosts: elements.hosts.innerHTML,
+                 services: elements.services.innerHTML,
+               }));"#,
+        );
+        let json: serde_json::Value = serde_json::from_str(out.trim()).unwrap();
+        assert_eq!(json["esc"], "&lt;&gt;&amp;&quot;&#39;");
+        assert_eq!(json["num"], serde_json::json!(["", "2.5", ""]));
+        assert_eq!(json["links"][0], "a");
+        assert_eq!(json["links"][1], "b");
+        assert_eq!(
+            json["links"][2],
+            r#"<a href="http://h/x?a=1&amp;b=%22" rel="noopener noreferrer">c</a>"#
+        );
+        assert_eq!(
+            json["links"][3],
+            r#"<a href="http://127.0.0.1:7000/runs/1/result" rel="noopener noreferrer">d</a>"#
+        );
+        for table in ["hosts", "services"] {
+            let html = json[table].as_str().unwrap();
+            // No quote, angle bracket or script URL of the host's text survives raw.
+            for raw in [r#"" onmouseover"#, "<img", "'<", r#"href="javascript:"#] {
+                assert!(!html.contains(raw), "{table} contains {raw}: {html}");
+            }
+            assert!(html.contains("&quot; onmouseover=&quot;alert(1)&quot;"), "{html}");
+        }
+    }
+}

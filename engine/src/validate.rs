@@ -69,14 +69,8 @@ fn validate_condition(
     let info = validate_task(&condition.check, ServiceKind::Check, find)?;
     let path = condition.check.path.trim_end_matches(".check");
     let result_type = info.result_type.unwrap_or(ValueType::Text);
-    let fits = match result_type {
-        ValueType::Integer => condition.value.is_i64(),
-        ValueType::Real => condition.value.is_number(),
-        ValueType::Boolean => condition.value.is_boolean(),
-        ValueType::Text => condition.value.is_string(),
-    };
     let type_name = value_type_name(result_type);
-    if !fits {
+    if !json_fits(result_type, &condition.value) {
         return Err(WorkflowError::new(
             format!("{path}.value"),
             format!(
@@ -96,6 +90,16 @@ fn validate_condition(
     Ok(())
 }
 
+/// Whether a JSON value is a value of type `ty` as the APIs carry it.
+pub fn json_fits(ty: ValueType, value: &Json) -> bool {
+    match ty {
+        ValueType::Integer => value.is_i64(),
+        ValueType::Real => value.is_number(),
+        ValueType::Boolean => value.is_boolean(),
+        ValueType::Text => value.is_string(),
+    }
+}
+
 pub fn value_type_name(ty: ValueType) -> &'static str {
     match ty {
         ValueType::Boolean => "a boolean",
@@ -105,7 +109,7 @@ pub fn value_type_name(ty: ValueType) -> &'static str {
     }
 }
 
-fn json_type_name(value: &Json) -> &'static str {
+pub fn json_type_name(value: &Json) -> &'static str {
     match value {
         Json::Null => "null",
         Json::Bool(_) => "a boolean",

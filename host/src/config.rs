@@ -20,6 +20,8 @@ pub const DEFAULT_RECENT_OUTPUTS: usize = 16;
 pub const EVICTION_INTERVAL: Duration = Duration::from_secs(60);
 /// How long `GET /sessions/{id}?wait=ready` waits for a loading session.
 pub const LONG_POLL: Duration = Duration::from_secs(60);
+/// What a host answering 429 (every run slot taken, the queue full) asks callers to wait.
+pub const BUSY_RETRY_AFTER: Duration = Duration::from_secs(1);
 /// Attempts to register with the engine, and the pause between them.
 pub const REGISTER_ATTEMPTS: u32 = 5;
 pub const REGISTER_RETRY: Duration = Duration::from_secs(1);

@@ -27,7 +27,7 @@ fn main() {
         Vec::new()
     };
 
-    for watched in ["wit", "sdk/src", "sdk/Cargo.toml", ".cargo/config.toml"] {
+    for watched in ["wit", "sdk/src", "sdk/Cargo.toml", "sdk/topology", ".cargo/config.toml"] {
         println!("cargo:rerun-if-changed={}", root.join(watched).display());
     }
     for (_, dir) in plugins.iter().chain(&fixtures) {

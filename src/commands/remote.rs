@@ -64,9 +64,7 @@ impl Submission {
             bail!("run {id} {}: {reason}", status.as_str().unwrap_or("ended"));
         }
         if let Some(path) = &self.output {
-            let bytes = engine.result(&id).await?;
-            let mesh = meshflow_codec::pack::decode(&bytes).context("decoding the result")?;
-            super::pack::save_mesh(path, &mesh)?;
+            super::pack::save_mesh(path, &verified_result(&engine, &record).await?)?;
         }
         match self.json {
             true => println!("{}", serde_json::to_string_pretty(&record)?),
@@ -93,6 +91,26 @@ impl Submission {
         }
         Ok(workflow)
     }
+}
+
+/// The run's final mesh, downloaded and decoded; it must be the mesh the record names
+/// (`result.hash`): whoever serves it is trusted no further than that.
+async fn verified_result(
+    engine: &EngineClient,
+    record: &RunRecord,
+) -> anyhow::Result<meshflow_mesh::MeshData> {
+    let expected = &record.result.as_ref().context("the run record names no result")?.hash;
+    let bytes = engine.result(&record.id).await?;
+    let mesh = meshflow_codec::pack::decode(&bytes).context("decoding the result")?;
+    let actual = mesh.content_hash().to_hex();
+    if &actual != expected {
+        bail!(
+            "the result downloaded for run {} is mesh {actual}, not the recorded {expected}; \
+             nothing was written",
+            record.id
+        );
+    }
+    Ok(mesh)
 }
 
 async fn upload_input(engine: &EngineClient, path: &Path) -> anyhow::Result<String> {

@@ -1,18 +1,25 @@
 //! The concurrent transfer protocol of DESIGN §5: broadcast the input to every host of the
 //! plan in parallel, trigger each task as soon as its host is up to date, forward every
 //! result in parallel to the hosts that still have work, and keep IF / WHILE on an active
-//! task list. A host that fails is marked down and its task moves to another host.
+//! task list. A host that fails is marked down and its task moves to another host; a host
+//! whose answer cannot be true (`verify`) is marked suspect and its task moves the same way;
+//! a busy host is asked again, then left for another (`busy`).
 
+mod busy;
 mod replica;
+mod verify;
 
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
 
+pub(crate) use verify::{full_mesh_url, is_content_hash};
+
 use meshflow_api::ClientError;
 use meshflow_api::host::{
     FilterResult, FullRef, RunRequest, RunResult, SessionState, Transfer as Use, Update,
 };
+use meshflow_api::params::ValueType;
 use serde_json::{Value as Json, json};
 
 use crate::limits::MAX_STEPS_PER_RUN;
@@ -101,18 +108,51 @@ struct Current {
 enum Failure {
     /// The host is unreachable or broken: try another one.
     Host(String),
+    /// The host's answer cannot be true: distrust it and try another one.
+    Suspect(String),
+    /// The host stayed busy (429) however often it was asked: try another one.
+    Busy(String),
     /// The step itself failed (plugin error, bad parameters): the run ends.
     Step(String),
 }
 
-/// A host that cannot be reached, times out or breaks is down and the task moves on; a
-/// refused request is the step's own fault and would fail the same way elsewhere.
+/// A host that cannot be reached, times out or breaks is down and the task moves on; so
+/// does a busy one (without blame); a refused request is the step's own fault and would
+/// fail the same way elsewhere.
 impl From<ClientError> for Failure {
     fn from(error: ClientError) -> Self {
-        if error.is_host_failure() {
-            Failure::Host(error.to_string())
-        } else {
-            Failure::Step(error.to_string())
+        match error {
+            ClientError::Busy { .. } => Failure::Busy(error.to_string()),
+            _ if error.is_host_failure() => Failure::Host(error.to_string()),
+            _ => Failure::Step(error.to_string()),
+        }
+    }
+}
+
+impl From<verify::FalseClaim> for Failure {
+    fn from(claim: verify::FalseClaim) -> Self {
+        Failure::Suspect(claim.to_string())
+    }
+}
+
+impl Failure {
+    /// Marks `host` as this failure says — down, suspect, or (busy) neither — and returns
+    /// what to tell about it; `Err` with the message for a step's own failure.
+    fn set_aside(self, host: &HostEntry) -> Result<String, String> {
+        match self {
+            Failure::Host(message) => {
+                tracing::warn!(host = %host.url, "marking host down: {message}");
+                host.mark_down(message.clone());
+                Ok(message)
+            }
+            Failure::Suspect(message) => {
+                let message = format!("suspect: {message}");
+                tracing::warn!(host = %host.url, "{message}");
+                host.mark_suspect(message.clone());
+                Ok(message)
+            }
+            Failure::Busy(message) => Ok(message),
+            Failure::Step(message) => Err(message),
         }
     }
 }
@@ -240,9 +280,10 @@ impl Executor {
                         self.set_input(input, &status);
                         self.replicas.push(Replica::new(host.clone(), session, hash));
                     }
-                    Err(Failure::Step(message)) => return Err(format!("input {input}: {message}")),
-                    Err(Failure::Host(message)) => {
-                        host.mark_down(message);
+                    Err(failure) => {
+                        failure
+                            .set_aside(host)
+                            .map_err(|message| format!("input {input}: {message}"))?;
                         excluded.push(host.clone());
                         retry.extend(self.replace(host, &excluded)?);
                     }
@@ -354,7 +395,7 @@ impl Executor {
         for replica in &mut self.replicas {
             let wanted = receivers.iter().any(|h| Arc::ptr_eq(h, &replica.host));
             if wanted && !Arc::ptr_eq(&replica.host, &host) {
-                replica.forward(&self.run, index, update.clone(), &hash);
+                replica.forward(&self.run, index, update.clone(), &hash, &host);
             }
         }
         Ok(())
@@ -417,21 +458,25 @@ impl Executor {
             ));
         }
         let mut failed: Vec<Arc<HostEntry>> = Vec::new();
+        // What went wrong on each failed host, for the error if none is left.
+        let mut reasons: Vec<String> = Vec::new();
         loop {
             let host = self.plan.host(&task.path).clone();
-            if !host.is_up() && !failed.iter().any(|h| Arc::ptr_eq(h, &host)) {
+            let known = failed.iter().any(|h| Arc::ptr_eq(h, &host));
+            if !known && (!host.is_up() || host.is_suspect()) {
+                let why = host.suspicion().unwrap_or_else(|| "down".into());
+                reasons.push(format!("{}: {why}", host.url));
                 failed.push(host.clone());
             }
             if failed.iter().any(|h| Arc::ptr_eq(h, &host)) {
                 let replacement =
                     pick(&self.registry.hosts(), &self.plan.hosts(), &task.service, &failed)
                         .ok_or_else(|| {
-                            let tried: Vec<&str> = failed.iter().map(|h| h.url.as_str()).collect();
                             format!(
                                 "{}: no host left for \"{}\" (failed: {})",
                                 task.path,
                                 task.service,
-                                tried.join(", ")
+                                reasons.join("; ")
                             )
                         })?;
                 self.plan.assign(&task.path, replacement);
@@ -439,16 +484,16 @@ impl Executor {
             }
             match self.attempt(task, kind, &host, &failed).await {
                 Ok((index, result)) => return Ok((index, result, host)),
-                Err(Failure::Step(message)) => {
-                    return Err(format!(
-                        "{} ({} on {}): {message}",
-                        task.path, task.service, host.url
-                    ));
-                }
-                Err(Failure::Host(message)) => {
-                    tracing::warn!(host = %host.url, "marking host down: {message}");
-                    host.mark_down(message);
-                    self.replicas.retain(|r| !Arc::ptr_eq(&r.host, &host));
+                Err(failure) => {
+                    let busy = matches!(failure, Failure::Busy(_));
+                    let message = failure.set_aside(&host).map_err(|message| {
+                        format!("{} ({} on {}): {message}", task.path, task.service, host.url)
+                    })?;
+                    // A busy host keeps its copy of the mesh for its later tasks.
+                    if !busy {
+                        self.replicas.retain(|r| !Arc::ptr_eq(&r.host, &host));
+                    }
+                    reasons.push(format!("{}: {message}", host.url));
                     failed.push(host);
                 }
             }
@@ -469,12 +514,24 @@ impl Executor {
         let request =
             RunRequest { service: task.service.clone(), params: task.params.clone(), plugin: None };
         let started_ms = self.run.elapsed_ms();
-        let result = {
+        let (result, busy) = {
             let _in_flight = host.assign();
-            host.client.run(&session, &request).await?
+            busy::run_when_free(&host.client, &session, &request).await
         };
+        let result = result?;
         self.last_reply = Instant::now();
-        let input_hash = self.current.as_ref().map(|c| c.hash.clone()).unwrap_or_default();
+        let current = self.current.as_ref().expect("the input is loaded");
+        let input_hash = current.hash.clone();
+        let asked = verify::Asked {
+            host: &host.url,
+            service: &task.service,
+            input_hash: &input_hash,
+            input_counts: (current.vertices, current.triangles),
+        };
+        match &result {
+            RunResult::Filter(filter) => asked.filter(filter)?,
+            RunResult::Check(check) => asked.check(check, declared_type(host, &task.service)?)?,
+        }
         let mut record = StepRecord {
             index: 0,
             path: task.path.clone(),
@@ -486,6 +543,7 @@ impl Executor {
             started_ms,
             finished_ms: self.run.elapsed_ms(),
             compute_ms: 0.0,
+            queue_ms: busy.as_secs_f64() * 1e3,
             wait_ms,
             overhead_ms,
             input_hash,
@@ -505,6 +563,7 @@ impl Executor {
             RunResult::Filter(f) => {
                 record.plugin = f.plugin.clone();
                 record.compute_ms = f.compute_ms;
+                record.queue_ms += f.queue_ms;
                 record.report = f.report.clone();
                 record.output_hash = Some(f.output_hash.clone());
                 record.vertices = Some(f.vertices as u64);
@@ -515,6 +574,7 @@ impl Executor {
             RunResult::Check(c) => {
                 record.plugin = c.plugin.clone();
                 record.compute_ms = c.compute_ms;
+                record.queue_ms += c.queue_ms;
                 record.report = c.report.clone();
                 record.value = Some(c.value.clone());
             }
@@ -540,7 +600,8 @@ impl Executor {
                 let full = FullRef { url: url.clone(), hash: hash.clone() };
                 let update = Update { correction: None, full, use_: Use::Full };
                 match host.client.update(&replica.session, &update).await {
-                    Ok(_) => {
+                    Ok(updated) => {
+                        verify::updated(&updated, &hash)?;
                         replica.hash = hash;
                         return Ok(replica.session.clone());
                     }
@@ -593,7 +654,7 @@ impl Executor {
                 params: task.params.clone(),
                 plugin: None,
             };
-            let output = match host.client.run(&session, &request).await? {
+            let output = match busy::run_when_free(&host.client, &session, &request).await.0? {
                 RunResult::Filter(filter) => filter.output_hash,
                 RunResult::Check(_) => String::new(),
             };
@@ -724,8 +785,21 @@ async fn load_input(
         SessionState::Failed => Err(Failure::Step(
             status.error.unwrap_or_else(|| "the host could not load it".to_owned()),
         )),
-        _ => Ok((created.id, status)),
+        _ => {
+            verify::loaded(&status, hash.as_deref())?;
+            Ok((created.id, status))
+        }
     }
+}
+
+/// The result type `host` declares for the check `service`; a host answering a check it
+/// does not declare is not to be believed.
+fn declared_type(host: &HostEntry, service: &str) -> Result<ValueType, Failure> {
+    let services = host.state().services;
+    let declared = services.iter().find(|s| s.info.name == service);
+    declared.and_then(|s| s.info.result_type).ok_or_else(|| {
+        Failure::Suspect(format!("answered the check {service:?}, which it does not declare"))
+    })
 }
 
 /// Whether a check's value satisfies the condition.

@@ -1,5 +1,7 @@
 //! One host's copy of the run's mesh (a session there), and the queue of updates that
-//! brings it up to date: each forwarded result is applied after the one before it.
+//! brings it up to date: each forwarded result is applied after the one before it. A
+//! receiver must end up with the announced mesh: one that answers another hash is suspect,
+//! and so is a producer whose full mesh a receiver finds is not what it announced.
 
 use std::sync::Arc;
 
@@ -25,12 +27,19 @@ impl Replica {
         Self { host, session, hash, pending: None }
     }
 
-    /// Queues `update` after the updates already forwarded; the transfer is recorded under
-    /// step `step` of `run`.
-    pub fn forward(&mut self, run: &Arc<Run>, step: usize, update: Update, hash: &str) {
+    /// Queues `update` (from `producer`, announcing mesh `hash`) after the updates already
+    /// forwarded; the transfer is recorded under step `step` of `run`.
+    pub fn forward(
+        &mut self,
+        run: &Arc<Run>,
+        step: usize,
+        update: Update,
+        hash: &str,
+        producer: &Arc<HostEntry>,
+    ) {
         let previous = self.pending.take();
-        let (run, client, session, host) =
-            (run.clone(), self.host.client.clone(), self.session.clone(), self.host.url.clone());
+        let (run, receiver, producer) = (run.clone(), self.host.clone(), producer.clone());
+        let (session, announced) = (self.session.clone(), hash.to_owned());
         self.pending = Some(tokio::spawn(async move {
             if let Some(previous) = previous {
                 // A failed predecessor leaves the session behind; this update's correction
@@ -38,8 +47,10 @@ impl Replica {
                 let _ = previous.await;
             }
             let started_ms = run.elapsed_ms();
-            let outcome = client.update(&session, &update).await;
-            let record = transfer_record(host, started_ms, run.elapsed_ms(), &update, &outcome);
+            let outcome = receiver.client.update(&session, &update).await;
+            let outcome = judge(outcome, &announced, &receiver, &producer);
+            let url = receiver.url.clone();
+            let record = transfer_record(url, started_ms, run.elapsed_ms(), &update, &outcome);
             run.update_step("transfer", step, |s| {
                 let json = serde_json::json!({"step": step, "transfer": record});
                 // A full-mesh download tells the step's full-mesh size.
@@ -63,6 +74,37 @@ impl Replica {
                     && self.hash == hash
             }
         }
+    }
+}
+
+/// Blames whoever an update's outcome shows to be wrong: a receiver that answers another
+/// mesh than the announced one, or a producer whose full mesh does not decode to the mesh
+/// it announced (the receiver's `hash-mismatch` or `bad-mesh`). A wrong answer counts as a
+/// failed update.
+fn judge(
+    outcome: Result<Updated, ClientError>,
+    announced: &str,
+    receiver: &HostEntry,
+    producer: &HostEntry,
+) -> Result<Updated, ClientError> {
+    match outcome {
+        Ok(updated) => match super::verify::updated(&updated, announced) {
+            Ok(()) => Ok(updated),
+            Err(claim) => {
+                receiver.mark_suspect(format!("suspect: {claim}"));
+                Err(ClientError::Protocol { url: receiver.url.clone(), message: claim.to_string() })
+            }
+        },
+        Err(ClientError::Refused { ref code, ref message, .. })
+            if code == "hash-mismatch" || code == "bad-mesh" =>
+        {
+            let why =
+                format!("suspect: {} found its mesh {announced} wrong: {message}", receiver.url);
+            tracing::warn!(host = %producer.url, "{why}");
+            producer.mark_suspect(why);
+            outcome
+        }
+        Err(error) => Err(error),
     }
 }
 

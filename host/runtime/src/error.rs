@@ -42,4 +42,7 @@ pub enum RunError {
     BadResult { service: String, message: String },
     #[error("{service}: could not start: {message}")]
     Instantiate { service: String, message: String },
+    /// Every run slot is taken and the queue is full: try again later or elsewhere.
+    #[error("{service}: all {slots} run slots are taken and {queued} runs wait already")]
+    Busy { service: String, slots: usize, queued: usize },
 }

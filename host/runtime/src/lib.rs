@@ -55,7 +55,10 @@ pub struct RunOutput {
     /// What the plugin printed (capped at [`OUTPUT_CAPTURE_BYTES`] each).
     pub stdout: String,
     pub stderr: String,
+    /// The run itself, from instantiation to its result.
     pub duration: Duration,
+    /// The time it waited for a run slot before that.
+    pub queued: Duration,
 }
 
 pub struct Runtime {
@@ -100,8 +103,10 @@ impl Runtime {
             .map_err(|e| PluginError::World(format!("{e:#}")))?;
         let pre = bindings::PluginPre::new(instance_pre)
             .map_err(|e| PluginError::World(format!("{e:#}")))?;
+        // A load waits for a slot however long the queue: uploads are few and need a token.
+        let (slot, _) = self.permits.acquire(None).expect("an unbounded queue has room");
         let services = self
-            .call(&pre, "describe", Arc::default(), true, |store, plugin, _| {
+            .call(&slot, &pre, "describe", Arc::default(), true, |store, plugin, _| {
                 plugin.meshflow_geometry_service().call_describe(store)
             })
             .map(|(services, _)| services.into_iter().map(ServiceInfo::from).collect::<Vec<_>>())
@@ -134,11 +139,19 @@ impl Runtime {
             .map(|(name, value)| Param { name, value: value.into() })
             .collect();
         let is_check = info.kind == ServiceKind::Check;
+        let (slot, queued) =
+            self.permits.acquire(Some(self.limits.queued_runs)).map_err(|_| RunError::Busy {
+                service: service.to_owned(),
+                slots: self.limits.concurrent_runs,
+                queued: self.limits.queued_runs,
+            })?;
         let started = Instant::now();
         let (outcome, state) =
-            self.call(&plugin.pre, service, mesh.into(), is_check, |store, p, mesh| {
+            self.call(&slot, &plugin.pre, service, mesh.into(), is_check, |store, p, mesh| {
                 p.meshflow_geometry_service().call_run(store, service, mesh, &params)
             })?;
+        // The store is gone: the next run may have the slot while this one compacts.
+        drop(slot);
         let outcome =
             outcome.map_err(|message| RunError::Failed { service: service.to_owned(), message })?;
         let value = outcome.value.map(Value::from);
@@ -153,13 +166,16 @@ impl Runtime {
             stdout: captured(&state.stdout),
             stderr: captured(&state.stderr),
             duration: started.elapsed(),
+            queued,
         })
     }
 
     /// Instantiates the component in a fresh store around `mesh`, calls `f`, and turns
-    /// traps into errors that say which limit was hit.
+    /// traps into errors that say which limit was hit. The `_slot` proves a run slot is
+    /// held: the pool has one instance slot per run slot.
     fn call<R>(
         &self,
+        _slot: &permits::Permit<'_>,
         pre: &bindings::PluginPre<RunState>,
         service: &str,
         mesh: Arc<MeshData>,
@@ -170,7 +186,6 @@ impl Runtime {
             Resource<MeshHandle>,
         ) -> wasmtime::Result<R>,
     ) -> Result<(R, RunState), RunError> {
-        let _permit = self.permits.acquire();
         let input_elements = (mesh.positions.len() + mesh.triangles.len()) as u64;
         let budget = BASE_EDIT_BUDGET + EDIT_BUDGET_PER_INPUT_ELEMENT * input_elements;
         let state =
@@ -247,7 +262,7 @@ fn engine_config(limits: &Limits) -> Config {
 /// The pooling allocator: a store's memories and tables come from slots reserved once, and
 /// a slot is reset in place when the store drops, keeping its pages resident (see
 /// [`LINEAR_MEMORY_KEEP_RESIDENT`]). Slots are sized from the limits: every instantiation
-/// runs under a permit (see [`Runtime::call`]), so `concurrent_runs` slots always suffice.
+/// holds a permit (see [`Runtime::call`]), so `concurrent_runs` slots always suffice.
 fn pool(limits: &Limits) -> PoolingAllocationConfig {
     let runs = limits.concurrent_runs.max(1) as u32;
     let mut pool = PoolingAllocationConfig::new();

@@ -23,6 +23,11 @@ pub const BASE_EDIT_BUDGET: u64 = 16 << 20;
 pub const EDIT_BUDGET_PER_INPUT_ELEMENT: u64 = 64;
 /// Runs executing at once in one runtime.
 pub const DEFAULT_CONCURRENT_RUNS: usize = 4;
+/// Runs that may wait for a slot; more are refused at once ([`RunError::Busy`]), so a
+/// flood of requests cannot park threads (and their meshes) without end.
+///
+/// [`RunError::Busy`]: crate::RunError::Busy
+pub const DEFAULT_QUEUED_RUNS: usize = 8;
 
 // ---- the pooling instance allocator: one slot per concurrent run, reused run after run ----
 
@@ -56,6 +61,8 @@ pub struct Limits {
     /// and the deadline already bounds time).
     pub fuel: Option<u64>,
     pub concurrent_runs: usize,
+    /// Runs waiting for one of the `concurrent_runs` slots before more are refused.
+    pub queued_runs: usize,
 }
 
 impl Default for Limits {
@@ -65,6 +72,7 @@ impl Default for Limits {
             memory_bytes: DEFAULT_MEMORY_BYTES,
             fuel: None,
             concurrent_runs: DEFAULT_CONCURRENT_RUNS,
+            queued_runs: DEFAULT_QUEUED_RUNS,
         }
     }
 }

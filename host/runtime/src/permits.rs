@@ -1,33 +1,87 @@
 //! A counting semaphore bounding the runs in flight, so a busy host queues instead of
-//! oversubscribing memory.
+//! oversubscribing memory, with a bound on the queue: beyond it a run is refused at once
+//! ([`Full`]) rather than parking one more thread for an unknown time.
 
 use std::sync::{Condvar, Mutex};
+use std::time::{Duration, Instant};
 
 pub(crate) struct Permits {
-    free: Mutex<usize>,
+    counts: Mutex<Counts>,
     released: Condvar,
 }
 
+struct Counts {
+    free: usize,
+    waiting: usize,
+}
+
+/// A run slot, held until dropped.
 pub(crate) struct Permit<'a>(&'a Permits);
+
+/// Every slot is taken and the queue is full.
+#[derive(Debug)]
+pub(crate) struct Full;
 
 impl Permits {
     pub(crate) fn new(count: usize) -> Self {
-        Self { free: Mutex::new(count.max(1)), released: Condvar::new() }
+        Self {
+            counts: Mutex::new(Counts { free: count.max(1), waiting: 0 }),
+            released: Condvar::new(),
+        }
     }
 
-    pub(crate) fn acquire(&self) -> Permit<'_> {
-        let mut free = self.free.lock().unwrap_or_else(|e| e.into_inner());
-        while *free == 0 {
-            free = self.released.wait(free).unwrap_or_else(|e| e.into_inner());
+    /// A slot, after waiting in line behind at most `max_waiting` others (`None`: no bound),
+    /// and how long the wait took.
+    pub(crate) fn acquire(
+        &self,
+        max_waiting: Option<usize>,
+    ) -> Result<(Permit<'_>, Duration), Full> {
+        let started = Instant::now();
+        let mut counts = self.counts.lock().unwrap_or_else(|e| e.into_inner());
+        if counts.free == 0 && max_waiting.is_some_and(|max| counts.waiting >= max) {
+            return Err(Full);
         }
-        *free -= 1;
-        Permit(self)
+        counts.waiting += 1;
+        while counts.free == 0 {
+            counts = self.released.wait(counts).unwrap_or_else(|e| e.into_inner());
+        }
+        counts.waiting -= 1;
+        counts.free -= 1;
+        Ok((Permit(self), started.elapsed()))
     }
 }
 
 impl Drop for Permit<'_> {
     fn drop(&mut self) {
-        *self.0.free.lock().unwrap_or_else(|e| e.into_inner()) += 1;
+        self.0.counts.lock().unwrap_or_else(|e| e.into_inner()).free += 1;
         self.0.released.notify_one();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+
+    #[test]
+    fn beyond_the_slots_and_the_queue_a_run_is_refused_and_a_queued_one_waits() {
+        let permits = Arc::new(Permits::new(1));
+        let (held, waited) = permits.acquire(Some(1)).unwrap();
+        assert!(waited < Duration::from_millis(100));
+        let queued = {
+            let permits = permits.clone();
+            std::thread::spawn(move || permits.acquire(Some(1)).map(|(_, waited)| waited).ok())
+        };
+        // Wait until the second run is in line; a third finds slot and queue full.
+        while permits.counts.lock().unwrap().waiting == 0 {
+            std::thread::yield_now();
+        }
+        assert!(permits.acquire(Some(1)).is_err());
+        std::thread::sleep(Duration::from_millis(50));
+        drop(held);
+        assert!(queued.join().unwrap().unwrap() >= Duration::from_millis(50));
+        // With no bound (plugin loads), a caller always gets in line.
+        assert!(permits.acquire(None).is_ok());
     }
 }

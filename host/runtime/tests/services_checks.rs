@@ -300,3 +300,18 @@ fn a_raw_scan_gives_the_same_answers_as_the_sdk_natively() {
     let instability = real("normal-instability");
     assert!(instability > 0.0 && instability < 90.0, "{instability}");
 }
+
+#[test]
+fn repeated_corners_and_duplicated_triangles_are_not_manifold_in_the_sandbox() {
+    let checks = Checks::load();
+    let positions = vec![0., 0., 0., 1., 0., 0., 0., 1., 0.];
+    // The mesh: the triangle `1 1 1` many times (every vertex "has no triangle").
+    let degenerate = MeshData::new(positions.clone(), [1, 1, 1].repeat(100_000));
+    assert_eq!(checks.run("is-manifold", &degenerate), Value::Boolean(false));
+    // One triangle twice: each edge has exactly two triangles, yet it is no surface.
+    let duplicated = MeshData::new(positions.clone(), vec![0, 1, 2, 0, 2, 1]);
+    assert_eq!(checks.run("is-manifold", &duplicated), Value::Boolean(false));
+    // The single triangle is manifold: the check can still say yes.
+    let single = MeshData::new(positions, vec![0, 1, 2]);
+    assert_eq!(checks.run("is-manifold", &single), Value::Boolean(true));
+}

@@ -2,10 +2,11 @@
 //! `{"error": {"code", "message"}}`.
 
 use axum::Json;
-use axum::http::StatusCode;
+use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 
 use crate::blobs::BlobError;
+use crate::config::BUSY_RETRY_AFTER;
 use crate::plugins::PluginSetError;
 use crate::sessions::SessionError;
 use meshflow_api::host::{ErrorBody, ErrorDetail};
@@ -48,11 +49,14 @@ impl ApiError {
     }
 }
 
-/// A caller's mistake (unknown service, bad parameters) is 400; anything the plugin did
-/// is 422.
+/// A caller's mistake (unknown service, bad parameters) is 400; a full run queue is 429;
+/// anything the plugin did is 422.
 impl From<RunError> for ApiError {
     fn from(error: RunError) -> Self {
         match error {
+            RunError::Busy { .. } => {
+                Self::new(StatusCode::TOO_MANY_REQUESTS, "busy", error.to_string())
+            }
             RunError::UnknownService { .. } => {
                 Self::bad_request("unknown-service", error.to_string())
             }
@@ -106,11 +110,17 @@ impl From<tokio::task::JoinError> for ApiError {
     }
 }
 
+/// A 429 says when to come back (`Retry-After`, whole seconds).
 impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         let body =
             ErrorBody { error: ErrorDetail { code: self.code.to_owned(), message: self.message } };
-        (self.status, Json(body)).into_response()
+        let mut response = (self.status, Json(body)).into_response();
+        if self.status == StatusCode::TOO_MANY_REQUESTS {
+            let seconds = HeaderValue::from(BUSY_RETRY_AFTER.as_secs());
+            response.headers_mut().insert(header::RETRY_AFTER, seconds);
+        }
+        response
     }
 }
 

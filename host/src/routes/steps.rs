@@ -178,11 +178,12 @@ pub async fn run(
     let mesh = input.mesh.clone();
     let output = tokio::task::spawn_blocking(move || runtime.run(&plugin, &service, mesh, &params))
         .await??;
-    let compute_ms = millis(output.duration);
+    let (compute_ms, queue_ms) = (millis(output.duration), millis(output.queued));
     let (service, plugin) = (request.service, digest);
     if info.kind == ServiceKind::Check {
         let value = output.value.as_ref().map(value_json).unwrap_or_default();
-        let result = CheckResult { service, plugin, value, compute_ms, report: output.report };
+        let report = output.report;
+        let result = CheckResult { service, plugin, value, compute_ms, queue_ms, report };
         return Ok(Json(RunResult::Check(result)));
     }
 
@@ -211,6 +212,7 @@ pub async fn run(
         triangles: next.mesh.triangle_count(),
         edits,
         compute_ms,
+        queue_ms,
         report: output.report,
         correction: BlobRef { url: host.blob_url(&correction_name), bytes: correction_bytes },
         full: FullRef { url: host.blob_url(&full_name), hash: next.hash.clone() },

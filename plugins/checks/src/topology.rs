@@ -1,22 +1,30 @@
 //! Manifoldness and orientation, as yes/no answers.
 //!
-//! Only proper triangles (three distinct in-range vertex ids) take part: a triangle with a
-//! repeated or out-of-range id neither breaks nor establishes manifoldness or orientation.
-//! Zero-area triangles with distinct ids are proper and count like any other.
+//! Orientation looks only at proper triangles (three distinct in-range vertex ids): a
+//! triangle with a repeated or out-of-range id neither breaks nor establishes it. Such a
+//! triangle, or a duplicated one, does make the mesh non-manifold. Zero-area triangles with
+//! distinct ids are proper and count like any other.
 
 use meshflow_sdk::topology::{EdgeBuckets, HalfEdges, manifold};
 
 use crate::forest::ParityForest;
 
-/// Whether the mesh is edge-manifold (no edge has three or more triangles) and
-/// vertex-manifold (the triangles around every vertex form a single fan, so no bow-tie).
-/// O(V + T); twins are built only when every edge is manifold.
+/// Whether every triangle is proper and none duplicated, the mesh is edge-manifold (no edge
+/// has three or more triangles) and vertex-manifold (the triangles around every vertex form
+/// a single fan, so no bow-tie). O(V + T); twins are built only when every edge is manifold.
 pub fn is_manifold(vertex_count: usize, triangles: &[u32]) -> bool {
+    if manifold::has_improper_triangles(vertex_count, triangles) {
+        return false;
+    }
     let edges = EdgeBuckets::new(vertex_count, triangles);
     let mut edge_manifold = true;
     edges.for_each_edge(|_, sides| edge_manifold &= sides.len() <= 2);
-    edge_manifold
-        && manifold::is_vertex_manifold(vertex_count, triangles, &HalfEdges::from_buckets(&edges))
+    if !edge_manifold {
+        return false;
+    }
+    let half_edges = HalfEdges::from_buckets(&edges);
+    !manifold::has_duplicate_triangles(triangles, &half_edges)
+        && manifold::is_vertex_manifold(vertex_count, triangles, &half_edges)
 }
 
 /// Whether every interior (two-triangle) edge is traversed in opposite directions by its two
@@ -95,11 +103,32 @@ mod tests {
     }
 
     #[test]
-    fn degenerate_triangles_do_not_matter() {
-        assert_eq!(answers(&degenerate_only()), (true, true, true));
-        // A repeated-id triangle glued onto the tetrahedron changes nothing.
+    fn degenerate_triangles_are_not_manifold_but_do_not_affect_orientation() {
+        assert_eq!(answers(&degenerate_only()), (false, true, true));
+        // A repeated-id triangle glued onto the tetrahedron breaks only manifoldness.
         let mut mesh = tetrahedron();
         mesh.triangles.extend([0, 0, 1, 2, 3, 2]);
-        assert_eq!(answers(&mesh), (true, true, true));
+        assert_eq!(answers(&mesh), (false, true, true));
+        // The case: one triangle `1 1 1`, many times.
+        assert!(!is_manifold(3, &[1, 1, 1].repeat(10_000)));
+    }
+
+    #[test]
+    fn duplicated_triangles_are_not_manifold() {
+        // Two copies, either orientation: each edge has exactly two triangles.
+        for copy in [[0, 1, 2], [0, 2, 1]] {
+            let mut mesh = vec![0, 1, 2];
+            mesh.extend(copy);
+            assert!(!is_manifold(3, &mesh), "{copy:?}");
+        }
+        // A duplicate inside a closed surface.
+        let mut mesh = tetrahedron();
+        let first: Vec<u32> = mesh.triangles[..3].to_vec();
+        mesh.triangles.extend(first);
+        assert!(!is_manifold(mesh.vertex_count(), &mesh.triangles));
+        // Removed triangles (as a plugin sees them mid-run) are absent.
+        let mut mesh = tetrahedron();
+        mesh.triangles.extend([u32::MAX; 3]);
+        assert!(is_manifold(mesh.vertex_count(), &mesh.triangles));
     }
 }

@@ -52,8 +52,8 @@ pub use csr::Csr;
 pub use edges::{EdgeBuckets, Members};
 pub use halfedge::{EdgeKind, EdgeLookup, HalfEdges};
 pub use manifold::{
-    is_edge_manifold, is_manifold, is_orientable, is_oriented, is_vertex_manifold,
-    non_manifold_vertices, orientation_flips,
+    has_duplicate_triangles, has_improper_triangles, is_edge_manifold, is_manifold, is_orientable,
+    is_oriented, is_vertex_manifold, non_manifold_vertices, orientation_flips,
 };
 
 /// "No element": a missing twin, an absent triangle. Equal to `u32::MAX`.

@@ -1,8 +1,10 @@
 //! Manifoldness and orientation tests.
 //!
-//! All tests look only at proper triangles (three distinct in-range vertex ids); degenerate
-//! triangles neither break nor establish manifoldness or orientation.
+//! The edge, vertex and orientation tests look only at proper triangles (three distinct
+//! in-range vertex ids). [`is_manifold`] also refuses improper and duplicated triangles: a
+//! triangle `1 1 1` repeated ten million times is no surface.
 
+use super::NONE;
 use super::halfedge::{EdgeKind, HalfEdges, next, origin, prev};
 
 /// Whether no edge has three or more triangles. O(1).
@@ -40,9 +42,35 @@ pub fn is_vertex_manifold(vertex_count: usize, triangles: &[u32], half_edges: &H
     scan_vertices(vertex_count, triangles, half_edges, true).is_empty()
 }
 
-/// Edge- and vertex-manifold: the `is-manifold` check. O(V + T).
+/// The `is-manifold` check: every triangle proper, none duplicated, edge- and
+/// vertex-manifold. O(V + T).
 pub fn is_manifold(vertex_count: usize, triangles: &[u32], half_edges: &HalfEdges) -> bool {
-    is_edge_manifold(half_edges) && is_vertex_manifold(vertex_count, triangles, half_edges)
+    !has_improper_triangles(vertex_count, triangles)
+        && is_edge_manifold(half_edges)
+        && !has_duplicate_triangles(triangles, half_edges)
+        && is_vertex_manifold(vertex_count, triangles, half_edges)
+}
+
+/// Whether some triangle repeats a corner or names a vertex `>= vertex_count`. A removed
+/// triangle (all three corners [`NONE`], as a plugin sees it mid-run) is absent, not
+/// improper. O(T).
+pub fn has_improper_triangles(vertex_count: usize, triangles: &[u32]) -> bool {
+    triangles.chunks_exact(3).any(|t| {
+        let removed = t.iter().all(|&c| c == NONE);
+        let in_range = t.iter().all(|&c| (c as usize) < vertex_count);
+        !removed && (!in_range || t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
+    })
+}
+
+/// Whether two proper triangles have the same three corners, in any order. Only meaningful
+/// when no edge is non-manifold (three or more copies make one): then two copies share each
+/// edge as its only two triangles, and the corners opposite that edge are the same. O(T).
+pub fn has_duplicate_triangles(triangles: &[u32], half_edges: &HalfEdges) -> bool {
+    let opposite_corner = |h: u32| origin(triangles, prev(h));
+    (0..half_edges.len() as u32).any(|h| {
+        half_edges.kind(h).is_interior()
+            && opposite_corner(h) == opposite_corner(half_edges.opposite(h))
+    })
 }
 
 fn scan_vertices(

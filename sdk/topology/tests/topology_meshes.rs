@@ -3,8 +3,9 @@
 use meshflow_topology::geometry::{self, Vec3};
 use meshflow_topology::{
     self, EdgeKind, HalfEdges, NONE, TriangleComponents, VertexNeighbours, VertexTriangles,
-    boundary_loops, boundary_vertices, is_edge_manifold, is_manifold, is_orientable, is_oriented,
-    is_vertex_manifold, non_manifold_vertices, orientation_flips, unreferenced_vertices,
+    boundary_loops, boundary_vertices, has_duplicate_triangles, has_improper_triangles,
+    is_edge_manifold, is_manifold, is_orientable, is_oriented, is_vertex_manifold,
+    non_manifold_vertices, orientation_flips, unreferenced_vertices,
 };
 
 /// Everything the checks report about a mesh.
@@ -318,7 +319,9 @@ fn degenerate_triangles() {
     t.extend([0, 0, 1, 2, 2, 2, 0, 1, 99]);
     let he = HalfEdges::new(8, &t);
     assert_eq!(he.edge_count(), 18);
-    assert!(he.is_closed() && is_oriented(&he) && is_manifold(8, &t, &he));
+    // Edges and orientation ignore them; manifoldness does not (a sliver is no surface).
+    assert!(he.is_closed() && is_oriented(&he) && is_edge_manifold(&he));
+    assert!(is_vertex_manifold(8, &t, &he) && !is_manifold(8, &t, &he));
     assert!(he.kinds()[36..].iter().all(|&k| k == EdgeKind::Degenerate));
     assert!(he.opposites()[36..].iter().all(|&o| o == NONE));
     assert!(boundary_loops(&t, &he).is_empty());
@@ -365,4 +368,23 @@ fn empty_mesh() {
     assert_eq!(report(4, &[]), rep(0, &[], 0, ALL));
     assert!(VertexTriangles::new(4, &[]).of(3).is_empty());
     assert_eq!(TriangleComponents::new(4, &[]).largest(), None);
+}
+
+#[test]
+fn improper_and_duplicated_triangles_are_not_manifold() {
+    let single = [0, 1, 2];
+    assert!(is_manifold(3, &single, &HalfEdges::new(3, &single)));
+    let repeated = [1, 1, 1].repeat(1000);
+    assert!(has_improper_triangles(3, &repeated));
+    assert!(!is_manifold(3, &repeated, &HalfEdges::new(3, &repeated)));
+    let out_of_range = [0, 1, 2, 0, 1, 7];
+    assert!(!is_manifold(3, &out_of_range, &HalfEdges::new(3, &out_of_range)));
+    for twice in [[0, 1, 2, 0, 1, 2], [0, 1, 2, 2, 1, 0]] {
+        let he = HalfEdges::new(3, &twice);
+        assert!(is_edge_manifold(&he) && has_duplicate_triangles(&twice, &he), "{twice:?}");
+        assert!(!is_manifold(3, &twice, &he), "{twice:?}");
+    }
+    // Removed triangles (all corners NONE) are absent.
+    let with_removed = [0, 1, 2, NONE, NONE, NONE];
+    assert!(!has_improper_triangles(3, &with_removed));
 }
