@@ -8,7 +8,7 @@ use axum::body::{Body, Bytes};
 use axum::extract::{DefaultBodyLimit, Path, Query, State};
 use axum::http::{StatusCode, header};
 use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
-use axum::response::{Html, IntoResponse, Redirect, Response};
+use axum::response::{Html, IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::{Json, Router};
 use futures_util::{Stream, StreamExt, stream};
@@ -38,6 +38,7 @@ pub fn router(engine: Arc<Engine>) -> Router {
         .route("/runs/{id}", get(run_status))
         .route("/runs/{id}/events", get(run_events))
         .route("/runs/{id}/result", get(run_result))
+        .layer(axum::middleware::from_fn_with_state(engine.clone(), crate::auth::check))
         .with_state(engine)
 }
 
@@ -156,6 +157,9 @@ async fn submit(
     let run = engine.submit(workflow, input).map_err(|e| match e {
         SubmitError::Invalid(error) => invalid(error.to_string()),
         SubmitError::NoInput => ApiError(StatusCode::BAD_REQUEST, "no-input", e.to_string()),
+        SubmitError::InputRefused(_) => {
+            ApiError(StatusCode::BAD_REQUEST, "input-not-allowed", e.to_string())
+        }
     })?;
     Ok((
         StatusCode::ACCEPTED,
@@ -211,14 +215,23 @@ async fn run_events(
     Ok(Sse::new(first.chain(changes)).keep_alive(KeepAlive::default()))
 }
 
+/// The final mesh (`.mfm`), fetched from the host holding it with the cluster token (a
+/// user holds no cluster token, so a redirect to the host would not do).
 async fn run_result(
     State(engine): State<Arc<Engine>>,
     Path(id): Path<String>,
-) -> ApiResult<Redirect> {
+) -> ApiResult<Response> {
     let run = engine.run(&id).ok_or_else(|| not_found("run", &id))?;
     let record = run.record();
     match (record.status, record.result) {
-        (Status::Completed, Some(result)) => Ok(Redirect::to(&result.url)),
+        (Status::Completed, Some(result)) => {
+            let bytes =
+                engine.registry.client_for(&result.url).download(&result.url).await.map_err(
+                    |e| ApiError(StatusCode::BAD_GATEWAY, "result-unavailable", e.to_string()),
+                )?;
+            let headers = [(header::CONTENT_TYPE, "application/octet-stream")];
+            Ok((headers, Body::from(bytes)).into_response())
+        }
         (Status::Failed, _) => Err(ApiError(
             StatusCode::CONFLICT,
             "run-failed",

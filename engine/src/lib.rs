@@ -6,6 +6,7 @@
 //! shows no wasmtime, cranelift or constriction).
 
 mod api;
+pub mod auth;
 mod executor;
 mod inputs;
 pub mod plan;
@@ -21,6 +22,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
 pub use api::router;
+pub use auth::Access;
 use registry::Registry;
 use run::Run;
 use workflow::{Workflow, WorkflowError};
@@ -33,6 +35,7 @@ pub struct EngineConfig {
     pub data_dir: PathBuf,
     /// The URL hosts use to reach this engine (for uploaded inputs).
     pub public_url: String,
+    pub access: Access,
 }
 
 pub struct Engine {
@@ -42,6 +45,7 @@ pub struct Engine {
     order: Mutex<Vec<String>>,
     inputs: inputs::Inputs,
     public_url: String,
+    access: Access,
 }
 
 /// Why a run was not accepted.
@@ -51,16 +55,21 @@ pub enum SubmitError {
     Invalid(#[from] WorkflowError),
     #[error("the workflow has no input: give \"input\" in the workflow or with the request")]
     NoInput,
+    #[error("input: {0}")]
+    InputRefused(#[from] meshflow_api::fetch_rules::Refusal),
 }
 
 impl Engine {
-    pub fn new(config: EngineConfig) -> std::io::Result<Arc<Self>> {
+    pub fn new(config: EngineConfig) -> anyhow::Result<Arc<Self>> {
+        let public_url = config.public_url.trim_end_matches('/').to_owned();
+        let cluster = config.access.cluster_token.clone();
         let engine = Arc::new(Self {
-            registry: Arc::new(Registry::default()),
+            registry: Arc::new(Registry::new(&public_url, cluster)?),
             runs: Mutex::default(),
             order: Mutex::default(),
             inputs: inputs::Inputs::new(config.data_dir.join("inputs"))?,
-            public_url: config.public_url.trim_end_matches('/').to_owned(),
+            public_url,
+            access: config.access,
         });
         engine.registry.spawn_poller();
         Ok(engine)
@@ -73,6 +82,8 @@ impl Engine {
         input: Option<String>,
     ) -> Result<Arc<Run>, SubmitError> {
         let input = input.or_else(|| workflow.input.clone()).ok_or(SubmitError::NoInput)?;
+        let hosts = self.registry.hosts().into_iter().map(|host| host.url.clone());
+        self.access.check_input(&input, &self.public_url, hosts)?;
         validate::validate(&workflow, &|name| self.registry.service(name))?;
         let id = self.new_run_id();
         let run = Arc::new(Run::new(id.clone(), workflow.transfer));
@@ -128,26 +139,31 @@ impl EngineHandle {
     }
 }
 
-/// Starts an engine on `listener`, registers `hosts`, and serves in the background.
+/// Starts an engine on `listener`, registers `hosts`, and serves in the background. Without
+/// both tokens it listens only on loopback, unless `access.insecure_no_auth`.
 pub async fn start(
     data_dir: PathBuf,
     public_url: Option<String>,
     hosts: &[String],
+    access: Access,
     listener: tokio::net::TcpListener,
 ) -> anyhow::Result<EngineHandle> {
     let address = listener.local_addr()?;
+    let access = access.validated()?;
+    meshflow_api::server::check_exposure(address, &access.missing(), access.insecure_no_auth)?;
     let url = public_url.unwrap_or_else(|| match address.ip().is_unspecified() {
         true => format!("http://127.0.0.1:{}", address.port()),
         false => format!("http://{address}"),
     });
-    let engine = Engine::new(EngineConfig { data_dir, public_url: url.clone() })?;
+    let engine = Engine::new(EngineConfig { data_dir, public_url: url.clone(), access })?;
     for host in hosts {
         let entry = engine.registry.register(host).await?;
         if let Some(error) = entry.state().last_error {
             tracing::warn!("host {host} does not answer yet: {error}");
         }
     }
-    let server = tokio::spawn(axum::serve(listener, router(engine.clone())).into_future());
+    let app = router(engine.clone());
+    let server = tokio::spawn(meshflow_api::server::serve(listener, app, std::future::pending()));
     tracing::info!("engine listening on {address}, reached at {url}");
     Ok(EngineHandle { url, engine, server })
 }

@@ -4,9 +4,10 @@ use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use meshflow_api::HostClient;
+use meshflow_api::fetch_rules::{check_address, guarded_client, origin};
 use meshflow_api::host::ServiceEntry;
 use meshflow_api::params::ServiceInfo;
+use meshflow_api::{CONNECT_TIMEOUT, ClusterAccess, HostClient};
 use serde::Serialize;
 
 /// How often the engine asks every host for its health and services.
@@ -94,9 +95,14 @@ impl Drop for Assignment {
     }
 }
 
-#[derive(Default)]
 pub struct Registry {
     hosts: Mutex<Vec<Arc<HostEntry>>>,
+    /// The engine's own origin, always a peer of its hosts.
+    own_origin: String,
+    /// The cluster token and the cluster's origins, shared by every host's client.
+    access: ClusterAccess,
+    /// One pool for all hosts; names resolve only to addresses that may be fetched.
+    http: reqwest::Client,
 }
 
 pub use meshflow_api::engine::ServiceOffer as Offer;
@@ -125,10 +131,28 @@ fn host_base_url(text: &str) -> Result<String, BadHostUrl> {
     if url.query().is_some() || url.fragment().is_some() {
         return Err(bad("it has a query or fragment"));
     }
+    if check_address(&url).is_err() {
+        return Err(bad("link-local and metadata addresses are never hosts"));
+    }
     Ok(url.as_str().trim_end_matches('/').to_owned())
 }
 
 impl Registry {
+    /// A registry of an engine reached at `public_url`, whose hosts' clients send
+    /// `cluster_token`.
+    pub fn new(public_url: &str, cluster_token: Option<String>) -> anyhow::Result<Self> {
+        let own_origin = origin(&reqwest::Url::parse(public_url)?);
+        let access = ClusterAccess::new(cluster_token);
+        access.set_peers(vec![own_origin.clone()]);
+        let http = guarded_client().connect_timeout(CONNECT_TIMEOUT).build()?;
+        Ok(Self { hosts: Mutex::default(), own_origin, access, http })
+    }
+
+    /// A client for the host at `url` (or any of its blobs), with the cluster's token.
+    pub fn client_for(&self, url: &str) -> HostClient {
+        HostClient::with_client(url, self.http.clone()).with_access(self.access.clone())
+    }
+
     /// Adds a host (once per URL) and asks it for its services before returning. The URL
     /// must be a plain `http(s)://host[:port][/path]` base: no credentials, query or fragment.
     pub async fn register(&self, url: &str) -> Result<Arc<HostEntry>, BadHostUrl> {
@@ -139,17 +163,29 @@ impl Registry {
                 Some(entry) => entry.clone(),
                 None => {
                     let entry = Arc::new(HostEntry {
-                        client: HostClient::new(&url),
+                        client: self.client_for(&url),
                         url,
                         state: Mutex::new(HostState::default()),
                     });
                     hosts.push(entry.clone());
+                    self.access.set_peers(self.peers(&hosts));
                     entry
                 }
             }
         };
         entry.refresh().await;
         Ok(entry)
+    }
+
+    /// The origins hosts may fetch from and send the cluster token to: the engine's and
+    /// every registered host's.
+    fn peers(&self, hosts: &[Arc<HostEntry>]) -> Vec<String> {
+        let hosts = hosts.iter().filter_map(|h| reqwest::Url::parse(&h.url).ok());
+        let mut peers: Vec<String> = hosts.map(|url| origin(&url)).collect();
+        peers.push(self.own_origin.clone());
+        peers.sort();
+        peers.dedup();
+        peers
     }
 
     pub fn hosts(&self) -> Vec<Arc<HostEntry>> {
@@ -216,6 +252,8 @@ mod tests {
             "http://user:secret@127.0.0.1:7101",
             "http://127.0.0.1:7101/?x=1",
             "http://127.0.0.1:7101/#top",
+            "http://169.254.169.254/",
+            "http://[fe80::1]:7101",
         ] {
             assert!(host_base_url(bad).is_err(), "{bad} was taken");
         }

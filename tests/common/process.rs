@@ -23,6 +23,7 @@ impl HostProcess {
         let port = free_port();
         let mut command = Command::new(env!("CARGO_BIN_EXE_meshflow"));
         command.args(["host", "--listen", &format!("127.0.0.1:{port}"), "--data"]).arg(data);
+        command.env("MESHFLOW_CLUSTER_TOKEN", super::CLUSTER_TOKEN);
         if !families.is_empty() {
             command.args(["--builtin", &families.join(",")]);
         }

@@ -1,6 +1,7 @@
 //! The HTTP edge of the host: the router, one file per resource, and the mapping of domain
 //! errors to statuses (`error.rs`).
 
+mod auth;
 mod blobs;
 mod error;
 mod plugins;
@@ -13,9 +14,11 @@ use axum::Router;
 use axum::extract::{DefaultBodyLimit, State};
 use axum::routing::{delete, get, post};
 
+use crate::config::MAX_URL_CHARS;
 use crate::plugins::MAX_PLUGIN_BYTES;
 use crate::state::Host;
 use error::ApiError;
+use meshflow_api::fetch_rules::quoted;
 use meshflow_api::host::Health;
 
 pub fn router(host: Arc<Host>) -> Router {
@@ -35,7 +38,23 @@ pub fn router(host: Arc<Host>) -> Router {
         .fallback(|| async {
             ApiError::new(axum::http::StatusCode::NOT_FOUND, "not-found", "no such endpoint")
         })
+        .layer(axum::middleware::from_fn_with_state(host.clone(), auth::check))
         .with_state(host)
+}
+
+/// A URL a request names for this host to fetch, normalised (parsed, so quoting it in an
+/// error later repeats no raw bytes), or why it is refused: too long, not a URL, or outside
+/// what the host fetches from with these `peers`.
+fn allowed_url(host: &Host, text: &str, peers: &[String]) -> Result<String, ApiError> {
+    let refused = |message: String| ApiError::bad_request("url-not-allowed", message);
+    if text.len() > MAX_URL_CHARS {
+        return Err(refused(format!("a URL may have at most {MAX_URL_CHARS} characters")));
+    }
+    let url =
+        reqwest::Url::parse(text).map_err(|_| refused(format!("{} is not a URL", quoted(text))))?;
+    let scope = host.scope(peers).map_err(|e| ApiError::bad_request("bad-peers", e))?;
+    scope.allowed.check(&url).map_err(|e| refused(e.to_string()))?;
+    Ok(url.into())
 }
 
 async fn health(State(host): State<Arc<Host>>) -> axum::Json<Health> {
