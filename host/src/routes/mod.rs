@@ -18,7 +18,7 @@ use crate::config::MAX_URL_CHARS;
 use crate::plugins::MAX_PLUGIN_BYTES;
 use crate::state::Host;
 use error::ApiError;
-use meshflow_api::fetch_rules::quoted;
+use meshflow_api::fetch_rules::{Refusal, quoted};
 use meshflow_api::host::Health;
 
 pub fn router(host: Arc<Host>) -> Router {
@@ -43,17 +43,18 @@ pub fn router(host: Arc<Host>) -> Router {
 }
 
 /// A URL a request names for this host to fetch, normalised (parsed, so quoting it in an
-/// error later repeats no raw bytes), or why it is refused: too long, not a URL, or outside
-/// what the host fetches from with these `peers`.
+/// error later repeats no raw bytes), or why it is refused: too long or not a URL
+/// (`bad-url`), or outside what the host fetches from with these `peers` (`url-not-allowed`).
 fn allowed_url(host: &Host, text: &str, peers: &[String]) -> Result<String, ApiError> {
-    let refused = |message: String| ApiError::bad_request("url-not-allowed", message);
     if text.len() > MAX_URL_CHARS {
-        return Err(refused(format!("a URL may have at most {MAX_URL_CHARS} characters")));
+        let message = format!("a URL may have at most {MAX_URL_CHARS} characters");
+        return Err(ApiError::bad_request("bad-url", message));
     }
-    let url =
-        reqwest::Url::parse(text).map_err(|_| refused(format!("{} is not a URL", quoted(text))))?;
+    let url = reqwest::Url::parse(text)
+        .map_err(|_| ApiError::bad_request("bad-url", format!("{} is not a URL", quoted(text))))?;
     let scope = host.scope(peers).map_err(|e| ApiError::bad_request("bad-peers", e))?;
-    scope.allowed.check(&url).map_err(|e| refused(e.to_string()))?;
+    let refused = |e: Refusal| ApiError::bad_request("url-not-allowed", e.to_string());
+    scope.allowed.check(&url).map_err(refused)?;
     Ok(url.into())
 }
 
