@@ -78,17 +78,27 @@ pub fn token_matches(given: &str, expected: &str) -> bool {
     blake3::hash(given.as_bytes()) == blake3::hash(expected.as_bytes())
 }
 
-/// Checks `given` against the tokens a route takes. No tokens: the route is open. Otherwise
-/// the answer is a 401 naming what is missing, sent before any body is read.
-pub fn require(given: Option<&str>, accepted: &[&str], what: &str) -> Result<(), Response> {
+/// A request without a token its route takes; answered 401 `unauthorized`.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct Unauthorized(String);
+
+impl IntoResponse for Unauthorized {
+    fn into_response(self) -> Response {
+        error_response(StatusCode::UNAUTHORIZED, "unauthorized", self.0)
+    }
+}
+
+/// Checks `given` against the tokens a route takes (`what` names them). No tokens: the
+/// route is open.
+pub fn require(given: Option<&str>, accepted: &[&str], what: &str) -> Result<(), Unauthorized> {
     if accepted.is_empty() || given.is_some_and(|g| accepted.iter().any(|t| token_matches(g, t))) {
         return Ok(());
     }
-    let message = match given {
+    Err(Unauthorized(match given {
         None => format!("this route needs {what} as a bearer token"),
         Some(_) => format!("the bearer token is not {what}"),
-    };
-    Err(error_response(StatusCode::UNAUTHORIZED, "unauthorized", message))
+    }))
 }
 
 /// An error answer in the APIs' form, `{"error": {"code", "message"}}`.
@@ -129,8 +139,9 @@ mod tests {
         assert!(require(None, &[], "the API token").is_ok());
         assert!(require(Some("a"), &["a", "b"], "x").is_ok());
         assert!(require(Some("b"), &["a", "b"], "x").is_ok());
-        assert_eq!(require(Some("c"), &["a"], "x").unwrap_err().status(), 401);
-        assert_eq!(require(None, &["a"], "x").unwrap_err().status(), 401);
+        let refused = require(Some("c"), &["a"], "x").unwrap_err();
+        assert_eq!(refused.into_response().status(), 401);
+        assert!(require(None, &["a"], "x").is_err());
     }
 
     #[test]

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use axum::extract::{Query, Request, State};
 use axum::http::Method;
 use axum::middleware::Next;
-use axum::response::Response;
+use axum::response::{IntoResponse, Response};
 use serde::Deserialize;
 
 use crate::Engine;
@@ -125,7 +125,7 @@ pub async fn check(State(engine): State<Arc<Engine>>, request: Request, next: Ne
     };
     match allowed {
         Ok(()) => next.run(request).await,
-        Err(refusal) => refusal,
+        Err(refusal) => refusal.into_response(),
     }
 }
 

@@ -30,10 +30,11 @@ const $ = id => document.getElementById(id);
 const esc = s => String(s ?? "").replace(/[&<>]/g, c => ({"&":"&amp;","<":"&lt;",">":"&gt;"})[c]);
 const fromUrl = new URLSearchParams(location.hash.slice(1)).get("token");
 if (fromUrl) { localStorage.setItem("meshflow-token", fromUrl); history.replaceState(null, "", location.pathname); }
-let token = localStorage.getItem("meshflow-token") || "";
+let token = localStorage.getItem("meshflow-token") || "", asked = false;
 async function api(path, options = {}) {
   const answer = await fetch(path, {...options, headers: {...(options.headers || {}), ...(token ? {authorization: "Bearer " + token} : {})}});
-  if (answer.status === 401) {
+  if (answer.status === 401 && !asked) {
+    asked = true;
     token = prompt("The engine's API token (meshflow up prints it):") || "";
     localStorage.setItem("meshflow-token", token);
   }

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use axum::extract::{Request, State};
 use axum::http::{Method, StatusCode};
 use axum::middleware::Next;
-use axum::response::Response;
+use axum::response::{IntoResponse, Response};
 
 use crate::state::Host;
 use meshflow_api::server::{bearer, error_response, require};
@@ -21,7 +21,9 @@ pub async fn check(State(host): State<Arc<Host>>, request: Request, next: Next) 
         && matches!(*request.method(), Method::POST | Method::DELETE)
     {
         match &host.config.token {
-            Some(token) => require(given, &[token], "the host's upload token"),
+            Some(token) => {
+                require(given, &[token], "the host's upload token").map_err(|e| e.into_response())
+            }
             None => Err(error_response(
                 StatusCode::FORBIDDEN,
                 "uploads-disabled",
@@ -30,7 +32,7 @@ pub async fn check(State(host): State<Arc<Host>>, request: Request, next: Next) 
         }
     } else {
         let cluster: Vec<&str> = host.config.cluster_token.as_deref().into_iter().collect();
-        require(given, &cluster, "the cluster token")
+        require(given, &cluster, "the cluster token").map_err(|e| e.into_response())
     };
     match allowed {
         Ok(()) => next.run(request).await,
