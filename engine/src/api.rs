@@ -22,6 +22,7 @@ use crate::{Engine, SubmitError};
 use meshflow_api::engine::{
     HostInfo, InputUploaded, RegisterHost, RunSubmitted, RunSummary, ServiceOffer,
 };
+use meshflow_api::fetch_rules::quoted;
 
 /// The largest mesh accepted by `POST /inputs`.
 pub const MAX_INPUT_BYTES: usize = 4 << 30;
@@ -225,10 +226,13 @@ async fn run_result(
     let record = run.record();
     match (record.status, record.result) {
         (Status::Completed, Some(result)) => {
+            let unavailable =
+                |message: String| ApiError(StatusCode::BAD_GATEWAY, "result-unavailable", message);
+            let client = engine.registry.blob_client(&result.url).ok_or_else(|| {
+                unavailable(format!("{}: not on a registered host", quoted(&result.url)))
+            })?;
             let bytes =
-                engine.registry.client_for(&result.url).download(&result.url).await.map_err(
-                    |e| ApiError(StatusCode::BAD_GATEWAY, "result-unavailable", e.to_string()),
-                )?;
+                client.download(&result.url).await.map_err(|e| unavailable(e.to_string()))?;
             let headers = [(header::CONTENT_TYPE, "application/octet-stream")];
             Ok((headers, Body::from(bytes)).into_response())
         }

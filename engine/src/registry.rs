@@ -148,9 +148,18 @@ impl Registry {
         Ok(Self { hosts: Mutex::default(), own_origin, access, http })
     }
 
-    /// A client for the host at `url` (or any of its blobs), with the cluster's token.
-    pub fn client_for(&self, url: &str) -> HostClient {
+    /// A client for the host at `url`, with the cluster's token.
+    fn client_for(&self, url: &str) -> HostClient {
         HostClient::with_client(url, self.http.clone()).with_access(self.access.clone())
+    }
+
+    /// A client for a blob URL a host gave, if it is on a registered host: the cluster
+    /// token goes to no other origin.
+    pub fn blob_client(&self, url: &str) -> Option<HostClient> {
+        let origin_of = |url: &str| reqwest::Url::parse(url).ok().map(|url| origin(&url));
+        let wanted = origin_of(url)?;
+        let known = self.hosts().iter().any(|host| origin_of(&host.url).as_ref() == Some(&wanted));
+        known.then(|| self.client_for(url))
     }
 
     /// Adds a host (once per URL) and asks it for its services before returning. The URL
@@ -257,5 +266,15 @@ mod tests {
         ] {
             assert!(host_base_url(bad).is_err(), "{bad} was taken");
         }
+    }
+
+    #[tokio::test]
+    async fn blob_clients_are_only_for_registered_hosts() {
+        let registry = Registry::new("http://127.0.0.1:7000", Some("secret".into())).unwrap();
+        // Nobody listens on port 9: the host is registered, though down.
+        registry.register("http://127.0.0.1:9").await.unwrap();
+        assert!(registry.blob_client("http://127.0.0.1:9/blobs/x.mfm").is_some());
+        assert!(registry.blob_client("http://127.0.0.1:10/blobs/x.mfm").is_none());
+        assert!(registry.blob_client("not a url").is_none());
     }
 }
