@@ -45,6 +45,7 @@ async fn main() -> anyhow::Result<()> {
         dir.path().join("engine"),
         None,
         &urls,
+        meshflow_engine::Access::default(),
         TcpListener::bind("127.0.0.1:0").await?,
     )
     .await?;

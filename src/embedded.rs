@@ -6,9 +6,11 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::ValueEnum;
 use meshflow_builtin_plugins::PLUGINS;
-use meshflow_engine::EngineHandle;
+use meshflow_engine::{Access, EngineHandle};
 use meshflow_host::{HostConfig, HostHandle};
 use tokio::net::TcpListener;
+
+use crate::commands::tokens;
 
 /// Which built-in plugins each host offers.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
@@ -24,16 +26,36 @@ pub enum Layout {
 pub struct Embedded {
     pub engine: EngineHandle,
     pub hosts: Vec<HostHandle>,
+    /// The tokens the engine and hosts were started with.
+    pub tokens: Tokens,
     /// Removed when the embedded system stops, unless the user gave a folder.
     _scratch: Option<tempfile::TempDir>,
 }
 
-/// Starts `hosts` hosts on 127.0.0.1 and an engine on `listen` that knows them.
+/// The embedded system's secrets: given, or fresh for each start.
+#[derive(Clone, Debug)]
+pub struct Tokens {
+    pub api: String,
+    pub cluster: String,
+}
+
+impl Tokens {
+    /// The given tokens, and fresh random ones for those not given.
+    pub fn given_or_fresh(api: Option<String>, cluster: Option<String>) -> anyhow::Result<Self> {
+        let fresh = |given: Option<String>| given.map_or_else(tokens::fresh, Ok);
+        Ok(Self { api: fresh(api)?, cluster: fresh(cluster)? })
+    }
+}
+
+/// Starts `hosts` hosts on 127.0.0.1 and an engine on `listen` that knows them, all with
+/// `tokens`; inputs may also come from `allow_input_from`.
 pub async fn start(
     hosts: usize,
     listen: &str,
     data: Option<PathBuf>,
     layout: Layout,
+    tokens: Tokens,
+    allow_input_from: Vec<String>,
 ) -> anyhow::Result<Embedded> {
     anyhow::ensure!(hosts > 0, "at least one host is needed");
     let (scratch, data) = match data {
@@ -49,6 +71,8 @@ pub async fn start(
         let config = HostConfig {
             builtins: builtins_for(index, hosts, layout),
             artefact_cache: crate::plugins::cache_dir(),
+            cluster_token: Some(tokens.cluster.clone()),
+            allow_input_from: allow_input_from.clone(),
             ..HostConfig::new(data.join(format!("host-{index}")))
         };
         let listener = TcpListener::bind("127.0.0.1:0").await?;
@@ -60,8 +84,14 @@ pub async fn start(
     let urls: Vec<String> = handles.iter().map(|h| h.url.clone()).collect();
     let listener =
         TcpListener::bind(listen).await.with_context(|| format!("listening on {listen}"))?;
-    let engine = meshflow_engine::start(data.join("engine"), None, &urls, listener).await?;
-    Ok(Embedded { engine, hosts: handles, _scratch: scratch })
+    let access = Access {
+        api_token: Some(tokens.api.clone()),
+        cluster_token: Some(tokens.cluster.clone()),
+        allow_input_from,
+        insecure_no_auth: false,
+    };
+    let engine = meshflow_engine::start(data.join("engine"), None, &urls, access, listener).await?;
+    Ok(Embedded { engine, hosts: handles, tokens, _scratch: scratch })
 }
 
 /// The built-in components host `index` of `hosts` offers under `layout`.

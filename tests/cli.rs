@@ -170,3 +170,88 @@ fn the_example_plugin_builds_and_runs() {
     let ratio = area(&big) / area(&bunny());
     assert!((ratio - 9.0).abs() < 1e-3, "area grew by {ratio}, not 9");
 }
+
+/// A one-step workflow file in `dir`.
+fn one_step_workflow(dir: &Path) -> String {
+    let path = dir.join("degenerate.json");
+    std::fs::write(&path, r#"{"steps": [{"run": "remove-degenerate-triangles"}]}"#).unwrap();
+    path.display().to_string()
+}
+
+#[test]
+fn run_goes_through_an_embedded_engine_and_hosts_with_fresh_tokens() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.ply").display().to_string();
+    let workflow = one_step_workflow(dir.path());
+    ok(&["run", &workflow, &bunny(), "-o", &out, "--hosts", "2", "--layout", "all"]);
+    assert!(Path::new(&out).is_file());
+}
+
+/// `meshflow up`, killed when dropped.
+struct Up(std::process::Child);
+
+impl Drop for Up {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[test]
+fn up_prints_the_ui_address_with_its_token_and_submit_needs_that_token() {
+    use std::io::BufRead;
+    let mut up = Up(Command::new(env!("CARGO_BIN_EXE_meshflow"))
+        .args(["up", "--hosts", "2", "--layout", "all", "--listen", "127.0.0.1:0"])
+        .env("MESHFLOW_CACHE_DIR", Path::new(env!("CARGO_TARGET_TMPDIR")).join("components"))
+        .env_remove("MESHFLOW_API_TOKEN")
+        .env_remove("MESHFLOW_CLUSTER_TOKEN")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("starting meshflow up"));
+    // Read what `up` prints until the submit hint, in bounded time.
+    let stdout = up.0.stdout.take().unwrap();
+    let (lines, printed) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
+            let last = line.contains("MESHFLOW_API_TOKEN");
+            let _ = lines.send(line);
+            if last {
+                break;
+            }
+        }
+    });
+    let mut text = String::new();
+    while !text.contains("MESHFLOW_API_TOKEN") {
+        let line = printed.recv_timeout(std::time::Duration::from_secs(120)).expect("up printed");
+        text.push_str(&line);
+        text.push('\n');
+    }
+    let field = |prefix: &str| {
+        let line = text.lines().find_map(|l| l.split_once(prefix)).map(|(_, rest)| rest);
+        line.unwrap_or_else(|| panic!("no {prefix:?} in {text}")).trim().to_owned()
+    };
+    let engine = field("engine: ");
+    let token = field("export MESHFLOW_API_TOKEN=");
+    assert_eq!(token.len(), 64, "{text}");
+    assert_eq!(field("web UI: "), format!("{engine}/#token={token}"));
+
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.ply").display().to_string();
+    let workflow = one_step_workflow(dir.path());
+    let submit = |token: Option<&str>| {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_meshflow"));
+        command.args(["submit", "--engine", &engine, &workflow, "--input", &bunny(), "-o", &out]);
+        command.env_remove("MESHFLOW_API_TOKEN");
+        if let Some(token) = token {
+            command.env("MESHFLOW_API_TOKEN", token);
+        }
+        command.output().expect("running meshflow submit")
+    };
+    let refused = submit(None);
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("401"), "{refused:?}");
+    let done = submit(Some(&token));
+    assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
+    assert!(Path::new(&out).is_file());
+}

@@ -34,7 +34,7 @@ async fn all_ended(api: &EngineApi, ids: &[String]) -> Vec<Json> {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_engine_killed_mid_runs_resumes_them_after_a_restart_and_loses_none() {
     let data = tempfile::tempdir().unwrap();
-    let hosts = start_hosts(SPREAD, data.path()).await;
+    let hosts = start_hosts(SPREAD, data.path(), &[]).await;
     let urls: Vec<String> = hosts.iter().map(|h| h.url.clone()).collect();
     let mut engine = EngineProcess::start(&data.path().join("engine"), &urls).await;
     let api = EngineApi::new(&engine.url);
@@ -196,7 +196,7 @@ async fn event_streams_end_with_their_run_and_at_once_for_a_finished_one() {
     let id = cluster.submit(&workflow, &url).await;
     let events = cluster.url(&format!("/runs/{id}/events"));
     let read_all = |url: String| async move {
-        let answer = reqwest::get(url).await.unwrap();
+        let answer = common::bearer_client(common::API_TOKEN).get(url).send().await.unwrap();
         let body = tokio::time::timeout(Duration::from_secs(60), answer.text()).await;
         body.expect("the event stream ended").unwrap()
     };
@@ -211,7 +211,7 @@ async fn event_streams_end_with_their_run_and_at_once_for_a_finished_one() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn submit_wait_follows_its_run_across_an_engine_restart() {
     let data = tempfile::tempdir().unwrap();
-    let hosts = start_hosts(SPREAD, data.path()).await;
+    let hosts = start_hosts(SPREAD, data.path(), &[]).await;
     let urls: Vec<String> = hosts.iter().map(|h| h.url.clone()).collect();
     let mut engine = EngineProcess::start(&data.path().join("engine"), &urls).await;
     let api = EngineApi::new(&engine.url);
@@ -223,6 +223,7 @@ async fn submit_wait_follows_its_run_across_an_engine_restart() {
     let output = data.path().join("repaired.ply");
     let mut submit = std::process::Command::new(env!("CARGO_BIN_EXE_meshflow"))
         .args(["submit", "--engine", &engine.url, "--json", "--input", &input_url, "-o"])
+        .env("MESHFLOW_API_TOKEN", common::API_TOKEN)
         .arg(&output)
         .arg(&repair)
         .stdout(std::process::Stdio::null())

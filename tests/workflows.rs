@@ -140,13 +140,7 @@ async fn a_plugin_uploaded_to_a_host_joins_the_catalogue_and_runs_in_a_workflow(
         .await
         .unwrap();
     assert!(uploaded.services.iter().any(|s| s.name == service));
-    let registered = cluster
-        .http
-        .post(cluster.url("/hosts"))
-        .json(&json!({"url": uploader}))
-        .send()
-        .await
-        .unwrap();
+    let registered = cluster.register(uploader).await;
     assert_eq!(registered.status(), 201);
     let services = cluster.services().await;
     let offer = services.as_array().unwrap().iter().find(|s| s["name"] == service);
@@ -309,12 +303,13 @@ async fn workflows_that_do_not_parse_or_fit_the_catalogue_are_refused_naming_the
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn inputs_that_cannot_be_fetched_or_read_fail_the_run_clearly() {
-    let cluster = Cluster::start(SPREAD).await;
-    let workflow = example("repair");
-    let closed = {
+    let closed_origin = {
         let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
-        format!("http://{}/scan.ply", listener.local_addr().unwrap())
+        format!("http://{}", listener.local_addr().unwrap())
     };
+    let cluster = Cluster::start_allowing(SPREAD, std::slice::from_ref(&closed_origin)).await;
+    let workflow = example("repair");
+    let closed = format!("{closed_origin}/scan.ply");
     let not_a_mesh =
         Input { name: "notes.ply", bytes: b"shopping list\n".to_vec(), mesh: Default::default() };
     let uploaded = cluster.upload(&not_a_mesh).await;
@@ -334,7 +329,7 @@ async fn a_failing_plugin_fails_its_run_naming_the_step_and_other_runs_carry_on(
     let hostile = meshflow_builtin_plugins::fixture("hostile").to_vec();
     let host = &cluster.hosts[0].url;
     HostClient::new(host).upload_plugin(hostile, Some(TOKEN)).await.unwrap();
-    cluster.http.post(cluster.url("/hosts")).json(&json!({"url": host})).send().await.unwrap();
+    cluster.register(host).await;
     let input = Input::bunny();
     let url = cluster.upload(&input).await;
     let repair = example("repair");
@@ -386,13 +381,7 @@ async fn a_while_that_stays_true_stops_at_max_iterations_with_a_warning() {
 async fn host_registrations_that_are_not_host_urls_are_refused() {
     let cluster = Cluster::start(&[&["checks"]]).await;
     for bad in ["not a url at all", "file:///etc/passwd", "http://user:pw@127.0.0.1:1/"] {
-        let answer = cluster
-            .http
-            .post(cluster.url("/hosts"))
-            .json(&json!({"url": bad}))
-            .send()
-            .await
-            .unwrap();
+        let answer = cluster.register(bad).await;
         assert_eq!(answer.status(), 400, "{bad}");
         let body: Json = answer.json().await.unwrap();
         assert_eq!(body["error"]["code"], "bad-url", "{bad}: {body}");
@@ -421,8 +410,9 @@ fn claimed_filter(
 
 /// A real host offering smoothing, and its `GET /services` for a fake to copy.
 async fn smoothing_host(data: &Path) -> (HostHandle, Json) {
-    let host = common::start_hosts(&[&["smoothing"]], data).await.remove(0);
-    let services = HostClient::new(&host.url).services().await.unwrap();
+    let host = common::start_hosts(&[&["smoothing"]], data, &[]).await.remove(0);
+    let client = HostClient::new(&host.url).with_token(common::CLUSTER_TOKEN);
+    let services = client.services().await.unwrap();
     (host, json!(services))
 }
 

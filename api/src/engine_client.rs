@@ -19,6 +19,12 @@ impl EngineClient {
         Self { endpoint: Endpoint::new(base_url, crate::transport::default_client()) }
     }
 
+    /// Sends an API token (`Authorization: Bearer`) with every request.
+    pub fn with_token(mut self, token: &str) -> Self {
+        self.endpoint.token = Some(token.to_owned());
+        self
+    }
+
     pub fn base_url(&self) -> &str {
         &self.endpoint.base
     }
@@ -67,14 +73,14 @@ impl EngineClient {
     /// The open event stream of a run (server-sent events: `record`, then each change).
     pub async fn events(&self, id: &str) -> Result<reqwest::Response, ClientError> {
         let url = format!("{}/runs/{id}/events", self.endpoint.base);
-        send(self.endpoint.http.get(&url), &url).await
+        send(self.endpoint.request(Method::GET, &url), &url).await
     }
 
     /// The final mesh of a finished run, packed (`.mfm`); the engine's error message when
     /// there is none.
     pub async fn result(&self, id: &str) -> Result<Vec<u8>, ClientError> {
         let url = format!("{}/runs/{id}/result", self.endpoint.base);
-        let response = send(self.endpoint.http.get(&url), &url).await?;
+        let response = send(self.endpoint.request(Method::GET, &url), &url).await?;
         read_capped(response, &url, u64::MAX).await
     }
 }

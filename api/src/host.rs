@@ -38,6 +38,17 @@ pub struct PluginEntry {
     pub services: Vec<String>,
 }
 
+/// A request that names URLs to fetch (`POST /sessions`, `POST /sessions/{id}/update`),
+/// with the origins of the cluster (the engine's and its hosts') the sender vouches for:
+/// the host may fetch from them and sends them the cluster token.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Vouched<T> {
+    #[serde(flatten)]
+    pub body: T,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub peers: Vec<String>,
+}
+
 /// `POST /sessions`.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct CreateSession {

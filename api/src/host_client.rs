@@ -1,17 +1,49 @@
 //! `HostClient`: the host HTTP API from Rust (async, reqwest), for the engine and the CLI.
 
+use std::sync::{Arc, RwLock};
+
 use reqwest::Method;
 
 use crate::host::{
     CreateSession, Health, InputRef, PluginEntry, RunRequest, RunResult, ServiceEntry,
-    SessionCreated, SessionStatus, Update, Updated, UploadedPlugin,
+    SessionCreated, SessionStatus, Update, Updated, UploadedPlugin, Vouched,
 };
-use crate::transport::{ClientError, Endpoint, QUERY_TIMEOUT, authorized, read_capped, send};
+use crate::transport::{ClientError, Endpoint, QUERY_TIMEOUT, read_capped, send};
 
 /// A client of one host, e.g. `HostClient::new("http://127.0.0.1:7000")`.
 #[derive(Clone, Debug)]
 pub struct HostClient {
     endpoint: Endpoint,
+    access: ClusterAccess,
+}
+
+/// What a cluster member sends with its requests to hosts: the cluster token, and the
+/// origins of the cluster (the engine and its hosts), which a host may fetch from and send
+/// the token to. The engine's registry updates the origins as hosts register; every client
+/// made from one `ClusterAccess` sees the change.
+#[derive(Clone, Debug, Default)]
+pub struct ClusterAccess {
+    token: Option<String>,
+    peers: Arc<RwLock<Vec<String>>>,
+}
+
+impl ClusterAccess {
+    pub fn new(token: Option<String>) -> Self {
+        Self { token, peers: Arc::default() }
+    }
+
+    pub fn token(&self) -> Option<&str> {
+        self.token.as_deref()
+    }
+
+    /// Replaces the cluster's origins (`scheme://host[:port]`).
+    pub fn set_peers(&self, origins: Vec<String>) {
+        *self.peers.write().expect("peers lock") = origins;
+    }
+
+    fn peers(&self) -> Vec<String> {
+        self.peers.read().expect("peers lock").clone()
+    }
 }
 
 impl HostClient {
@@ -23,7 +55,20 @@ impl HostClient {
 
     /// Shares a connection pool (and its timeouts) with other clients.
     pub fn with_client(base_url: &str, http: reqwest::Client) -> Self {
-        Self { endpoint: Endpoint::new(base_url, http) }
+        Self { endpoint: Endpoint::new(base_url, http), access: ClusterAccess::default() }
+    }
+
+    /// Sends the cluster token (`Authorization: Bearer`) with every request.
+    pub fn with_token(self, token: &str) -> Self {
+        self.with_access(ClusterAccess::new(Some(token.to_owned())))
+    }
+
+    /// Sends the cluster token with every request, and the cluster's origins with the
+    /// requests that name URLs (sessions, updates).
+    pub fn with_access(mut self, access: ClusterAccess) -> Self {
+        self.endpoint.token = access.token.clone();
+        self.access = access;
+        self
     }
 
     pub fn base_url(&self) -> &str {
@@ -42,13 +87,15 @@ impl HostClient {
         self.endpoint.json(Method::GET, "/plugins", |r| r.timeout(QUERY_TIMEOUT)).await
     }
 
-    /// Uploads a component; `token` is the host's `--token`.
+    /// Uploads a component; `token` is the host's upload token (its `--token`), sent
+    /// instead of the cluster token.
     pub async fn upload_plugin(
         &self,
         wasm: Vec<u8>,
         token: Option<&str>,
     ) -> Result<UploadedPlugin, ClientError> {
-        self.endpoint.json(Method::POST, "/plugins", |r| authorized(r, token).body(wasm)).await
+        let uploads = self.upload_endpoint(token);
+        uploads.json(Method::POST, "/plugins", |r| r.body(wasm)).await
     }
 
     pub async fn delete_plugin(
@@ -57,7 +104,11 @@ impl HostClient {
         token: Option<&str>,
     ) -> Result<(), ClientError> {
         let path = format!("/plugins/{digest}");
-        self.endpoint.empty(Method::DELETE, &path, |r| authorized(r, token)).await
+        self.upload_endpoint(token).empty(Method::DELETE, &path, |r| r).await
+    }
+
+    fn upload_endpoint(&self, token: Option<&str>) -> Endpoint {
+        Endpoint { token: token.map(str::to_owned), ..self.endpoint.clone() }
     }
 
     /// Starts a session from a mesh at `url`; it loads in the background.
@@ -66,8 +117,11 @@ impl HostClient {
         url: &str,
         expected_hash: Option<&str>,
     ) -> Result<SessionCreated, ClientError> {
-        let body = CreateSession {
-            input: InputRef { url: url.to_owned(), hash: expected_hash.map(str::to_owned) },
+        let body = Vouched {
+            body: CreateSession {
+                input: InputRef { url: url.to_owned(), hash: expected_hash.map(str::to_owned) },
+            },
+            peers: self.access.peers(),
         };
         self.endpoint.json(Method::POST, "/sessions", |r| r.json(&body)).await
     }
@@ -93,9 +147,8 @@ impl HostClient {
     }
 
     pub async fn update(&self, id: &str, update: &Update) -> Result<Updated, ClientError> {
-        self.endpoint
-            .json(Method::POST, &format!("/sessions/{id}/update"), |r| r.json(update))
-            .await
+        let body = Vouched { body: update, peers: self.access.peers() };
+        self.endpoint.json(Method::POST, &format!("/sessions/{id}/update"), |r| r.json(&body)).await
     }
 
     pub async fn run(&self, id: &str, request: &RunRequest) -> Result<RunResult, ClientError> {
@@ -108,7 +161,7 @@ impl HostClient {
 
     /// The size of a blob (any URL), by `HEAD`.
     pub async fn blob_size(&self, url: &str) -> Result<u64, ClientError> {
-        let response = send(self.endpoint.http.head(url), url).await?;
+        let response = send(self.endpoint.request(Method::HEAD, url), url).await?;
         // Not `content_length()`: for a HEAD answer that is the empty body's length.
         let length = response.headers().get(reqwest::header::CONTENT_LENGTH);
         length.and_then(|v| v.to_str().ok()?.parse().ok()).ok_or_else(|| ClientError::Protocol {
@@ -131,7 +184,7 @@ impl HostClient {
     /// A blob of this host (or another host's, by URL), with the host's error message when
     /// it has none.
     pub async fn download(&self, url: &str) -> Result<Vec<u8>, ClientError> {
-        let response = send(self.endpoint.http.get(url), url).await?;
+        let response = send(self.endpoint.request(Method::GET, url), url).await?;
         read_capped(response, url, u64::MAX).await
     }
 }

@@ -7,6 +7,7 @@ use futures_util::StreamExt;
 use reqwest::{Method, RequestBuilder, Response, StatusCode};
 use serde::de::DeserializeOwned;
 
+use crate::fetch_rules::{FetchScope, Refusal, quoted};
 use crate::host::ErrorBody;
 
 /// What went wrong with a request, typed by what a caller does about it: a host that is
@@ -34,6 +35,9 @@ pub enum ClientError {
     /// The server is busy (HTTP 429): ask again after `retry_after`, or elsewhere.
     #[error("{url}: busy: {message}")]
     Busy { url: String, retry_after: Option<Duration>, message: String },
+    /// The URL (or a redirect's target) is not one the fetch rules allow.
+    #[error(transparent)]
+    NotAllowed(#[from] Refusal),
 }
 
 /// How long a client tries to connect before the server counts as unreachable.
@@ -56,6 +60,9 @@ pub(crate) fn default_client() -> reqwest::Client {
 /// Error bodies are read up to this size; the rest is not kept.
 pub const MAX_ERROR_BODY_BYTES: usize = 16 << 10;
 
+/// Redirects [`fetch`] follows, each checked against the fetch rules.
+pub const MAX_REDIRECTS: usize = 5;
+
 impl ClientError {
     /// Whether another host might succeed where this one failed: it could not be reached,
     /// timed out, broke, or answered nonsense.
@@ -71,6 +78,8 @@ impl ClientError {
 
     fn transport(url: &str, error: reqwest::Error) -> Self {
         // reqwest's own message hides the cause ("error sending request"): add the chain.
+        // The URL is said once, by the caller, quoted.
+        let error = error.without_url();
         let mut message = error.to_string();
         let mut source = std::error::Error::source(&error);
         while let Some(cause) = source {
@@ -88,16 +97,22 @@ impl ClientError {
     }
 }
 
-/// A server's base URL and the pool its requests go through.
+/// A server's base URL, the pool its requests go through and the bearer token they carry.
 #[derive(Clone, Debug)]
 pub(crate) struct Endpoint {
     pub base: String,
     pub http: reqwest::Client,
+    pub token: Option<String>,
 }
 
 impl Endpoint {
     pub fn new(base_url: &str, http: reqwest::Client) -> Self {
-        Self { base: base_url.trim_end_matches('/').to_owned(), http }
+        Self { base: base_url.trim_end_matches('/').to_owned(), http, token: None }
+    }
+
+    /// A request to `url` with this endpoint's token.
+    pub fn request(&self, method: Method, url: &str) -> RequestBuilder {
+        authorized(self.http.request(method, url), self.token.as_deref())
     }
 
     pub async fn json<T: DeserializeOwned>(
@@ -107,7 +122,7 @@ impl Endpoint {
         build: impl FnOnce(RequestBuilder) -> RequestBuilder,
     ) -> Result<T, ClientError> {
         let url = format!("{}{path}", self.base);
-        let response = send(build(self.http.request(method, &url)), &url).await?;
+        let response = send(build(self.request(method, &url)), &url).await?;
         response.json().await.map_err(|e| ClientError::transport(&url, e))
     }
 
@@ -118,7 +133,7 @@ impl Endpoint {
         build: impl FnOnce(RequestBuilder) -> RequestBuilder,
     ) -> Result<(), ClientError> {
         let url = format!("{}{path}", self.base);
-        send(build(self.http.request(method, &url)), &url).await.map(drop)
+        send(build(self.request(method, &url)), &url).await.map(drop)
     }
 }
 
@@ -184,17 +199,59 @@ fn code_of(status: StatusCode) -> String {
     status.canonical_reason().unwrap_or("error").to_lowercase().replace(' ', "-")
 }
 
-/// Downloads `url` into memory, refusing more than `limit` bytes (see [`read_capped`]).
-/// The URL may be anyone's: an error answer's body is neither read nor repeated, only its
-/// status.
-pub async fn fetch(http: &reqwest::Client, url: &str, limit: u64) -> Result<Vec<u8>, ClientError> {
-    let response = http.get(url).send().await.map_err(|e| ClientError::transport(url, e))?;
-    let status = response.status();
-    if !status.is_success() {
-        let message = format!("the server answered {status}");
-        return Err(status_error(url, status, code_of(status), message));
+/// Downloads `url` into memory within `deadline`, refusing more than `limit` bytes (see
+/// [`read_capped`]). The URL and every redirect's target must pass `scope`, and only
+/// cluster origins get the cluster token. The URL may be anyone's: an error answer's body is
+/// neither read nor repeated, only its status, and the URL is quoted ([`quoted`]).
+pub async fn fetch(
+    http: &reqwest::Client,
+    url: &str,
+    scope: &FetchScope,
+    limit: u64,
+    deadline: Duration,
+) -> Result<Vec<u8>, ClientError> {
+    let quoted_url = quoted(url);
+    let timed_out = || ClientError::Timeout {
+        url: quoted_url.clone(),
+        message: format!("the download took longer than {} s", deadline.as_secs()),
+    };
+    tokio::time::timeout(deadline, fetch_following(http, url, scope, limit))
+        .await
+        .unwrap_or_else(|_| Err(timed_out()))
+}
+
+async fn fetch_following(
+    http: &reqwest::Client,
+    url: &str,
+    scope: &FetchScope,
+    limit: u64,
+) -> Result<Vec<u8>, ClientError> {
+    let mut next = reqwest::Url::parse(url).map_err(|_| Refusal::NotAUrl(quoted(url)))?;
+    for _ in 0..=MAX_REDIRECTS {
+        scope.allowed.check(&next)?;
+        let shown = quoted(next.as_str());
+        let request = authorized(http.get(next.clone()), scope.token_for(&next));
+        let response = request.send().await.map_err(|e| ClientError::transport(&shown, e))?;
+        let status = response.status();
+        if status.is_redirection() {
+            let location = response.headers().get(reqwest::header::LOCATION);
+            let target = location.and_then(|l| l.to_str().ok()).and_then(|l| next.join(l).ok());
+            next = target.ok_or_else(|| ClientError::Protocol {
+                url: shown,
+                message: format!("the server answered {status} without a usable Location"),
+            })?;
+            continue;
+        }
+        if !status.is_success() {
+            let message = format!("the server answered {status}");
+            return Err(status_error(&shown, status, code_of(status), message));
+        }
+        return read_capped(response, &shown, limit).await;
     }
-    read_capped(response, url, limit).await
+    Err(ClientError::Protocol {
+        url: quoted(url),
+        message: format!("more than {MAX_REDIRECTS} redirects"),
+    })
 }
 
 /// A successful answer's body, refusing more than `limit` bytes (checked against the

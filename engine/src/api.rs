@@ -9,7 +9,7 @@ use axum::extract::rejection::BytesRejection;
 use axum::extract::{DefaultBodyLimit, Path, Query, State};
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
-use axum::response::{Html, IntoResponse, Redirect, Response};
+use axum::response::{Html, IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::{Json, Router};
 use futures_util::{Stream, StreamExt, stream};
@@ -25,6 +25,7 @@ use crate::{Engine, SubmitError};
 use meshflow_api::engine::{
     HostInfo, InputUploaded, RegisterHost, RunSubmitted, RunSummary, ServiceOffer,
 };
+use meshflow_api::fetch_rules::quoted;
 
 pub fn router(engine: Arc<Engine>) -> Router {
     Router::new()
@@ -43,6 +44,7 @@ pub fn router(engine: Arc<Engine>) -> Router {
         .route("/runs/{id}/cancel", post(cancel_run))
         .route("/runs/{id}/events", get(run_events))
         .route("/runs/{id}/result", get(run_result))
+        .layer(axum::middleware::from_fn_with_state(engine.clone(), crate::auth::check))
         .with_state(engine)
 }
 
@@ -210,6 +212,9 @@ async fn submit(
                 SubmitError::Busy(_) => {
                     ApiError(StatusCode::TOO_MANY_REQUESTS, "too-many-runs", e.to_string())
                 }
+                SubmitError::InputRefused(_) => {
+                    ApiError(StatusCode::BAD_REQUEST, "input-not-allowed", e.to_string())
+                }
                 SubmitError::Store(error) => internal(error),
             },
         )?;
@@ -292,29 +297,39 @@ async fn run_events(
     Ok(Sse::new(first.chain(changes)).keep_alive(KeepAlive::default()))
 }
 
+/// The final mesh (`.mfm`), fetched from the host holding it with the cluster token (a
+/// user holds no cluster token, so a redirect to the host would not do).
 async fn run_result(
     State(engine): State<Arc<Engine>>,
     Path(id): Path<String>,
-) -> ApiResult<Redirect> {
+) -> ApiResult<Response> {
     let run = engine.run(&id).ok_or_else(|| not_found("run", &id))?;
     let record = run.record();
     match (record.status, record.result) {
         (Status::Completed, Some(result)) => {
-            // Only to where a host of ours serves the recorded mesh: the record's URL passed
-            // the executor's checks, and is checked again here before anyone is sent there.
+            // Only from where a host of ours serves the recorded mesh: the record's URL
+            // passed the executor's checks, and is checked again here.
+            let unavailable =
+                |message: String| ApiError(StatusCode::BAD_GATEWAY, "result-unavailable", message);
             let hosts = engine.registry.hosts();
             let served = crate::executor::is_content_hash(&result.hash)
                 && hosts
                     .iter()
                     .any(|h| result.url == crate::executor::full_mesh_url(&h.url, &result.hash));
-            match served {
-                true => Ok(Redirect::to(&result.url)),
-                false => Err(ApiError(
+            if !served {
+                return Err(ApiError(
                     StatusCode::BAD_GATEWAY,
                     "unverified-result",
                     format!("run {id}: no known host serves its result mesh {}", result.hash),
-                )),
+                ));
             }
+            let client = engine.registry.blob_client(&result.url).ok_or_else(|| {
+                unavailable(format!("{}: not on a registered host", quoted(&result.url)))
+            })?;
+            let bytes =
+                client.download(&result.url).await.map_err(|e| unavailable(e.to_string()))?;
+            let headers = [(header::CONTENT_TYPE, "application/octet-stream")];
+            Ok((headers, Body::from(bytes)).into_response())
         }
         (status, _) if status.is_final() => Err(ApiError(
             StatusCode::CONFLICT,

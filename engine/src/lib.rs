@@ -8,6 +8,7 @@
 
 mod admission;
 mod api;
+pub mod auth;
 mod executor;
 mod inputs;
 pub mod limits;
@@ -28,6 +29,7 @@ use serde_json::Value as Json;
 use tokio::sync::Notify;
 
 pub use api::router;
+pub use auth::Access;
 use limits::{JANITOR_INTERVAL, KEPT_RUNS, PERSIST_INTERVAL, UNUSED_INPUT_TTL};
 use record::{RunRecord, Status};
 use registry::Registry;
@@ -40,6 +42,7 @@ pub struct EngineConfig {
     pub data_dir: PathBuf,
     /// The URL hosts use to reach this engine (for uploaded inputs).
     pub public_url: String,
+    pub access: Access,
 }
 
 pub struct Engine {
@@ -51,6 +54,7 @@ pub struct Engine {
     /// Told of every change to a run, for the persister.
     changed: Arc<Notify>,
     public_url: String,
+    access: Access,
 }
 
 /// Kept runs by id, in the order they were submitted.
@@ -67,6 +71,8 @@ pub enum SubmitError {
     Invalid(#[from] WorkflowError),
     #[error("the workflow has no input: give \"input\" in the workflow or with the request")]
     NoInput,
+    #[error("input: {0}")]
+    InputRefused(#[from] meshflow_api::fetch_rules::Refusal),
     #[error(transparent)]
     Busy(#[from] admission::Busy),
     #[error(transparent)]
@@ -81,14 +87,17 @@ impl Engine {
         let store = Store::open(&config.data_dir.join("engine.sqlite3"))?;
         let (stored, hosts) = store.now(|c| Ok((store::load_runs(c)?, store::load_hosts(c)?)))?;
         let changed = Arc::new(Notify::new());
+        let public_url = config.public_url.trim_end_matches('/').to_owned();
+        let cluster = config.access.cluster_token.clone();
         let engine = Arc::new(Self {
-            registry: Arc::new(Registry::new(store.clone())),
+            registry: Arc::new(Registry::new(&public_url, cluster, store.clone())?),
             runs: Mutex::default(),
             inputs: inputs::Inputs::new(config.data_dir.join("inputs"))?,
             store,
             admission: admission::Admission::default(),
             changed,
-            public_url: config.public_url.trim_end_matches('/').to_owned(),
+            public_url,
+            access: config.access,
         });
         let mut unfinished = Vec::new();
         for stored in stored {
@@ -127,6 +136,8 @@ impl Engine {
     ) -> Result<Arc<Run>, SubmitError> {
         let workflow = Workflow::from_json(&workflow_json)?;
         let input = input.or_else(|| workflow.input.clone()).ok_or(SubmitError::NoInput)?;
+        let hosts = self.registry.hosts().into_iter().map(|host| host.url.clone());
+        self.access.check_input(&input, &self.public_url, hosts)?;
         validate::validate(&workflow, &|name| self.registry.service(name))?;
         let ticket = self.admission.admit(client)?;
         let id = new_run_id();
@@ -305,20 +316,24 @@ impl EngineHandle {
 
 /// Starts an engine on `listener` with its state under `data_dir`: registers `hosts` and
 /// the hosts it knew before, resumes the runs it was executing, and serves in the
-/// background.
+/// background. Without both tokens it listens only on loopback, unless
+/// `access.insecure_no_auth`.
 pub async fn start(
     data_dir: PathBuf,
     public_url: Option<String>,
     hosts: &[String],
+    access: Access,
     listener: tokio::net::TcpListener,
 ) -> anyhow::Result<EngineHandle> {
     let address = listener.local_addr()?;
+    let access = access.validated()?;
+    meshflow_api::server::check_exposure(address, &access.missing(), access.insecure_no_auth)?;
     let url = public_url.unwrap_or_else(|| match address.ip().is_unspecified() {
         true => format!("http://127.0.0.1:{}", address.port()),
         false => format!("http://{address}"),
     });
     let (engine, unfinished, known) =
-        Engine::open(EngineConfig { data_dir, public_url: url.clone() })?;
+        Engine::open(EngineConfig { data_dir, public_url: url.clone(), access })?;
     // Hosts named at start are checked first (a bad URL stops the start); those known from
     // before are polled again together.
     for host in hosts {
@@ -339,7 +354,8 @@ pub async fn start(
         tracing::info!("resuming run {}", stored.id);
         engine.resume(stored);
     }
-    let server = tokio::spawn(axum::serve(listener, router(engine.clone())).into_future());
+    let app = router(engine.clone());
+    let server = tokio::spawn(meshflow_api::server::serve(listener, app, std::future::pending()));
     tracing::info!("engine listening on {address}, reached at {url}");
     Ok(EngineHandle { url, engine, server })
 }

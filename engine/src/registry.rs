@@ -5,9 +5,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use meshflow_api::HostClient;
+use meshflow_api::fetch_rules::{check_address, guarded_client, origin};
 use meshflow_api::host::ServiceEntry;
 use meshflow_api::params::ServiceInfo;
+use meshflow_api::{CONNECT_TIMEOUT, ClusterAccess, HostClient};
 use serde::Serialize;
 
 use crate::limits::{MAX_HOSTS, SUSPECT_FOR};
@@ -40,9 +41,9 @@ pub struct HostState {
 }
 
 impl HostEntry {
-    fn new(url: String) -> Self {
+    fn new(client: HostClient, url: String) -> Self {
         Self {
-            client: HostClient::new(&url),
+            client,
             url,
             state: Mutex::new(HostState::default()),
             pinned: AtomicBool::new(false),
@@ -143,6 +144,12 @@ impl Drop for Assignment {
 pub struct Registry {
     hosts: Mutex<Vec<Arc<HostEntry>>>,
     store: Store,
+    /// The engine's own origin, always a peer of its hosts.
+    own_origin: String,
+    /// The cluster token and the cluster's origins, shared by every host's client.
+    access: ClusterAccess,
+    /// One pool for all hosts; names resolve only to addresses that may be fetched.
+    http: reqwest::Client,
 }
 
 pub use meshflow_api::engine::ServiceOffer as Offer;
@@ -182,12 +189,39 @@ fn host_base_url(text: &str) -> Result<String, BadHostUrl> {
     if url.query().is_some() || url.fragment().is_some() {
         return Err(bad("it has a query or fragment"));
     }
+    if check_address(&url).is_err() {
+        return Err(bad("link-local and metadata addresses are never hosts"));
+    }
     Ok(url.as_str().trim_end_matches('/').to_owned())
 }
 
 impl Registry {
-    pub fn new(store: Store) -> Self {
-        Self { hosts: Mutex::default(), store }
+    /// A registry of an engine reached at `public_url`, whose hosts' clients send
+    /// `cluster_token`, keeping its hosts in `store`.
+    pub fn new(
+        public_url: &str,
+        cluster_token: Option<String>,
+        store: Store,
+    ) -> anyhow::Result<Self> {
+        let own_origin = origin(&reqwest::Url::parse(public_url)?);
+        let access = ClusterAccess::new(cluster_token);
+        access.set_peers(vec![own_origin.clone()]);
+        let http = guarded_client().connect_timeout(CONNECT_TIMEOUT).build()?;
+        Ok(Self { hosts: Mutex::default(), store, own_origin, access, http })
+    }
+
+    /// A client for the host at `url`, with the cluster's token.
+    fn client_for(&self, url: &str) -> HostClient {
+        HostClient::with_client(url, self.http.clone()).with_access(self.access.clone())
+    }
+
+    /// A client for a blob URL a host gave, if it is on a registered host: the cluster
+    /// token goes to no other origin.
+    pub fn blob_client(&self, url: &str) -> Option<HostClient> {
+        let origin_of = |url: &str| reqwest::Url::parse(url).ok().map(|url| origin(&url));
+        let wanted = origin_of(url)?;
+        let known = self.hosts().iter().any(|host| origin_of(&host.url).as_ref() == Some(&wanted));
+        known.then(|| self.client_for(url))
     }
 
     /// Adds a host (once per URL, at most [`MAX_HOSTS`]), records it, and asks it for its
@@ -201,8 +235,9 @@ impl Registry {
                 Some(entry) => (entry.clone(), false),
                 None if hosts.len() >= MAX_HOSTS => return Err(RegisterError::Full),
                 None => {
-                    let entry = Arc::new(HostEntry::new(url));
+                    let entry = Arc::new(HostEntry::new(self.client_for(&url), url));
                     hosts.push(entry.clone());
+                    self.access.set_peers(self.peers(&hosts));
                     (entry, true)
                 }
             }
@@ -221,7 +256,7 @@ impl Registry {
         let hosts = self.hosts.lock().unwrap();
         match hosts.iter().find(|h| h.url == url) {
             Some(entry) => entry.client.clone(),
-            None => HostClient::new(url),
+            None => self.client_for(url),
         }
     }
 
@@ -236,6 +271,7 @@ impl Registry {
                     && h.last_seen.lock().unwrap().elapsed() > age
             });
             *hosts = kept;
+            self.access.set_peers(self.peers(&hosts));
             gone.into_iter().map(|h: Arc<HostEntry>| h.url.clone()).collect()
         };
         for url in forgotten {
@@ -244,6 +280,17 @@ impl Registry {
                 tracing::error!("{error}");
             }
         }
+    }
+
+    /// The origins hosts may fetch from and send the cluster token to: the engine's and
+    /// every registered host's.
+    fn peers(&self, hosts: &[Arc<HostEntry>]) -> Vec<String> {
+        let hosts = hosts.iter().filter_map(|h| reqwest::Url::parse(&h.url).ok());
+        let mut peers: Vec<String> = hosts.map(|url| origin(&url)).collect();
+        peers.push(self.own_origin.clone());
+        peers.sort();
+        peers.dedup();
+        peers
     }
 
     pub fn hosts(&self) -> Vec<Arc<HostEntry>> {
@@ -297,11 +344,18 @@ mod tests {
     use super::*;
     use crate::limits::FORGET_DOWN_HOST_AFTER;
 
+    /// A registry of an engine on :7000 with a cluster token, and its database.
+    fn registry(dir: &tempfile::TempDir) -> (Registry, Store) {
+        let store = Store::open(&dir.path().join("engine.sqlite3")).unwrap();
+        let registry =
+            Registry::new("http://127.0.0.1:7000", Some("secret".into()), store.clone()).unwrap();
+        (registry, store)
+    }
+
     #[tokio::test]
     async fn hosts_down_too_long_are_forgotten_unless_named_at_start() {
         let dir = tempfile::tempdir().unwrap();
-        let store = Store::open(&dir.path().join("engine.sqlite3")).unwrap();
-        let registry = Registry::new(store.clone());
+        let (registry, store) = registry(&dir);
         // Nothing listens on port 9 of the loopback: both hosts are down at once.
         let dead = registry.register("http://127.0.0.1:9/a").await.unwrap();
         let named = registry.register("http://127.0.0.1:9/b").await.unwrap();
@@ -330,8 +384,21 @@ mod tests {
             "http://user:secret@127.0.0.1:7101",
             "http://127.0.0.1:7101/?x=1",
             "http://127.0.0.1:7101/#top",
+            "http://169.254.169.254/",
+            "http://[fe80::1]:7101",
         ] {
             assert!(host_base_url(bad).is_err(), "{bad} was taken");
         }
+    }
+
+    #[tokio::test]
+    async fn blob_clients_are_only_for_registered_hosts() {
+        let dir = tempfile::tempdir().unwrap();
+        let (registry, _) = registry(&dir);
+        // Nobody listens on port 9: the host is registered, though down.
+        registry.register("http://127.0.0.1:9").await.unwrap();
+        assert!(registry.blob_client("http://127.0.0.1:9/blobs/x.mfm").is_some());
+        assert!(registry.blob_client("http://127.0.0.1:10/blobs/x.mfm").is_none());
+        assert!(registry.blob_client("not a url").is_none());
     }
 }

@@ -1,4 +1,8 @@
 //! The web UI: one static page over the engine API (hosts, services, submit, live progress).
+//! The page itself is open; it takes the API token from the address (`#token=…`, as
+//! `meshflow up` prints it; then kept in the browser's localStorage and dropped from the
+//! address) or asks for it, and sends it as a bearer header (as `?token=` for the event
+//! stream, which `EventSource` cannot give headers).
 
 pub const PAGE: &str = r##"<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>meshflow engine</title>
@@ -35,14 +39,26 @@ const link = (url, text) => {
   return `<a href="${esc(parsed.href)}" rel="noopener noreferrer">${esc(text)}</a>`;
 };
 /* escaping: end */
+const fromUrl = new URLSearchParams(location.hash.slice(1)).get("token");
+if (fromUrl) { localStorage.setItem("meshflow-token", fromUrl); history.replaceState(null, "", location.pathname); }
+let token = localStorage.getItem("meshflow-token") || "", asked = false;
+async function api(path, options = {}) {
+  const answer = await fetch(path, {...options, headers: {...(options.headers || {}), ...(token ? {authorization: "Bearer " + token} : {})}});
+  if (answer.status === 401 && !asked) {
+    asked = true;
+    token = prompt("The engine's API token (meshflow up prints it):") || "";
+    localStorage.setItem("meshflow-token", token);
+  }
+  return answer;
+}
 async function refresh() {
-  const hosts = await (await fetch("/hosts")).json();
+  const hosts = await (await api("/hosts")).json();
   $("hosts").innerHTML = "<tr><th>host</th><th>state</th><th>running</th><th>services</th></tr>" +
     hosts.map(h => `<tr><td>${link(h.url, h.url)}</td>` +
       `<td class="${h.suspect ? "down" : h.up ? "ok" : "down"}" title="${esc(h.suspect ?? h.last_error)}">` +
       `${h.suspect ? "suspect" : h.up ? "up" : "down"}</td>` +
       `<td>${num(h.running)}</td><td>${esc(h.services.join(", "))}</td></tr>`).join("");
-  const services = await (await fetch("/services")).json();
+  const services = await (await api("/services")).json();
   $("services").innerHTML = "<tr><th>service</th><th>kind</th><th>parameters</th><th>hosts</th></tr>" +
     services.map(s => `<tr><td title="${esc(s.doc)}">${esc(s.name)}</td><td>${esc(s.kind)}</td>` +
       `<td>${esc(s.params.map(p => p.name).join(", "))}</td><td>${num(s.hosts.length)}</td></tr>`).join("");
@@ -61,26 +77,34 @@ $("go").onclick = async () => {
   let input = $("url").value || null;
   const file = $("file").files[0];
   if (file) {
-    const up = await fetch("/inputs?name=" + encodeURIComponent(file.name), {method: "POST", body: file});
+    const up = await api("/inputs?name=" + encodeURIComponent(file.name), {method: "POST", body: file});
     const body = await up.json();
     if (!up.ok) { $("state").textContent = body.error.message; return; }
     input = body.url;
   }
   let workflow;
   try { workflow = JSON.parse($("workflow").value); } catch (e) { $("state").textContent = "workflow: " + e; return; }
-  const answer = await fetch("/runs", {method: "POST", headers: {"content-type": "application/json"},
+  const answer = await api("/runs", {method: "POST", headers: {"content-type": "application/json"},
     body: JSON.stringify({workflow, input})});
   const run = await answer.json();
   if (!answer.ok) { $("state").textContent = run.error.message; return; }
   $("state").textContent = "run " + run.id + ": running";
   const id = encodeURIComponent(run.id);
-  const events = new EventSource(`/runs/${id}/events`);
+  const events = new EventSource(`/runs/${id}/events?token=${encodeURIComponent(token)}`);
   events.addEventListener("step", e => showStep(JSON.parse(e.data)));
   events.addEventListener("status", e => {
     const s = JSON.parse(e.data);
     $("state").textContent = `run ${run.id}: ${s.status}` + (s.error ? ` — ${s.error}` : "") +
       (s.total_ms ? ` in ${(s.total_ms/1000).toFixed(2)} s` : "");
-    if (s.status === "completed") $("result").innerHTML = link(`/runs/${id}/result`, "download the result (.mfm)");
+    if (s.status === "completed") {
+      $("result").innerHTML = `<a href="#">download the result (.mfm)</a>`;
+      $("result").firstChild.onclick = async e => {
+        e.preventDefault();
+        const link = document.createElement("a");
+        link.href = URL.createObjectURL(await (await api(`/runs/${id}/result`)).blob());
+        link.download = `${run.id}.mfm`; link.click();
+      };
+    }
     if (["completed", "failed", "cancelled", "interrupted"].includes(s.status)) events.close();
   });
 };

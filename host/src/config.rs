@@ -10,6 +10,11 @@ pub const DEFAULT_MAX_DOWNLOAD_BYTES: u64 = 2 << 30;
 /// A download that sends nothing for this long is abandoned.
 pub const DOWNLOAD_READ_TIMEOUT: Duration = Duration::from_secs(30);
 pub const DOWNLOAD_CONNECT_TIMEOUT: Duration = Duration::from_secs(10);
+/// The whole of a download, redirects included: a source that drips just fast enough to
+/// beat the read timeout still ends here.
+pub const DOWNLOAD_TIMEOUT: Duration = Duration::from_secs(600);
+/// Longest URL a session or update may name.
+pub const MAX_URL_CHARS: usize = 4096;
 /// Sessions untouched for this long are deleted.
 pub const DEFAULT_SESSION_TTL: Duration = Duration::from_secs(6 * 3600);
 /// Total size of stored blobs beyond which the oldest unneeded ones are deleted.
@@ -25,14 +30,24 @@ pub const BUSY_RETRY_AFTER: Duration = Duration::from_secs(1);
 /// Attempts to register with the engine, and the pause between them.
 pub const REGISTER_ATTEMPTS: u32 = 5;
 pub const REGISTER_RETRY: Duration = Duration::from_secs(1);
+/// One registration request: the engine asks this host for its services before answering.
+pub const REGISTER_TIMEOUT: Duration = Duration::from_secs(15);
 
 /// Everything a host server needs to start.
 #[derive(Clone, Debug)]
 pub struct HostConfig {
     /// Holds `blobs/`, `plugins/`, `cache/` and `sessions/`; survives restarts.
     pub data_dir: PathBuf,
-    /// Bearer token for plugin upload and delete; without one uploads are refused.
+    /// Bearer token for plugin upload and delete (the upload token); without one uploads
+    /// are refused.
     pub token: Option<String>,
+    /// The cluster token: every route but `/health` and the plugin uploads needs it, and
+    /// this host sends it to its engine and the cluster's hosts.
+    pub cluster_token: Option<String>,
+    /// Origins (`scheme://host[:port]`) inputs may come from besides the cluster.
+    pub allow_input_from: Vec<String>,
+    /// Listen on a non-loopback address without a cluster token.
+    pub insecure_no_auth: bool,
     /// An engine to register with at start (`POST {engine}/hosts`).
     pub engine: Option<String>,
     /// The URL others reach this host at; by default `http://` + the listening address.
@@ -54,6 +69,9 @@ impl HostConfig {
         Self {
             data_dir: data_dir.into(),
             token: None,
+            cluster_token: None,
+            allow_input_from: Vec::new(),
+            insecure_no_auth: false,
             engine: None,
             public_url: None,
             builtins: Vec::new(),

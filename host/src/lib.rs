@@ -26,6 +26,7 @@ use std::sync::Arc;
 use anyhow::Context;
 use tokio::net::TcpListener;
 
+use meshflow_api::server::{check_exposure, serve as serve_http};
 use meshflow_runtime::Runtime;
 use state::{DataDirs, Host};
 
@@ -50,11 +51,17 @@ impl HostHandle {
 
 /// Starts a host on `listener`: loads the plugins (built-in and stored), rebuilds stored
 /// sessions in the background, serves, and registers with the engine if one is given.
+/// Without a cluster token it listens only on loopback, unless `insecure_no_auth`.
 pub async fn start(config: HostConfig, listener: TcpListener) -> anyhow::Result<HostHandle> {
+    let address = listener.local_addr()?;
+    let missing: &[&str] = match config.cluster_token {
+        Some(_) => &[],
+        None => &["a cluster token"],
+    };
+    check_exposure(address, missing, config.insecure_no_auth)?;
     let dirs = DataDirs::create(&config).with_context(|| {
         format!("creating the data folders under {}", config.data_dir.display())
     })?;
-    let address = listener.local_addr()?;
     let public_url = match &config.public_url {
         Some(url) => url.trim_end_matches('/').to_owned(),
         None if address.ip().is_unspecified() => format!("http://127.0.0.1:{}", address.port()),
@@ -78,18 +85,14 @@ pub async fn start(config: HostConfig, listener: TcpListener) -> anyhow::Result<
 
     let (shutdown, stop) = tokio::sync::oneshot::channel::<()>();
     let app = routes::router(host.clone());
-    let server = tokio::spawn(async move {
-        axum::serve(listener, app)
-            .with_graceful_shutdown(async {
-                let _ = stop.await;
-            })
-            .await
-    });
+    let server = tokio::spawn(serve_http(listener, app, async {
+        let _ = stop.await;
+    }));
     let mut background =
         vec![tokio::spawn(eviction::run_periodically(host.clone())).abort_handle()];
     if let Some(engine) = host.config.engine.clone() {
-        let http = host.http.clone();
-        background.push(tokio::spawn(register(http, engine, public_url.clone())).abort_handle());
+        let registration = register(host.clone(), engine, public_url.clone());
+        background.push(tokio::spawn(registration).abort_handle());
     }
     tracing::info!("host listening on {address}, reached at {public_url}");
     Ok(HostHandle { url: public_url, shutdown, server, background })
@@ -103,11 +106,16 @@ pub async fn serve(config: HostConfig, listener: TcpListener) -> anyhow::Result<
     handle.shutdown().await
 }
 
-/// `POST {engine}/hosts {"url"}`, a few times; a failure is logged, not fatal.
-async fn register(http: reqwest::Client, engine: String, url: String) {
+/// `POST {engine}/hosts {"url"}` with the cluster token, a few times; a failure is logged,
+/// not fatal.
+async fn register(host: Arc<Host>, engine: String, url: String) {
     let endpoint = format!("{}/hosts", engine.trim_end_matches('/'));
     for attempt in 1..=REGISTER_ATTEMPTS {
-        let sent = http.post(&endpoint).json(&serde_json::json!({ "url": url })).send().await;
+        let mut request = host.http.post(&endpoint).timeout(REGISTER_TIMEOUT);
+        if let Some(token) = &host.config.cluster_token {
+            request = request.bearer_auth(token);
+        }
+        let sent = request.json(&serde_json::json!({ "url": url })).send().await;
         match sent.and_then(|r| r.error_for_status()) {
             Ok(_) => {
                 tracing::info!("registered with the engine at {engine}");

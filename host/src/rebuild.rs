@@ -49,7 +49,8 @@ async fn download_input<'a>(
 ) -> Result<(String, CurrentMesh, LoadTimes, Stored<'a>), String> {
     let url = record.input_url.clone();
     let started = Instant::now();
-    let bytes = host.download(&url).await?;
+    let bytes =
+        host.download(&url, &host.scope(&record.peers)?).await.map_err(|e| e.to_string())?;
     let download_ms = millis(started.elapsed());
     let input_bytes = bytes.len() as u64;
     let started = Instant::now();

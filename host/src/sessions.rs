@@ -37,6 +37,9 @@ pub struct SessionRecord {
     /// `None` until the input has been downloaded and stored.
     pub input: Option<String>,
     pub steps: Vec<String>,
+    /// The cluster's origins the engine named with the input (see `Host::scope`).
+    #[serde(default)]
+    pub peers: Vec<String>,
 }
 
 /// A session's mesh once loaded, with its content hash (computed once).

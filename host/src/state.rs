@@ -5,9 +5,13 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::blobs::BlobStore;
-use super::config::HostConfig;
+use super::config::{
+    DOWNLOAD_CONNECT_TIMEOUT, DOWNLOAD_READ_TIMEOUT, DOWNLOAD_TIMEOUT, HostConfig,
+};
 use super::plugins::PluginSet;
 use super::sessions::Sessions;
+use meshflow_api::ClientError;
+use meshflow_api::fetch_rules::{FetchScope, Origins, guarded_client, origin, parse_origin};
 use meshflow_runtime::Runtime;
 
 pub struct Host {
@@ -20,6 +24,8 @@ pub struct Host {
     pub blobs: BlobStore,
     /// For downloads: inputs, corrections and full meshes of other hosts.
     pub http: reqwest::Client,
+    /// What every download may reach before a request names its peers (see [`Host::scope`]).
+    fetch: FetchScope,
     running: AtomicUsize,
 }
 
@@ -55,10 +61,11 @@ impl Host {
         plugins: PluginSet,
         dirs: &DataDirs,
     ) -> anyhow::Result<Self> {
-        let http = reqwest::Client::builder()
-            .connect_timeout(super::config::DOWNLOAD_CONNECT_TIMEOUT)
-            .read_timeout(super::config::DOWNLOAD_READ_TIMEOUT)
+        let http = guarded_client()
+            .connect_timeout(DOWNLOAD_CONNECT_TIMEOUT)
+            .read_timeout(DOWNLOAD_READ_TIMEOUT)
             .build()?;
+        let fetch = base_scope(&config, &public_url)?;
         Ok(Self {
             sessions: Sessions::new(dirs.sessions.clone()),
             blobs: BlobStore::new(
@@ -71,6 +78,7 @@ impl Host {
             runtime,
             plugins,
             http,
+            fetch,
             running: AtomicUsize::new(0),
         })
     }
@@ -89,11 +97,22 @@ impl Host {
         RunningGuard(&self.running)
     }
 
-    /// Downloads `url`, held to the size cap.
-    pub async fn download(&self, url: &str) -> Result<Vec<u8>, String> {
-        meshflow_api::fetch(&self.http, url, self.config.max_download_bytes)
-            .await
-            .map_err(|e| e.to_string())
+    /// What a request naming `peers` (the cluster's origins, as the engine sent them) may
+    /// fetch: this host's own origins plus the peers, which also get the cluster token.
+    pub fn scope(&self, peers: &[String]) -> Result<FetchScope, String> {
+        let mut scope = self.fetch.clone();
+        for peer in peers {
+            let peer = parse_origin(peer).map_err(|e| format!("peers: {e}"))?;
+            scope.allowed.add(peer.clone());
+            scope.cluster.insert(peer);
+        }
+        Ok(scope)
+    }
+
+    /// Downloads `url` within `scope`, held to the size cap and the download deadlines.
+    pub async fn download(&self, url: &str, scope: &FetchScope) -> Result<Vec<u8>, ClientError> {
+        let limit = self.config.max_download_bytes;
+        meshflow_api::fetch(&self.http, url, scope, limit, DOWNLOAD_TIMEOUT).await
     }
 }
 
@@ -103,4 +122,23 @@ impl Drop for RunningGuard<'_> {
     fn drop(&mut self) {
         self.0.fetch_sub(1, Ordering::Relaxed);
     }
+}
+
+/// The origins a host fetches from whatever the request: its engine's and its own (which
+/// also get the cluster token) and its `--allow-input-from`. A host with neither a cluster
+/// token nor an allow-list (loopback only, see `start`) fetches from any origin.
+fn base_scope(config: &HostConfig, public_url: &str) -> anyhow::Result<FetchScope> {
+    let mut cluster = std::collections::BTreeSet::new();
+    for url in Some(public_url).into_iter().chain(config.engine.as_deref()) {
+        cluster.insert(origin(&reqwest::Url::parse(url)?));
+    }
+    let mut listed = Vec::new();
+    for text in &config.allow_input_from {
+        listed.push(parse_origin(text).map_err(anyhow::Error::msg)?);
+    }
+    let allowed = match config.cluster_token.is_none() && listed.is_empty() {
+        true => Origins::any(),
+        false => Origins::of(listed.into_iter().chain(cluster.iter().cloned())),
+    };
+    Ok(FetchScope { allowed, cluster, token: config.cluster_token.clone() })
 }

@@ -5,6 +5,8 @@ use std::time::Duration;
 
 use anyhow::Context;
 use clap::Args;
+
+use super::tokens::{self, ClusterArgs};
 use meshflow_host::{
     DEFAULT_BLOB_BUDGET_BYTES, DEFAULT_MAX_DOWNLOAD_BYTES, DEFAULT_SESSION_TTL, HostConfig, serve,
 };
@@ -18,9 +20,19 @@ pub struct HostArgs {
     /// restarts.
     #[arg(long, value_name = "DIR")]
     data: PathBuf,
-    /// Bearer token for plugin upload and delete; without it uploads are refused.
-    #[arg(long)]
+    /// Upload token: bearer token for plugin upload and delete; without it uploads are
+    /// refused.
+    #[arg(long, env = "MESHFLOW_UPLOAD_TOKEN", hide_env_values = true, value_name = "TOKEN")]
     token: Option<String>,
+    /// Read the upload token from this file.
+    #[arg(long, value_name = "PATH")]
+    token_file: Option<PathBuf>,
+    #[command(flatten)]
+    cluster: ClusterArgs,
+    /// Listen on a non-loopback address without a cluster token (anyone reaching it can
+    /// use it).
+    #[arg(long)]
+    insecure_no_auth: bool,
     /// Engine to register with at start.
     #[arg(long, value_name = "URL")]
     engine: Option<String>,
@@ -45,7 +57,10 @@ pub struct HostArgs {
 pub fn run(args: HostArgs) -> anyhow::Result<()> {
     init_logging();
     let config = HostConfig {
-        token: args.token,
+        token: tokens::read(args.token.as_deref(), args.token_file.as_deref())?,
+        cluster_token: args.cluster.token.get()?,
+        allow_input_from: args.cluster.allow_input_from,
+        insecure_no_auth: args.insecure_no_auth,
         engine: args.engine,
         public_url: args.public_url,
         builtins: builtin_components(args.builtin.as_deref())?,

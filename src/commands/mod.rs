@@ -13,6 +13,7 @@ mod remote;
 pub mod run;
 pub mod services;
 pub mod submit;
+pub mod tokens;
 pub mod up;
 
 use meshflow_runtime::Value;

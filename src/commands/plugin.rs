@@ -14,9 +14,12 @@ pub enum PluginCommand {
         #[arg(long, value_name = "URL")]
         host: String,
         file: PathBuf,
-        /// The host's bearer token (its --token).
-        #[arg(long)]
-        token: String,
+        /// The host's upload token (its --token).
+        #[arg(long, env = "MESHFLOW_UPLOAD_TOKEN", hide_env_values = true, value_name = "TOKEN")]
+        token: Option<String>,
+        /// Read the upload token from this file.
+        #[arg(long, value_name = "PATH")]
+        token_file: Option<PathBuf>,
         /// Print JSON.
         #[arg(long)]
         json: bool,
@@ -25,7 +28,10 @@ pub enum PluginCommand {
 
 pub fn run(command: PluginCommand) -> anyhow::Result<()> {
     match command {
-        PluginCommand::Upload { host, file, token, json } => {
+        PluginCommand::Upload { host, file, token, token_file, json } => {
+            let token = super::tokens::read(token.as_deref(), token_file.as_deref())?.context(
+                "give the host's upload token: --token, MESHFLOW_UPLOAD_TOKEN or --token-file",
+            )?;
             let wasm =
                 std::fs::read(&file).with_context(|| format!("reading {}", file.display()))?;
             let client = HostClient::new(&host);

@@ -21,6 +21,8 @@ pub enum TransferMode {
 
 pub struct Submission {
     pub engine: String,
+    /// The engine's API token.
+    pub token: Option<String>,
     pub workflow: PathBuf,
     pub input: Option<String>,
     pub transfer: Option<TransferMode>,
@@ -31,7 +33,10 @@ pub struct Submission {
 
 impl Submission {
     pub async fn execute(self, wait: bool) -> anyhow::Result<()> {
-        let engine = EngineClient::new(&self.engine);
+        let mut engine = EngineClient::new(&self.engine);
+        if let Some(token) = &self.token {
+            engine = engine.with_token(token);
+        }
         let workflow = self.read_workflow()?;
         let input = match &self.input {
             Some(url) if url.starts_with("http://") || url.starts_with("https://") => {

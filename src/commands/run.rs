@@ -5,7 +5,8 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::remote::{Submission, TransferMode};
-use crate::embedded::{self, Layout};
+use super::tokens::{ApiTokenArgs, ClusterTokenArgs};
+use crate::embedded::{self, Layout, Tokens};
 
 #[derive(Args)]
 pub struct RunArgs {
@@ -31,13 +32,21 @@ pub struct RunArgs {
     /// Print the run's record on stdout instead of progress.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    api_token: ApiTokenArgs,
+    #[command(flatten)]
+    cluster_token: ClusterTokenArgs,
 }
 
 pub fn run(args: RunArgs) -> anyhow::Result<()> {
+    let tokens = Tokens::given_or_fresh(args.api_token.get()?, args.cluster_token.get()?)?;
     tokio::runtime::Runtime::new()?.block_on(async {
-        let system = embedded::start(args.hosts, "127.0.0.1:0", None, args.layout).await?;
+        let system =
+            embedded::start(args.hosts, "127.0.0.1:0", None, args.layout, tokens, Vec::new())
+                .await?;
         let submission = Submission {
             engine: system.engine.url.clone(),
+            token: Some(system.tokens.api.clone()),
             workflow: args.workflow,
             input: Some(args.input.display().to_string()),
             transfer: args.transfer,

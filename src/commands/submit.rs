@@ -11,6 +11,12 @@ pub struct SubmitArgs {
     /// The engine's URL.
     #[arg(long, value_name = "URL")]
     engine: String,
+    /// The engine's API token.
+    #[arg(long, env = "MESHFLOW_API_TOKEN", hide_env_values = true, value_name = "TOKEN")]
+    token: Option<String>,
+    /// Read the API token from this file.
+    #[arg(long, value_name = "PATH")]
+    token_file: Option<PathBuf>,
     /// Workflow JSON file.
     workflow: PathBuf,
     /// The input: a URL hosts can fetch, or a local mesh file to upload to the engine.
@@ -37,6 +43,7 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<()> {
     let wait = args.wait || args.output.is_some() || args.report.is_some();
     let submission = Submission {
         engine: args.engine.trim_end_matches('/').to_owned(),
+        token: super::tokens::read(args.token.as_deref(), args.token_file.as_deref())?,
         workflow: args.workflow,
         input: args.input,
         transfer: args.transfer,

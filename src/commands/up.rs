@@ -4,7 +4,8 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use crate::embedded::{self, Layout};
+use super::tokens::{ApiTokenArgs, ClusterArgs};
+use crate::embedded::{self, Layout, Tokens};
 
 #[derive(Args)]
 pub struct UpArgs {
@@ -20,16 +21,33 @@ pub struct UpArgs {
     /// Which built-in services each host offers.
     #[arg(long, value_enum, default_value_t = Layout::Spread)]
     layout: Layout,
+    #[command(flatten)]
+    api_token: ApiTokenArgs,
+    #[command(flatten)]
+    cluster: ClusterArgs,
 }
 
 pub fn run(args: UpArgs) -> anyhow::Result<()> {
     super::host::init_logging();
+    let tokens = Tokens::given_or_fresh(args.api_token.get()?, args.cluster.token.get()?)?;
     tokio::runtime::Runtime::new()?.block_on(async {
-        let system = embedded::start(args.hosts, &args.listen, args.data, args.layout).await?;
-        println!("engine: {} (web UI at {0}/)", system.engine.url);
+        let system = embedded::start(
+            args.hosts,
+            &args.listen,
+            args.data,
+            args.layout,
+            tokens,
+            args.cluster.allow_input_from,
+        )
+        .await?;
+        let (url, tokens) = (&system.engine.url, &system.tokens);
+        println!("engine: {url}");
+        println!("web UI: {url}/#token={}", tokens.api);
         for host in &system.hosts {
             println!("host:   {}", host.url);
         }
+        println!("for meshflow submit:    export MESHFLOW_API_TOKEN={}", tokens.api);
+        println!("for more hosts:         export MESHFLOW_CLUSTER_TOKEN={}", tokens.cluster);
         tokio::signal::ctrl_c().await?;
         Ok(())
     })

@@ -15,8 +15,12 @@ use meshflow_meshio::{self as io, Format};
 use serde_json::Value as Json;
 use tokio::net::TcpListener;
 
-/// The bearer token of every in-process host.
+/// The upload token of every in-process host.
 pub const TOKEN: &str = "sesame";
+/// The API token of every test engine, which the cluster's client sends.
+pub const API_TOKEN: &str = "api-token-for-tests";
+/// The cluster token of every test engine and its hosts.
+pub const CLUSTER_TOKEN: &str = "cluster-token-for-tests";
 
 /// Longest a test waits for a run to finish.
 const RUN_TIMEOUT: Duration = Duration::from_secs(120);
@@ -77,29 +81,47 @@ pub struct EngineApi {
 
 impl Cluster {
     /// One in-process host per entry, offering the named built-in plugin families
-    /// (`smoothing`, `cleanup`, `holes`, `checks`); uploads allowed with [`TOKEN`].
+    /// (`smoothing`, `cleanup`, `holes`, `checks`); uploads allowed with [`TOKEN`]. The
+    /// engine and hosts use [`API_TOKEN`] and [`CLUSTER_TOKEN`]; `http` sends the API token.
     pub async fn start(families: &[&[&str]]) -> Self {
         Self::start_with(families, &[]).await
     }
 
     /// In-process hosts as [`Cluster::start`] makes them, then hosts running elsewhere.
     pub async fn start_with(families: &[&[&str]], other_hosts: &[String]) -> Self {
+        Self::build(families, other_hosts, &[]).await
+    }
+
+    /// As [`Cluster::start`], with inputs also allowed from `origins` (engine and hosts).
+    pub async fn start_allowing(families: &[&[&str]], origins: &[String]) -> Self {
+        Self::build(families, &[], origins).await
+    }
+
+    async fn build(families: &[&[&str]], other_hosts: &[String], origins: &[String]) -> Self {
         let data = tempfile::tempdir().unwrap();
-        let hosts = start_hosts(families, data.path()).await;
+        let hosts = start_hosts(families, data.path(), origins).await;
         let urls: Vec<String> =
             hosts.iter().map(|h| h.url.clone()).chain(other_hosts.iter().cloned()).collect();
         let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
-        let engine = meshflow_engine::start(data.path().join("engine"), None, &urls, listener)
-            .await
-            .unwrap();
+        let access = meshflow_engine::Access {
+            api_token: Some(API_TOKEN.into()),
+            cluster_token: Some(CLUSTER_TOKEN.into()),
+            allow_input_from: origins.to_vec(),
+            ..Default::default()
+        };
+        let engine =
+            meshflow_engine::start(data.path().join("engine"), None, &urls, access, listener)
+                .await
+                .unwrap();
         let api = EngineApi::new(&engine.url);
         Self { engine, hosts, api, _data: data }
     }
 }
 
 impl EngineApi {
+    /// The API of the engine at `base`, called with [`API_TOKEN`].
     pub fn new(base: &str) -> Self {
-        Self { base: base.to_owned(), http: reqwest::Client::new() }
+        Self { base: base.to_owned(), http: bearer_client(API_TOKEN) }
     }
 
     pub fn url(&self, path: &str) -> String {
@@ -112,6 +134,12 @@ impl EngineApi {
         let answer = self.http.post(url).body(input.bytes.clone()).send().await.unwrap();
         assert_eq!(answer.status(), 201);
         answer.json::<Json>().await.unwrap()["url"].as_str().unwrap().to_owned()
+    }
+
+    /// `POST /hosts {"url"}` as a host registers itself, with the cluster token.
+    pub async fn register(&self, url: &str) -> reqwest::Response {
+        let request = reqwest::Client::new().post(self.url("/hosts")).bearer_auth(CLUSTER_TOKEN);
+        request.json(&serde_json::json!({ "url": url })).send().await.unwrap()
     }
 
     /// `POST /runs` with a raw body: the status and the JSON answer.
@@ -185,14 +213,17 @@ impl EngineApi {
 }
 
 /// In-process hosts under `data`, one per entry of `families` (the built-in plugin
-/// families it offers); uploads allowed with [`TOKEN`].
-pub async fn start_hosts(families: &[&[&str]], data: &Path) -> Vec<HostHandle> {
+/// families it offers), with [`CLUSTER_TOKEN`], inputs also allowed from `origins`;
+/// uploads allowed with [`TOKEN`].
+pub async fn start_hosts(families: &[&[&str]], data: &Path, origins: &[String]) -> Vec<HostHandle> {
     let mut hosts = Vec::new();
     for (index, names) in families.iter().enumerate() {
         let config = HostConfig {
             builtins: builtins(names),
             artefact_cache: Some(components_cache()),
             token: Some(TOKEN.into()),
+            cluster_token: Some(CLUSTER_TOKEN.into()),
+            allow_input_from: origins.to_vec(),
             ..HostConfig::new(data.join(format!("host-{index}")))
         };
         let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
@@ -204,6 +235,13 @@ pub async fn start_hosts(families: &[&[&str]], data: &Path) -> Vec<HostHandle> {
 /// Whether a run record's status is final.
 pub fn has_ended(record: &Json) -> bool {
     matches!(record["status"].as_str(), Some("completed" | "failed" | "cancelled" | "interrupted"))
+}
+
+/// An HTTP client that sends `token` as a bearer token with every request.
+pub fn bearer_client(token: &str) -> reqwest::Client {
+    let value = format!("Bearer {token}").parse().unwrap();
+    let headers = [(reqwest::header::AUTHORIZATION, value)].into_iter().collect();
+    reqwest::Client::builder().default_headers(headers).build().unwrap()
 }
 
 /// The component bytes of the named built-in plugin families.

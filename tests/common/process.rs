@@ -23,6 +23,7 @@ impl HostProcess {
         let port = free_port();
         let mut command = Command::new(env!("CARGO_BIN_EXE_meshflow"));
         command.args(["host", "--listen", &format!("127.0.0.1:{port}"), "--data"]).arg(data);
+        command.env("MESHFLOW_CLUSTER_TOKEN", super::CLUSTER_TOKEN);
         if !families.is_empty() {
             command.args(["--builtin", &families.join(",")]);
         }
@@ -89,6 +90,9 @@ impl EngineProcess {
         for host in hosts {
             command.args(["--host", host]);
         }
+        // Tokens travel in the environment, never on a command line.
+        command.env("MESHFLOW_API_TOKEN", super::API_TOKEN);
+        command.env("MESHFLOW_CLUSTER_TOKEN", super::CLUSTER_TOKEN);
         command.stdout(Stdio::null()).stderr(Stdio::null()).spawn().expect("starting the engine")
     }
 

@@ -9,6 +9,7 @@ use crate::blobs::BlobError;
 use crate::config::BUSY_RETRY_AFTER;
 use crate::plugins::PluginSetError;
 use crate::sessions::SessionError;
+use meshflow_api::ClientError;
 use meshflow_api::host::{ErrorBody, ErrorDetail};
 use meshflow_runtime::RunError;
 
@@ -100,6 +101,19 @@ impl From<PluginSetError> for ApiError {
 impl From<BlobError> for ApiError {
     fn from(error: BlobError) -> Self {
         Self::internal(error)
+    }
+}
+
+/// A download a request pointed to: a URL the fetch rules refuse is the request's fault
+/// (403); any other failure is the source's (502).
+impl From<ClientError> for ApiError {
+    fn from(error: ClientError) -> Self {
+        match error {
+            ClientError::NotAllowed(refusal) => {
+                Self::new(StatusCode::FORBIDDEN, "url-not-allowed", refusal.to_string())
+            }
+            _ => Self::upstream(error.to_string()),
+        }
     }
 }
 

@@ -12,25 +12,21 @@ use crate::config::LONG_POLL;
 use crate::rebuild;
 use crate::sessions::SessionRecord;
 use crate::state::Host;
-use meshflow_api::host::{CreateSession, SessionCreated, SessionState, SessionStatus};
+use meshflow_api::host::{CreateSession, SessionCreated, SessionState, SessionStatus, Vouched};
 
 /// `POST /sessions`: the input downloads in the background.
 pub async fn create(
     State(host): State<Arc<Host>>,
-    ApiJson(request): ApiJson<CreateSession>,
+    ApiJson(Vouched { body: request, peers }): ApiJson<Vouched<CreateSession>>,
 ) -> Result<(StatusCode, axum::Json<SessionCreated>), ApiError> {
-    if reqwest::Url::parse(&request.input.url).is_err() {
-        return Err(ApiError::bad_request(
-            "bad-url",
-            format!("`{}` is not a URL", request.input.url),
-        ));
-    }
+    let input_url = super::allowed_url(&host, &request.input.url, &peers)?;
     let id = new_id();
     let record = SessionRecord {
-        input_url: request.input.url,
+        input_url,
         input_hash: request.input.hash,
         input: None,
         steps: Vec::new(),
+        peers,
     };
     host.sessions.insert(&id, record.clone())?;
     tokio::spawn(rebuild::load(host.clone(), id.clone(), record));

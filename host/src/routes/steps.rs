@@ -13,9 +13,10 @@ use crate::meshes::{self, MeshEncoding};
 use crate::rebuild::hashed;
 use crate::sessions::CurrentMesh;
 use crate::state::Host;
+use meshflow_api::fetch_rules::FetchScope;
 use meshflow_api::host::{
     BlobRef, CheckResult, FilterResult, FullRef, RunRequest, RunResult, Transfer, Update, Updated,
-    millis,
+    Vouched, millis,
 };
 use meshflow_codec::correction;
 use meshflow_mesh::{ContentHash, MeshData};
@@ -26,8 +27,9 @@ use meshflow_runtime::ServiceKind;
 pub async fn update(
     State(host): State<Arc<Host>>,
     Path(id): Path<String>,
-    ApiJson(update): ApiJson<Update>,
+    ApiJson(Vouched { body: update, peers }): ApiJson<Vouched<Update>>,
 ) -> Result<Json<Updated>, ApiError> {
+    let scope = host.scope(&peers).map_err(|e| ApiError::bad_request("bad-peers", e))?;
     let session = host.sessions.begin(&id)?;
     let mut downloaded = 0;
     let mut download_ms = 0.0;
@@ -36,7 +38,8 @@ pub async fn update(
         (Transfer::Correction, None) => Some("no correction was given".to_owned()),
         (Transfer::Correction, Some(correction)) => {
             let attempt =
-                replay_correction(&host, &session.current, correction, &update.full.hash).await;
+                replay_correction(&host, &scope, &session.current, correction, &update.full.hash)
+                    .await;
             downloaded += attempt.bytes;
             download_ms += attempt.download_ms;
             match attempt.result {
@@ -61,7 +64,7 @@ pub async fn update(
     }
     let url = &update.full.url;
     let started = Instant::now();
-    let bytes = host.download(url).await.map_err(ApiError::upstream)?;
+    let bytes = host.download(url, &scope).await?;
     download_ms += millis(started.elapsed());
     downloaded += bytes.len() as u64;
     let started = Instant::now();
@@ -105,17 +108,19 @@ struct Attempt<'a> {
 
 async fn replay_correction<'a>(
     host: &'a Host,
+    scope: &FetchScope,
     base: &CurrentMesh,
     correction: &BlobRef,
     expected: &str,
 ) -> Attempt<'a> {
     let started = Instant::now();
-    let downloaded = host.download(&correction.url).await;
+    let downloaded = host.download(&correction.url, scope).await;
     let download_ms = millis(started.elapsed());
     let bytes = match downloaded {
         Ok(bytes) => bytes,
-        Err(reason) => {
-            return Attempt { bytes: 0, download_ms, apply_ms: 0.0, result: Err(reason) };
+        Err(error) => {
+            let result = Err(error.to_string());
+            return Attempt { bytes: 0, download_ms, apply_ms: 0.0, result };
         }
     };
     let size = bytes.len() as u64;

@@ -1,0 +1,156 @@
+//! What the engine and host servers share: the accept loop with its timeouts, bearer-token
+//! checks, and the refusal to listen openly without tokens.
+//!
+//! `axum::serve` has no header timeout, so a client that sends half a request head would
+//! hold a connection forever; here hyper reads headers under [`HEADER_READ_TIMEOUT`] and
+//! every request body under an idle limit ([`BODY_IDLE_TIMEOUT`]).
+
+use std::future::Future;
+use std::net::SocketAddr;
+use std::time::Duration;
+
+use axum::Router;
+use axum::http::{HeaderMap, StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use hyper_util::rt::{TokioIo, TokioTimer};
+use hyper_util::server::graceful::GracefulShutdown;
+use hyper_util::service::TowerToHyperService;
+use tokio::net::TcpListener;
+use tower_http::timeout::RequestBodyTimeout;
+
+use crate::host::{ErrorBody, ErrorDetail};
+
+/// A connection whose request head has not fully arrived after this long is closed.
+pub const HEADER_READ_TIMEOUT: Duration = Duration::from_secs(10);
+/// A request body that sends nothing for this long fails (the handler sees an error).
+pub const BODY_IDLE_TIMEOUT: Duration = Duration::from_secs(30);
+/// After shutdown is asked for, connections still open after this long are dropped.
+pub const SHUTDOWN_GRACE: Duration = Duration::from_secs(10);
+/// A failed `accept` (e.g. out of file descriptors) is retried after this pause.
+const ACCEPT_RETRY: Duration = Duration::from_millis(100);
+
+/// Serves `app` on `listener` until `shutdown` completes, then lets requests in flight finish
+/// (up to [`SHUTDOWN_GRACE`]).
+pub async fn serve(
+    listener: TcpListener,
+    app: Router,
+    shutdown: impl Future<Output = ()>,
+) -> std::io::Result<()> {
+    let graceful = GracefulShutdown::new();
+    let mut http = hyper::server::conn::http1::Builder::new();
+    http.timer(TokioTimer::new()).header_read_timeout(HEADER_READ_TIMEOUT);
+    let mut shutdown = std::pin::pin!(shutdown);
+    loop {
+        let stream = tokio::select! {
+            accepted = listener.accept() => match accepted {
+                Ok((stream, _)) => stream,
+                Err(error) => {
+                    tracing::warn!("accepting a connection: {error}");
+                    tokio::time::sleep(ACCEPT_RETRY).await;
+                    continue;
+                }
+            },
+            () = &mut shutdown => break,
+        };
+        let service =
+            TowerToHyperService::new(RequestBodyTimeout::new(app.clone(), BODY_IDLE_TIMEOUT));
+        let connection = graceful.watch(http.serve_connection(TokioIo::new(stream), service));
+        tokio::spawn(async move {
+            // A client that goes away or times out ends only its own connection.
+            let _ = connection.await;
+        });
+    }
+    drop(listener);
+    if tokio::time::timeout(SHUTDOWN_GRACE, graceful.shutdown()).await.is_err() {
+        tracing::warn!("connections still open after {} s were dropped", SHUTDOWN_GRACE.as_secs());
+    }
+    Ok(())
+}
+
+/// The bearer token of a request, if it has one.
+pub fn bearer(headers: &HeaderMap) -> Option<&str> {
+    headers.get(header::AUTHORIZATION)?.to_str().ok()?.strip_prefix("Bearer ")
+}
+
+/// Compares a given token with an expected one in time that does not depend on where they
+/// differ (by comparing their hashes).
+pub fn token_matches(given: &str, expected: &str) -> bool {
+    blake3::hash(given.as_bytes()) == blake3::hash(expected.as_bytes())
+}
+
+/// A request without a token its route takes; answered 401 `unauthorized`.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct Unauthorized(String);
+
+impl IntoResponse for Unauthorized {
+    fn into_response(self) -> Response {
+        error_response(StatusCode::UNAUTHORIZED, "unauthorized", self.0)
+    }
+}
+
+/// Checks `given` against the tokens a route takes (`what` names them). No tokens: the
+/// route is open.
+pub fn require(given: Option<&str>, accepted: &[&str], what: &str) -> Result<(), Unauthorized> {
+    if accepted.is_empty() || given.is_some_and(|g| accepted.iter().any(|t| token_matches(g, t))) {
+        return Ok(());
+    }
+    Err(Unauthorized(match given {
+        None => format!("this route needs {what} as a bearer token"),
+        Some(_) => format!("the bearer token is not {what}"),
+    }))
+}
+
+/// An error answer in the APIs' form, `{"error": {"code", "message"}}`.
+pub fn error_response(status: StatusCode, code: &str, message: String) -> Response {
+    let body = ErrorBody { error: ErrorDetail { code: code.to_owned(), message } };
+    (status, axum::Json(body)).into_response()
+}
+
+/// Why a server will not start.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "refusing to listen on {address} without {missing}: anyone who can reach it could use it. \
+     Give the token(s), listen on a loopback address, or pass --insecure-no-auth"
+)]
+pub struct Exposed {
+    pub address: SocketAddr,
+    pub missing: String,
+}
+
+/// A server without some of its tokens listens only on loopback, unless `insecure`.
+pub fn check_exposure(
+    address: SocketAddr,
+    missing: &[&str],
+    insecure: bool,
+) -> Result<(), Exposed> {
+    if missing.is_empty() || insecure || address.ip().is_loopback() {
+        return Ok(());
+    }
+    Err(Exposed { address, missing: missing.join(" and ") })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tokens_are_required_only_where_set() {
+        assert!(require(None, &[], "the API token").is_ok());
+        assert!(require(Some("a"), &["a", "b"], "x").is_ok());
+        assert!(require(Some("b"), &["a", "b"], "x").is_ok());
+        let refused = require(Some("c"), &["a"], "x").unwrap_err();
+        assert_eq!(refused.into_response().status(), 401);
+        assert!(require(None, &["a"], "x").is_err());
+    }
+
+    #[test]
+    fn open_servers_stay_on_loopback() {
+        let public: SocketAddr = "0.0.0.0:7000".parse().unwrap();
+        let loopback: SocketAddr = "127.0.0.1:7000".parse().unwrap();
+        assert!(check_exposure(public, &["the cluster token"], false).is_err());
+        assert!(check_exposure(public, &["the cluster token"], true).is_ok());
+        assert!(check_exposure(loopback, &["the cluster token"], false).is_ok());
+        assert!(check_exposure(public, &[], false).is_ok());
+    }
+}

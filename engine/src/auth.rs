@@ -1,0 +1,169 @@
+//! Who may call which engine route, and which input URLs a run may name (DESIGN §10).
+//!
+//! Routes, checked from the headers before any body is read: `GET /` (the UI page) and
+//! `GET /health` are open; `POST /hosts` takes the cluster token (the API token when there
+//! is no cluster token); `GET /inputs/{file}` takes either (hosts fetch inputs with the
+//! cluster token, users with theirs); every other route takes the API token, which
+//! `GET /runs/{id}/events` also accepts as `?token=` (a browser's `EventSource` cannot set
+//! headers). A route whose tokens are all unset is open.
+
+use std::sync::Arc;
+
+use axum::extract::{Query, Request, State};
+use axum::http::Method;
+use axum::middleware::Next;
+use axum::response::{IntoResponse, Response};
+use serde::Deserialize;
+
+use crate::Engine;
+use meshflow_api::fetch_rules::{Origins, Refusal, origin, parse_origin};
+use meshflow_api::server::{bearer, require};
+
+/// The engine's secrets and what it lets runs fetch.
+#[derive(Clone, Debug, Default)]
+pub struct Access {
+    /// Users of the API: submit, upload inputs, read runs.
+    pub api_token: Option<String>,
+    /// The engine and its hosts: registration, and everything the engine asks of hosts.
+    pub cluster_token: Option<String>,
+    /// Origins (`scheme://host[:port]`) run inputs may come from besides the engine and its
+    /// hosts.
+    pub allow_input_from: Vec<String>,
+    /// Listen on a non-loopback address without both tokens.
+    pub insecure_no_auth: bool,
+}
+
+/// Why an engine will not start with this access.
+#[derive(Debug, thiserror::Error)]
+pub enum AccessError {
+    #[error("an API token needs a cluster token too: hosts fetch uploaded inputs with it")]
+    ApiWithoutCluster,
+    #[error("--allow-input-from: {0}")]
+    Origin(String),
+}
+
+impl Access {
+    /// Checks the combination and normalises the allowed origins.
+    pub fn validated(mut self) -> Result<Self, AccessError> {
+        if self.api_token.is_some() && self.cluster_token.is_none() {
+            return Err(AccessError::ApiWithoutCluster);
+        }
+        self.allow_input_from = self
+            .allow_input_from
+            .iter()
+            .map(|text| parse_origin(text).map_err(AccessError::Origin))
+            .collect::<Result<_, _>>()?;
+        Ok(self)
+    }
+
+    /// The tokens a server on a public address must have, that this one lacks.
+    pub fn missing(&self) -> Vec<&'static str> {
+        let mut missing = Vec::new();
+        if self.api_token.is_none() {
+            missing.push("an API token");
+        }
+        if self.cluster_token.is_none() {
+            missing.push("a cluster token");
+        }
+        missing
+    }
+
+    /// Which origins a run's input may come from, given the engine's own (its uploads) and
+    /// its hosts'. With no tokens and no allow-list (a loopback engine among friends), any
+    /// origin; the address rules hold in every case.
+    pub fn input_origins(&self, own: &str, hosts: impl Iterator<Item = String>) -> Origins {
+        if self.api_token.is_none()
+            && self.cluster_token.is_none()
+            && self.allow_input_from.is_empty()
+        {
+            return Origins::any();
+        }
+        let own = reqwest::Url::parse(own).map(|url| origin(&url)).into_iter();
+        let hosts = hosts.filter_map(|url| reqwest::Url::parse(&url).ok()).map(|u| origin(&u));
+        Origins::of(own.chain(hosts).chain(self.allow_input_from.iter().cloned()))
+    }
+
+    /// Checks an input URL a run names.
+    pub fn check_input(
+        &self,
+        url: &str,
+        own: &str,
+        hosts: impl Iterator<Item = String>,
+    ) -> Result<(), Refusal> {
+        let parsed = reqwest::Url::parse(url)
+            .map_err(|_| Refusal::NotAUrl(meshflow_api::fetch_rules::quoted(url)))?;
+        self.input_origins(own, hosts).check(&parsed)
+    }
+}
+
+#[derive(Deserialize)]
+struct TokenQuery {
+    token: Option<String>,
+}
+
+/// The middleware: refuses a request without the token its route takes.
+pub async fn check(State(engine): State<Arc<Engine>>, request: Request, next: Next) -> Response {
+    let access = &engine.access;
+    let (api, cluster) = (access.api_token.as_deref(), access.cluster_token.as_deref());
+    let path = request.uri().path();
+    let get = request.method() == Method::GET;
+    let mut given = bearer(request.headers()).map(str::to_owned);
+    let allowed = if get && (path == "/" || path == "/health") {
+        Ok(())
+    } else if path == "/hosts" && request.method() == Method::POST {
+        let tokens: Vec<&str> = cluster.or(api).into_iter().collect();
+        require(given.as_deref(), &tokens, "the cluster token")
+    } else if get && path.starts_with("/inputs/") {
+        let tokens: Vec<&str> = [api, cluster].into_iter().flatten().collect();
+        require(given.as_deref(), &tokens, "the API or the cluster token")
+    } else {
+        if get && path.starts_with("/runs/") && path.ends_with("/events") && given.is_none() {
+            given = Query::<TokenQuery>::try_from_uri(request.uri()).ok().and_then(|q| q.0.token);
+        }
+        let tokens: Vec<&str> = api.into_iter().collect();
+        require(given.as_deref(), &tokens, "the API token")
+    };
+    match allowed {
+        Ok(()) => next.run(request).await,
+        Err(refusal) => refusal.into_response(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn inputs_come_from_the_engine_its_hosts_and_allowed_origins() {
+        let access = Access {
+            api_token: Some("a".into()),
+            cluster_token: Some("c".into()),
+            allow_input_from: vec!["https://data.example.org".into()],
+            insecure_no_auth: false,
+        }
+        .validated()
+        .unwrap();
+        let own = "http://127.0.0.1:7000";
+        let hosts = || vec!["http://127.0.0.1:7101".to_owned()].into_iter();
+        for good in [
+            "http://127.0.0.1:7000/inputs/x.ply",
+            "http://127.0.0.1:7101/blobs/y.mfm",
+            "https://data.example.org/scan.obj",
+        ] {
+            access.check_input(good, own, hosts()).unwrap();
+        }
+        for bad in ["http://127.0.0.1:7999/secret", "http://169.254.169.254/", "file:///etc/passwd"]
+        {
+            assert!(access.check_input(bad, own, hosts()).is_err(), "{bad}");
+        }
+        let open = Access::default();
+        open.check_input("http://10.0.0.9/scan.obj", own, hosts()).unwrap();
+        assert!(open.check_input("http://169.254.169.254/", own, hosts()).is_err());
+    }
+
+    #[test]
+    fn an_api_token_needs_a_cluster_token() {
+        let access = Access { api_token: Some("a".into()), ..Access::default() };
+        assert!(matches!(access.validated(), Err(AccessError::ApiWithoutCluster)));
+    }
+}

@@ -1,0 +1,41 @@
+//! Who may call which route, checked from the headers before any body is read: `/health`
+//! is open; uploading and deleting plugins takes the upload token (refused outright when the
+//! host has none); everything else takes the cluster token when the host has one.
+
+use std::sync::Arc;
+
+use axum::extract::{Request, State};
+use axum::http::{Method, StatusCode};
+use axum::middleware::Next;
+use axum::response::{IntoResponse, Response};
+
+use crate::state::Host;
+use meshflow_api::server::{bearer, error_response, require};
+
+pub async fn check(State(host): State<Arc<Host>>, request: Request, next: Next) -> Response {
+    let path = request.uri().path();
+    let given = bearer(request.headers());
+    let allowed = if path == "/health" {
+        Ok(())
+    } else if path.starts_with("/plugins")
+        && matches!(*request.method(), Method::POST | Method::DELETE)
+    {
+        match &host.config.token {
+            Some(token) => {
+                require(given, &[token], "the host's upload token").map_err(|e| e.into_response())
+            }
+            None => Err(error_response(
+                StatusCode::FORBIDDEN,
+                "uploads-disabled",
+                "uploads disabled: start the host with an upload token (--token)".into(),
+            )),
+        }
+    } else {
+        let cluster: Vec<&str> = host.config.cluster_token.as_deref().into_iter().collect();
+        require(given, &cluster, "the cluster token").map_err(|e| e.into_response())
+    };
+    match allowed {
+        Ok(()) => next.run(request).await,
+        Err(refusal) => refusal,
+    }
+}

@@ -1,0 +1,100 @@
+//! Secrets on the command line: each from a flag, an environment variable (`MESHFLOW_*`) or
+//! a file (`--…-file`, which wins), so none need appear in argv; and fresh ones for the
+//! embedded default.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::Args;
+
+/// Random bytes in a generated token.
+const TOKEN_BYTES: usize = 32;
+
+/// The engine's API token: what users send.
+#[derive(Args, Clone, Debug, Default)]
+pub struct ApiTokenArgs {
+    /// API token: every engine route but /health and the UI page needs it.
+    #[arg(long, env = "MESHFLOW_API_TOKEN", hide_env_values = true, value_name = "TOKEN")]
+    api_token: Option<String>,
+    /// Read the API token from this file.
+    #[arg(long, value_name = "PATH")]
+    api_token_file: Option<PathBuf>,
+}
+
+/// The cluster token: what the engine and its hosts send each other.
+#[derive(Args, Clone, Debug, Default)]
+pub struct ClusterTokenArgs {
+    /// Cluster token, shared by the engine and its hosts.
+    #[arg(long, env = "MESHFLOW_CLUSTER_TOKEN", hide_env_values = true, value_name = "TOKEN")]
+    cluster_token: Option<String>,
+    /// Read the cluster token from this file.
+    #[arg(long, value_name = "PATH")]
+    cluster_token_file: Option<PathBuf>,
+}
+
+/// What the engine and its hosts share: the cluster token, and the origins run inputs may
+/// come from besides the cluster.
+#[derive(Args, Clone, Debug, Default)]
+pub struct ClusterArgs {
+    #[command(flatten)]
+    pub token: ClusterTokenArgs,
+    /// An origin (scheme://host[:port]) run inputs may come from besides the engine and
+    /// its hosts; repeat for more.
+    #[arg(long, value_name = "ORIGIN")]
+    pub allow_input_from: Vec<String>,
+}
+
+impl ApiTokenArgs {
+    pub fn get(&self) -> anyhow::Result<Option<String>> {
+        read(self.api_token.as_deref(), self.api_token_file.as_deref())
+    }
+}
+
+impl ClusterTokenArgs {
+    pub fn get(&self) -> anyhow::Result<Option<String>> {
+        read(self.cluster_token.as_deref(), self.cluster_token_file.as_deref())
+    }
+}
+
+/// A token from its file (first line, trimmed) or its flag / environment variable.
+pub fn read(value: Option<&str>, file: Option<&Path>) -> anyhow::Result<Option<String>> {
+    let token = match file {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading the token file {}", path.display()))?;
+            text.lines().next().unwrap_or_default().trim().to_owned()
+        }
+        None => match value {
+            Some(value) => value.trim().to_owned(),
+            None => return Ok(None),
+        },
+    };
+    anyhow::ensure!(!token.is_empty(), "an empty token was given");
+    Ok(Some(token))
+}
+
+/// A new random token: 32 bytes from the operating system, in hex.
+pub fn fresh() -> anyhow::Result<String> {
+    let mut bytes = [0u8; TOKEN_BYTES];
+    getrandom::fill(&mut bytes).map_err(|e| anyhow::anyhow!("no randomness for a token: {e}"))?;
+    Ok(hex::encode(bytes))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_file_wins_and_fresh_tokens_differ() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("token");
+        std::fs::write(&path, "from-file\n").unwrap();
+        assert_eq!(read(Some("flag"), Some(&path)).unwrap().as_deref(), Some("from-file"));
+        assert_eq!(read(Some("flag"), None).unwrap().as_deref(), Some("flag"));
+        assert_eq!(read(None, None).unwrap(), None);
+        assert!(read(Some(" "), None).is_err());
+        let (a, b) = (fresh().unwrap(), fresh().unwrap());
+        assert_eq!(a.len(), 64);
+        assert_ne!(a, b);
+    }
+}
