@@ -85,6 +85,8 @@ enum Command {
     Run(commands::run::RunArgs),
     /// Submit a workflow to a running engine.
     Submit(commands::submit::SubmitArgs),
+    /// Stop a run on a running engine.
+    Cancel(commands::submit::CancelArgs),
 }
 
 /// Plugins to load besides the built-in ones.
@@ -115,6 +117,7 @@ fn main() -> ExitCode {
         Command::Up(args) => commands::up::run(args),
         Command::Run(args) => commands::run::run(args),
         Command::Submit(args) => commands::submit::run(args),
+        Command::Cancel(args) => commands::submit::cancel(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

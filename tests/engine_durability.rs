@@ -135,10 +135,15 @@ async fn a_cancelled_run_stops_within_a_second_and_frees_its_host_sessions() {
     }]);
     let id = cluster.submit(&endless, &cluster.upload(&Input::bunny()).await).await;
     cluster.under_way_until(&id, |r| r["steps"].as_array().is_some_and(|s| s.len() >= 4)).await;
-    let cancel = cluster.url(&format!("/runs/{id}/cancel"));
-    let answer = cluster.http.post(&cancel).send().await.unwrap();
-    assert_eq!(answer.status(), 202);
     let asked = tokio::time::Instant::now();
+    let cancelled = std::process::Command::new(env!("CARGO_BIN_EXE_meshflow"))
+        .args(["cancel", "--engine", &cluster.base, &id])
+        .env("MESHFLOW_API_TOKEN", common::API_TOKEN)
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&cancelled.stdout);
+    assert!(cancelled.status.success(), "{}", String::from_utf8_lossy(&cancelled.stderr));
+    assert!(said.starts_with(&format!("run {id}: cancelled")), "{said}");
     let record = cluster.finished(&id).await;
     assert!(asked.elapsed() < Duration::from_secs(1), "took {:?}", asked.elapsed());
     assert_eq!(record["status"], "cancelled", "{record:#}");
@@ -146,6 +151,7 @@ async fn a_cancelled_run_stops_within_a_second_and_frees_its_host_sessions() {
     let steps = record["steps"].as_array().unwrap().len();
     tokio::time::sleep(Duration::from_millis(500)).await;
     assert_eq!(cluster.record(&id).await["steps"].as_array().unwrap().len(), steps);
+    let cancel = cluster.url(&format!("/runs/{id}/cancel"));
     assert_eq!(cluster.http.post(&cancel).send().await.unwrap().status(), 409);
     let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
     for host in &cluster.hosts {

@@ -20,9 +20,7 @@ pub enum TransferMode {
 }
 
 pub struct Submission {
-    pub engine: String,
-    /// The engine's API token.
-    pub token: Option<String>,
+    pub engine: EngineClient,
     pub workflow: PathBuf,
     pub input: Option<String>,
     pub transfer: Option<TransferMode>,
@@ -33,16 +31,13 @@ pub struct Submission {
 
 impl Submission {
     pub async fn execute(self, wait: bool) -> anyhow::Result<()> {
-        let mut engine = EngineClient::new(&self.engine);
-        if let Some(token) = &self.token {
-            engine = engine.with_token(token);
-        }
+        let engine = &self.engine;
         let workflow = self.read_workflow()?;
         let input = match &self.input {
             Some(url) if url.starts_with("http://") || url.starts_with("https://") => {
                 Some(url.clone())
             }
-            Some(file) => Some(upload_input(&engine, Path::new(file)).await?),
+            Some(file) => Some(upload_input(engine, Path::new(file)).await?),
             None => None,
         };
         let submitted = engine
@@ -57,7 +52,7 @@ impl Submission {
             }
             return Ok(());
         }
-        follow(&engine, &id, !self.json).await?;
+        follow(engine, &id, !self.json).await?;
         let record = engine.run(&id).await?;
         if let Some(path) = &self.report {
             let text = serde_json::to_string_pretty(&record)?;
@@ -69,7 +64,7 @@ impl Submission {
             bail!("run {id} {}: {reason}", status.as_str().unwrap_or("ended"));
         }
         if let Some(path) = &self.output {
-            super::pack::save_mesh(path, &verified_result(&engine, &record).await?)?;
+            super::pack::save_mesh(path, &verified_result(engine, &record).await?)?;
         }
         match self.json {
             true => println!("{}", serde_json::to_string_pretty(&record)?),

@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use meshflow_api::EngineClient;
 
 use super::remote::{Submission, TransferMode};
 use super::tokens::{ApiTokenArgs, ClusterTokenArgs};
@@ -45,8 +46,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
             embedded::start(args.hosts, "127.0.0.1:0", None, args.layout, tokens, Vec::new())
                 .await?;
         let submission = Submission {
-            engine: system.engine.url.clone(),
-            token: Some(system.tokens.api.clone()),
+            engine: EngineClient::new(&system.engine.url).with_token(&system.tokens.api),
             workflow: args.workflow,
             input: Some(args.input.display().to_string()),
             transfer: args.transfer,

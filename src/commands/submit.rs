@@ -3,11 +3,13 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use meshflow_api::EngineClient;
 
 use super::remote::{Submission, TransferMode};
 
+/// Which engine to talk to, and with what API token.
 #[derive(Args)]
-pub struct SubmitArgs {
+pub struct EngineTarget {
     /// The engine's URL.
     #[arg(long, value_name = "URL")]
     engine: String,
@@ -17,6 +19,22 @@ pub struct SubmitArgs {
     /// Read the API token from this file.
     #[arg(long, value_name = "PATH")]
     token_file: Option<PathBuf>,
+}
+
+impl EngineTarget {
+    pub fn client(&self) -> anyhow::Result<EngineClient> {
+        let client = EngineClient::new(self.engine.trim_end_matches('/'));
+        Ok(match super::tokens::read(self.token.as_deref(), self.token_file.as_deref())? {
+            Some(token) => client.with_token(&token),
+            None => client,
+        })
+    }
+}
+
+#[derive(Args)]
+pub struct SubmitArgs {
+    #[command(flatten)]
+    engine: EngineTarget,
     /// Workflow JSON file.
     workflow: PathBuf,
     /// The input: a URL hosts can fetch, or a local mesh file to upload to the engine.
@@ -42,8 +60,7 @@ pub struct SubmitArgs {
 pub fn run(args: SubmitArgs) -> anyhow::Result<()> {
     let wait = args.wait || args.output.is_some() || args.report.is_some();
     let submission = Submission {
-        engine: args.engine.trim_end_matches('/').to_owned(),
-        token: super::tokens::read(args.token.as_deref(), args.token_file.as_deref())?,
+        engine: args.engine.client()?,
         workflow: args.workflow,
         input: args.input,
         transfer: args.transfer,
@@ -52,4 +69,20 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<()> {
         json: args.json,
     };
     tokio::runtime::Runtime::new()?.block_on(submission.execute(wait))
+}
+
+#[derive(Args)]
+pub struct CancelArgs {
+    #[command(flatten)]
+    engine: EngineTarget,
+    /// The run to stop.
+    run: String,
+}
+
+/// `meshflow cancel`: stops a run; it ends `cancelled` and its host sessions are freed.
+pub fn cancel(args: CancelArgs) -> anyhow::Result<()> {
+    let engine = args.engine.client()?;
+    let cancelled = tokio::runtime::Runtime::new()?.block_on(engine.cancel(&args.run))?;
+    println!("run {}: cancelled after {} step(s)", cancelled.id, cancelled.steps);
+    Ok(())
 }

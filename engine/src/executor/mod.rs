@@ -687,7 +687,7 @@ impl Executor {
         let mut sources = vec![current.full.url.clone()];
         let holders = self.replicas.iter().filter(|r| r.hash == current.hash).map(|r| &r.host.url);
         for host in holders.chain(&self.holders) {
-            let url = format!("{host}/blobs/{}.mfm", current.hash);
+            let url = full_mesh_url(host, &current.hash);
             if *host != except.url && !sources.contains(&url) {
                 sources.push(url);
             }
@@ -732,8 +732,7 @@ impl Executor {
             .chain(step.transfers.iter().filter(|t| t.error.is_none()).map(|t| t.host.clone()))
             .collect();
         let current = self.current.as_mut().expect("the input is restored first");
-        current.full =
-            FullRef { url: format!("{}/blobs/{hash}.mfm", step.host), hash: hash.clone() };
+        current.full = FullRef { url: full_mesh_url(&step.host, &hash), hash: hash.clone() };
         current.hash = hash;
         current.producer = Some(step.host.clone());
         current.correction = None;

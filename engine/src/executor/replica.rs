@@ -141,3 +141,44 @@ fn transfer_record(
         },
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use meshflow_api::host::{Transfer as Use, Updated};
+
+    use super::*;
+    use crate::registry::Registry;
+    use crate::store::Store;
+
+    #[tokio::test]
+    async fn a_receiver_answering_another_mesh_or_finding_the_producers_wrong_is_believed_so() {
+        let dir = tempfile::tempdir().unwrap();
+        let registry = Registry::new(Store::open(&dir.path().join("engine.sqlite3")).unwrap());
+        let receiver = registry.register("http://127.0.0.1:9/receiver").await.unwrap();
+        let producer = registry.register("http://127.0.0.1:9/producer").await.unwrap();
+        let (announced, other) = ("a".repeat(64), "b".repeat(64));
+        let updated = |hash: &str| Updated {
+            hash: hash.to_owned(),
+            via: Use::Correction,
+            bytes: 1,
+            download_ms: 0.0,
+            apply_ms: 0.0,
+            fallback: None,
+        };
+        assert!(judge(Ok(updated(&announced)), &announced, &receiver, &producer).is_ok());
+        assert!(!receiver.is_suspect() && !producer.is_suspect());
+        // Another mesh than announced: the receiver's answer cannot be true.
+        assert!(judge(Ok(updated(&other)), &announced, &receiver, &producer).is_err());
+        assert!(receiver.suspicion().unwrap().contains(&other));
+        assert!(!producer.is_suspect());
+        // The producer's full mesh is not what it announced: the producer is suspect.
+        let refused = ClientError::Refused {
+            url: receiver.url.clone(),
+            status: 422,
+            code: "hash-mismatch".into(),
+            message: "the mesh has content hash …".into(),
+        };
+        assert!(judge(Err(refused), &announced, &receiver, &producer).is_err());
+        assert!(producer.suspicion().unwrap().contains(&receiver.url));
+    }
+}

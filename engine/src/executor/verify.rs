@@ -34,6 +34,7 @@ fn shown(text: &str) -> String {
     format!("{kept:?}{cut}")
 }
 
+/// Whether `text` can name a mesh (or a plugin): 64 lowercase hex digits.
 pub fn is_content_hash(text: &str) -> bool {
     text.len() == 64 && text.bytes().all(|b| matches!(b, b'0'..=b'9' | b'a'..=b'f'))
 }
