@@ -307,7 +307,7 @@ async fn inputs_that_cannot_be_fetched_or_read_fail_the_run_clearly() {
         let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
         format!("http://{}", listener.local_addr().unwrap())
     };
-    let cluster = Cluster::start_allowing(SPREAD, std::slice::from_ref(&closed_origin)).await;
+    let cluster = Cluster::start_allowing(SPREAD, &[], std::slice::from_ref(&closed_origin)).await;
     let workflow = example("repair");
     let closed = format!("{closed_origin}/scan.ply");
     let not_a_mesh =
@@ -471,7 +471,7 @@ async fn a_host_whose_answers_cannot_be_true_is_suspect_and_its_step_moves_to_a_
 
     // With no one else to turn to, the run fails, naming the host and what it claimed.
     let alone = Cluster::start_with(&[], &[fake.url.clone()]).await;
-    let record = alone.run(&workflow, &url).await;
+    let record = alone.run(&workflow, &alone.upload(&input).await).await;
     let error = text(&record["error"]);
     assert_eq!(record["status"], "failed");
     assert!(error.contains(&fake.url) && error.contains("not a content hash"), "{error}");
@@ -496,7 +496,8 @@ async fn submit_refuses_a_result_that_is_not_the_recorded_mesh_and_writes_nothin
         blobs: [(format!("{claimed}.mfm"), served)].into(),
     })
     .await;
-    let cluster = Cluster::start_with(&[], &[fake.url.clone()]).await;
+    let never_fetched = "http://127.0.0.1:9".to_owned();
+    let cluster = Cluster::start_allowing(&[], &[fake.url.clone()], &[never_fetched]).await;
     let workflow = data.path().join("smooth.json");
     std::fs::write(&workflow, r#"[{"run": "laplacian-smoothing"}]"#).unwrap();
     let output = data.path().join("result.ply");
@@ -513,7 +514,8 @@ async fn submit_refuses_a_result_that_is_not_the_recorded_mesh_and_writes_nothin
     ]
     .map(str::to_owned);
     let ran = tokio::task::spawn_blocking(move || {
-        std::process::Command::new(env!("CARGO_BIN_EXE_meshflow")).args(args).output().unwrap()
+        let mut submit = std::process::Command::new(env!("CARGO_BIN_EXE_meshflow"));
+        submit.args(args).env("MESHFLOW_API_TOKEN", common::API_TOKEN).output().unwrap()
     })
     .await
     .unwrap();

@@ -89,15 +89,16 @@ impl Cluster {
 
     /// In-process hosts as [`Cluster::start`] makes them, then hosts running elsewhere.
     pub async fn start_with(families: &[&[&str]], other_hosts: &[String]) -> Self {
-        Self::build(families, other_hosts, &[]).await
+        Self::start_allowing(families, other_hosts, &[]).await
     }
 
-    /// As [`Cluster::start`], with inputs also allowed from `origins` (engine and hosts).
-    pub async fn start_allowing(families: &[&[&str]], origins: &[String]) -> Self {
-        Self::build(families, &[], origins).await
-    }
-
-    async fn build(families: &[&[&str]], other_hosts: &[String], origins: &[String]) -> Self {
+    /// As [`Cluster::start_with`], with inputs also allowed from `origins` (engine and
+    /// in-process hosts).
+    pub async fn start_allowing(
+        families: &[&[&str]],
+        other_hosts: &[String],
+        origins: &[String],
+    ) -> Self {
         let data = tempfile::tempdir().unwrap();
         let hosts = start_hosts(families, data.path(), origins).await;
         let urls: Vec<String> =
