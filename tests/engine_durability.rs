@@ -45,6 +45,11 @@ async fn an_engine_killed_mid_runs_resumes_them_after_a_restart_and_loses_none()
     let input_url = api.upload(&input).await;
     let finished_before = api.run(&workflow, &input_url).await;
     assert_eq!(finished_before["status"], "completed", "{}", finished_before["error"]);
+    // Its host packed and stored the result as it finished: it outlives the run's sessions.
+    assert!(
+        finished_before["result"]["bytes"].as_u64().is_some_and(|b| b > 0),
+        "{finished_before:#}"
+    );
 
     let ids: Vec<String> =
         futures_util::future::join_all((0..20).map(|_| api.submit(&workflow, &input_url))).await;

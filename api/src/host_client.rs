@@ -8,7 +8,9 @@ use crate::host::{
     CreateSession, Health, InputRef, PluginEntry, RunRequest, RunResult, ServiceEntry,
     SessionCreated, SessionStatus, Update, Updated, UploadedPlugin, Vouched,
 };
-use crate::transport::{ClientError, Endpoint, QUERY_TIMEOUT, read_capped, send};
+use crate::transport::{
+    ClientError, Endpoint, LONG_POLL_TIMEOUT, QUERY_TIMEOUT, WORK_TIMEOUT, read_capped, send,
+};
 
 /// A client of one host, e.g. `HostClient::new("http://127.0.0.1:7000")`.
 #[derive(Clone, Debug)]
@@ -95,7 +97,7 @@ impl HostClient {
         token: Option<&str>,
     ) -> Result<UploadedPlugin, ClientError> {
         let uploads = self.upload_endpoint(token);
-        uploads.json(Method::POST, "/plugins", |r| r.body(wasm)).await
+        uploads.json(Method::POST, "/plugins", |r| r.timeout(WORK_TIMEOUT).body(wasm)).await
     }
 
     pub async fn delete_plugin(
@@ -104,7 +106,7 @@ impl HostClient {
         token: Option<&str>,
     ) -> Result<(), ClientError> {
         let path = format!("/plugins/{digest}");
-        self.upload_endpoint(token).empty(Method::DELETE, &path, |r| r).await
+        self.upload_endpoint(token).empty(Method::DELETE, &path, |r| r.timeout(QUERY_TIMEOUT)).await
     }
 
     fn upload_endpoint(&self, token: Option<&str>) -> Endpoint {
@@ -123,7 +125,9 @@ impl HostClient {
             },
             peers: self.access.peers(),
         };
-        self.endpoint.json(Method::POST, "/sessions", |r| r.json(&body)).await
+        self.endpoint
+            .json(Method::POST, "/sessions", |r| r.timeout(QUERY_TIMEOUT).json(&body))
+            .await
     }
 
     pub async fn session(&self, id: &str) -> Result<SessionStatus, ClientError> {
@@ -133,35 +137,48 @@ impl HostClient {
     }
 
     /// The session's status once it is no longer loading (the host waits up to ~60 s;
-    /// this asks again until then).
+    /// this asks again until then, for at most [`WORK_TIMEOUT`] in all).
     pub async fn wait_ready(&self, id: &str) -> Result<SessionStatus, ClientError> {
-        loop {
-            let status: SessionStatus = self
-                .endpoint
-                .json(Method::GET, &format!("/sessions/{id}?wait=ready"), |r| r)
-                .await?;
-            if status.state != crate::host::SessionState::Loading {
-                return Ok(status);
+        let path = format!("/sessions/{id}?wait=ready");
+        let waiting = async {
+            loop {
+                let status: SessionStatus = self
+                    .endpoint
+                    .json(Method::GET, &path, |r| r.timeout(LONG_POLL_TIMEOUT))
+                    .await?;
+                if status.state != crate::host::SessionState::Loading {
+                    return Ok(status);
+                }
             }
-        }
+        };
+        tokio::time::timeout(WORK_TIMEOUT, waiting).await.unwrap_or_else(|_| {
+            Err(ClientError::Timeout {
+                url: format!("{}{path}", self.endpoint.base),
+                message: format!("still loading after {WORK_TIMEOUT:?}"),
+            })
+        })
     }
 
     pub async fn update(&self, id: &str, update: &Update) -> Result<Updated, ClientError> {
         let body = Vouched { body: update, peers: self.access.peers() };
-        self.endpoint.json(Method::POST, &format!("/sessions/{id}/update"), |r| r.json(&body)).await
+        let path = format!("/sessions/{id}/update");
+        self.endpoint.json(Method::POST, &path, |r| r.timeout(WORK_TIMEOUT).json(&body)).await
     }
 
     pub async fn run(&self, id: &str, request: &RunRequest) -> Result<RunResult, ClientError> {
-        self.endpoint.json(Method::POST, &format!("/sessions/{id}/run"), |r| r.json(request)).await
+        let path = format!("/sessions/{id}/run");
+        self.endpoint.json(Method::POST, &path, |r| r.timeout(WORK_TIMEOUT).json(request)).await
     }
 
     pub async fn delete_session(&self, id: &str) -> Result<(), ClientError> {
-        self.endpoint.empty(Method::DELETE, &format!("/sessions/{id}"), |r| r).await
+        let path = format!("/sessions/{id}");
+        self.endpoint.empty(Method::DELETE, &path, |r| r.timeout(QUERY_TIMEOUT)).await
     }
 
     /// The size of a blob (any URL), by `HEAD`.
     pub async fn blob_size(&self, url: &str) -> Result<u64, ClientError> {
-        let response = send(self.endpoint.request(Method::HEAD, url), url).await?;
+        let request = self.endpoint.request(Method::HEAD, url).timeout(QUERY_TIMEOUT);
+        let response = send(request, url).await?;
         // Not `content_length()`: for a HEAD answer that is the empty body's length.
         let length = response.headers().get(reqwest::header::CONTENT_LENGTH);
         length.and_then(|v| v.to_str().ok()?.parse().ok()).ok_or_else(|| ClientError::Protocol {
@@ -174,7 +191,8 @@ impl HostClient {
     /// yet: a `GET` whose body is not read (a `HEAD` answers without packing). So the mesh
     /// outlives the session that held it.
     pub async fn packed_size(&self, url: &str) -> Result<u64, ClientError> {
-        let response = send(self.endpoint.http.get(url), url).await?;
+        let response =
+            send(self.endpoint.request(Method::GET, url).timeout(WORK_TIMEOUT), url).await?;
         response.content_length().ok_or_else(|| ClientError::Protocol {
             url: url.to_owned(),
             message: "no valid Content-Length in the answer".into(),
@@ -184,7 +202,8 @@ impl HostClient {
     /// A blob of this host (or another host's, by URL), with the host's error message when
     /// it has none.
     pub async fn download(&self, url: &str) -> Result<Vec<u8>, ClientError> {
-        let response = send(self.endpoint.request(Method::GET, url), url).await?;
+        let response =
+            send(self.endpoint.request(Method::GET, url).timeout(WORK_TIMEOUT), url).await?;
         read_capped(response, url, u64::MAX).await
     }
 }

@@ -21,5 +21,6 @@ pub use engine_client::EngineClient;
 pub use host_client::{ClusterAccess, HostClient};
 pub use meshflow_params as params;
 pub use transport::{
-    CONNECT_TIMEOUT, ClientError, MAX_ERROR_BODY_BYTES, MAX_REDIRECTS, QUERY_TIMEOUT, fetch,
+    CONNECT_TIMEOUT, ClientError, LONG_POLL_TIMEOUT, MAX_ERROR_BODY_BYTES, MAX_REDIRECTS,
+    QUERY_TIMEOUT, WORK_TIMEOUT, fetch,
 };

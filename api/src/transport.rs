@@ -48,6 +48,15 @@ pub const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
 /// cannot stall whoever polls it.
 pub const QUERY_TIMEOUT: Duration = Duration::from_secs(5);
 
+/// The whole of a call that makes a host work: a step (its run deadline and its wait for a
+/// run slot), an update (a download and a replay), a wait for a session to load, a blob
+/// or plugin transfer. Generous, so no legitimate call hits it; bounded, so a host that
+/// accepts and never answers cannot hold a run for ever.
+pub const WORK_TIMEOUT: Duration = Duration::from_secs(15 * 60);
+
+/// One long poll of a loading session: the host answers within its own limit (60 s).
+pub const LONG_POLL_TIMEOUT: Duration = Duration::from_secs(90);
+
 /// A connection pool with [`CONNECT_TIMEOUT`]. Steps and transfers get no overall deadline
 /// here: a host bounds their work by its own run deadline and download limits.
 pub(crate) fn default_client() -> reqwest::Client {
