@@ -339,17 +339,23 @@ impl Registry {
     }
 }
 
+/// A registry of an engine on :7000 with a cluster token, keeping its hosts in a database
+/// under `dir`; and that database.
+#[cfg(test)]
+pub(crate) fn test_registry(dir: &std::path::Path) -> (Registry, Store) {
+    let store = Store::open(&dir.join("engine.sqlite3")).unwrap();
+    let registry =
+        Registry::new("http://127.0.0.1:7000", Some("secret".into()), store.clone()).unwrap();
+    (registry, store)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::limits::FORGET_DOWN_HOST_AFTER;
 
-    /// A registry of an engine on :7000 with a cluster token, and its database.
     fn registry(dir: &tempfile::TempDir) -> (Registry, Store) {
-        let store = Store::open(&dir.path().join("engine.sqlite3")).unwrap();
-        let registry =
-            Registry::new("http://127.0.0.1:7000", Some("secret".into()), store.clone()).unwrap();
-        (registry, store)
+        test_registry(dir.path())
     }
 
     #[tokio::test]

@@ -127,7 +127,9 @@ mod tests {
             r#"
             const evil = {evil:?};
             const elements = {{}};
-            globalThis.location = {{href: "http://127.0.0.1:7000/"}};
+            globalThis.location = {{href: "http://127.0.0.1:7000/", hash: "", pathname: "/"}};
+            globalThis.localStorage = {{getItem: () => null, setItem: () => {{}}}};
+            globalThis.history = {{replaceState: () => {{}}}};
             globalThis.document = {{getElementById: id => elements[id] ??= {{innerHTML: ""}}}};
             globalThis.setInterval = () => {{}};
             const answers = {{

@@ -147,13 +147,11 @@ mod tests {
     use meshflow_api::host::{Transfer as Use, Updated};
 
     use super::*;
-    use crate::registry::Registry;
-    use crate::store::Store;
 
     #[tokio::test]
     async fn a_receiver_answering_another_mesh_or_finding_the_producers_wrong_is_believed_so() {
         let dir = tempfile::tempdir().unwrap();
-        let registry = Registry::new(Store::open(&dir.path().join("engine.sqlite3")).unwrap());
+        let (registry, _) = crate::registry::test_registry(dir.path());
         let receiver = registry.register("http://127.0.0.1:9/receiver").await.unwrap();
         let producer = registry.register("http://127.0.0.1:9/producer").await.unwrap();
         let (announced, other) = ("a".repeat(64), "b".repeat(64));
