@@ -6,7 +6,9 @@
 //! - the engine's overhead per step: from a host's reply to the next trigger, waiting for
 //!   transfers excluded (goal ≤ 5 ms);
 //! - downloading and applying each LS correction on the other host (goal ≤ 0.2 s);
-//! - the same with `transfer: full`, side by side.
+//! - the same with `transfer: full`, side by side;
+//! - all of it without tokens and with all three, side by side: what the bearer checks and
+//!   the fetch rules add per step.
 
 mod common;
 
@@ -22,6 +24,32 @@ fn family(name: &str) -> Vec<&'static [u8]> {
     PLUGINS.iter().filter(|p| p.name == name).map(|p| p.wasm).collect()
 }
 
+/// Two hosts (smoothing, cleanup) and an engine on loopback, with or without tokens.
+async fn cluster(
+    dir: &std::path::Path,
+    tokens: bool,
+) -> anyhow::Result<(meshflow_engine::EngineHandle, Vec<meshflow_host::HostHandle>)> {
+    let token = |name: &str| tokens.then(|| format!("bench-{name}-token"));
+    let mut hosts = Vec::new();
+    for (i, builtins) in [family("smoothing"), family("cleanup")].into_iter().enumerate() {
+        let config = HostConfig {
+            builtins,
+            cluster_token: token("cluster"),
+            ..HostConfig::new(dir.join(format!("host-{i}")))
+        };
+        hosts.push(start(config, TcpListener::bind("127.0.0.1:0").await?).await?);
+    }
+    let urls: Vec<String> = hosts.iter().map(|h| h.url.clone()).collect();
+    let access = meshflow_engine::Access {
+        api_token: token("api"),
+        cluster_token: token("cluster"),
+        ..Default::default()
+    };
+    let listener = TcpListener::bind("127.0.0.1:0").await?;
+    let engine = meshflow_engine::start(dir.join("engine"), None, &urls, access, listener).await?;
+    Ok((engine, hosts))
+}
+
 #[tokio::main]
 async fn main() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
@@ -34,27 +62,6 @@ async fn main() -> anyhow::Result<()> {
         mesh.triangle_count()
     );
 
-    let mut hosts = Vec::new();
-    for (i, builtins) in [family("smoothing"), family("cleanup")].into_iter().enumerate() {
-        let config =
-            HostConfig { builtins, ..HostConfig::new(dir.path().join(format!("host-{i}"))) };
-        hosts.push(start(config, TcpListener::bind("127.0.0.1:0").await?).await?);
-    }
-    let urls: Vec<String> = hosts.iter().map(|h| h.url.clone()).collect();
-    let engine = meshflow_engine::start(
-        dir.path().join("engine"),
-        None,
-        &urls,
-        meshflow_engine::Access::default(),
-        TcpListener::bind("127.0.0.1:0").await?,
-    )
-    .await?;
-    let bytes = axum::body::Bytes::from(std::fs::read(&input)?);
-    let (input_url, _) = engine
-        .engine
-        .put_input("scan.mfm", futures_util::stream::once(async { Ok::<_, String>(bytes) }))
-        .await?;
-
     let steps: Vec<Value> = (0..ROUNDS)
         .flat_map(|_| {
             [
@@ -64,46 +71,55 @@ async fn main() -> anyhow::Result<()> {
         })
         .collect();
     println!(
-        "| transfer | step | service | compute ms | engine overhead ms | sent as | KB | download ms | apply ms |"
+        "| security | transfer | step | service | compute ms | engine overhead ms | sent as | KB | download ms | apply ms |"
     );
-    println!("|---|---|---|---:|---:|---|---:|---:|---:|");
+    println!("|---|---|---|---|---:|---:|---|---:|---:|---:|");
     let mut totals = Vec::new();
-    for transfer in ["auto", "full"] {
-        let workflow = json!({"steps": steps, "transfer": transfer});
-        let run = engine.engine.submit(workflow, Some(input_url.clone()), "bench").await?;
-        while !run.is_finished() {
-            tokio::time::sleep(std::time::Duration::from_millis(20)).await;
-        }
-        let record = serde_json::to_value(run.record())?;
-        anyhow::ensure!(record["status"] == "completed", "the run failed: {}", record["error"]);
-        for step in record["steps"].as_array().into_iter().flatten() {
-            for t in step["transfers"].as_array().into_iter().flatten() {
-                println!(
-                    "| {transfer} | {} | {} | {:.0} | {:.2} | {} | {:.1} | {:.0} | {:.0} |",
-                    step["index"],
-                    step["service"].as_str().unwrap_or(""),
-                    step["compute_ms"].as_f64().unwrap_or(0.0),
-                    step["overhead_ms"].as_f64().unwrap_or(0.0),
-                    t["via"].as_str().unwrap_or(""),
-                    t["bytes"].as_f64().unwrap_or(0.0) / 1024.0,
-                    t["download_ms"].as_f64().unwrap_or(0.0),
-                    t["apply_ms"].as_f64().unwrap_or(0.0),
-                );
+    // The same cluster twice, without tokens and with all three (every request's bearer
+    // checked, every download under the fetch rules): what the checks cost per step.
+    for tokens in [false, true] {
+        let security = if tokens { "tokens" } else { "open" };
+        let (engine, _hosts) = cluster(&dir.path().join(security), tokens).await?;
+        let bytes = axum::body::Bytes::from(std::fs::read(&input)?);
+        let body = futures_util::stream::once(async { Ok::<_, String>(bytes) });
+        let (input_url, _) = engine.engine.put_input("scan.mfm", body).await?;
+        for transfer in ["auto", "full"] {
+            let workflow = json!({"steps": steps, "transfer": transfer});
+            let run = engine.engine.submit(workflow, Some(input_url.clone()), "bench").await?;
+            while !run.is_finished() {
+                tokio::time::sleep(std::time::Duration::from_millis(20)).await;
             }
-        }
-        let overheads: Vec<f64> = record["steps"]
-            .as_array()
-            .into_iter()
-            .flatten()
-            .skip(1)
-            .filter_map(|s| s["overhead_ms"].as_f64())
-            .collect();
-        let worst = overheads.iter().cloned().fold(0.0, f64::max);
-        let mean = overheads.iter().sum::<f64>() / overheads.len().max(1) as f64;
-        totals.push(format!(
-            "{transfer}: total {:.2} s; engine overhead per step mean {mean:.2} ms, worst {worst:.2} ms (goal ≤ 5 ms)",
+            let record = serde_json::to_value(run.record())?;
+            anyhow::ensure!(record["status"] == "completed", "the run failed: {}", record["error"]);
+            for step in record["steps"].as_array().into_iter().flatten() {
+                for t in step["transfers"].as_array().into_iter().flatten() {
+                    println!(
+                        "| {security} | {transfer} | {} | {} | {:.0} | {:.2} | {} | {:.1} | {:.0} | {:.0} |",
+                        step["index"],
+                        step["service"].as_str().unwrap_or(""),
+                        step["compute_ms"].as_f64().unwrap_or(0.0),
+                        step["overhead_ms"].as_f64().unwrap_or(0.0),
+                        t["via"].as_str().unwrap_or(""),
+                        t["bytes"].as_f64().unwrap_or(0.0) / 1024.0,
+                        t["download_ms"].as_f64().unwrap_or(0.0),
+                        t["apply_ms"].as_f64().unwrap_or(0.0),
+                    );
+                }
+            }
+            let overheads: Vec<f64> = record["steps"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .skip(1)
+                .filter_map(|s| s["overhead_ms"].as_f64())
+                .collect();
+            let worst = overheads.iter().cloned().fold(0.0, f64::max);
+            let mean = overheads.iter().sum::<f64>() / overheads.len().max(1) as f64;
+            totals.push(format!(
+            "{security}, {transfer}: total {:.2} s; engine overhead per step mean {mean:.2} ms, worst {worst:.2} ms (goal ≤ 5 ms)",
             record["total_ms"].as_f64().unwrap_or(0.0) / 1e3
         ));
+        }
     }
     println!();
     for line in totals {
