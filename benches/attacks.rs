@@ -77,22 +77,30 @@ async fn start(args: &[String], url: String) -> anyhow::Result<Server> {
     Ok(server)
 }
 
-/// `bytes` of zeros as a streamed body, never held whole.
-fn zeros(bytes: u64) -> Body {
+/// `bytes` of zeros as a stream of 1 MiB chunks, never held whole.
+fn zeros(
+    bytes: u64,
+) -> impl futures_util::Stream<Item = Result<axum::body::Bytes, std::io::Error>> + Send + 'static {
     const CHUNK: usize = 1 << 20;
-    let chunks = bytes.div_ceil(CHUNK as u64);
-    let stream = futures_util::stream::iter(0..chunks).map(move |i| {
+    futures_util::stream::iter(0..bytes.div_ceil(CHUNK as u64)).map(move |i| {
         let len = CHUNK.min((bytes - i * CHUNK as u64) as usize);
-        Ok::<_, std::io::Error>(axum::body::Bytes::from(vec![0u8; len]))
-    });
-    Body::from_stream(stream)
+        Ok(axum::body::Bytes::from(vec![0u8; len]))
+    })
+}
+
+/// The same as a request body.
+fn upload(bytes: u64) -> reqwest::Body {
+    reqwest::Body::wrap_stream(zeros(bytes))
 }
 
 /// The hostile server: `/error` answers 500 with 1 GiB, `/huge.ply` 200 with 1 GiB.
 async fn hostile() -> anyhow::Result<String> {
     let app = Router::new()
-        .route("/error", get(|| async { (StatusCode::INTERNAL_SERVER_ERROR, zeros(GIB)) }))
-        .route("/huge.ply", get(|| async { (StatusCode::OK, zeros(GIB)) }));
+        .route(
+            "/error",
+            get(|| async { (StatusCode::INTERNAL_SERVER_ERROR, Body::from_stream(zeros(GIB))) }),
+        )
+        .route("/huge.ply", get(|| async { (StatusCode::OK, Body::from_stream(zeros(GIB))) }));
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
     let url = format!("http://{}", listener.local_addr()?);
     tokio::spawn(async move { axum::serve(listener, app).await });
@@ -175,14 +183,14 @@ async fn main() -> anyhow::Result<()> {
 
     let mut rows =
         vec![("started".to_owned(), String::new(), engine.peak_mib(), host.peak_mib(), true)];
-    let mut row = |attack: &str, outcome: String, rows: &mut Vec<_>, up: bool| {
+    let row = |attack: &str, outcome: String, rows: &mut Vec<_>, up: bool| {
         rows.push((attack.to_owned(), outcome, engine.peak_mib(), host.peak_mib(), up));
     };
 
     // 1. A 3 GiB anonymous upload: refused before its body is read.
     let started = Instant::now();
     let answer =
-        http.post(format!("{engine_url}/inputs?name=a.ply")).body(zeros(3 * GIB)).send().await;
+        http.post(format!("{engine_url}/inputs?name=a.ply")).body(upload(3 * GIB)).send().await;
     let outcome = match answer {
         Ok(answer) => format!("{} in {:.2} s", answer.status(), started.elapsed().as_secs_f64()),
         Err(error) => format!("closed in {:.2} s ({error})", started.elapsed().as_secs_f64()),
@@ -195,7 +203,7 @@ async fn main() -> anyhow::Result<()> {
     let answer = http
         .post(format!("{engine_url}/inputs?name=a.ply"))
         .bearer_auth(API_TOKEN)
-        .body(zeros(3 * GIB))
+        .body(upload(3 * GIB))
         .send()
         .await?;
     let outcome = format!("{} in {:.1} s", answer.status(), started.elapsed().as_secs_f64());
