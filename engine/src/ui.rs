@@ -1,75 +1,39 @@
-//! The web UI: one static page over the engine API (hosts, services, submit, live progress).
+//! The workbench's files (`engine/web/`, bundled by `build.rs`), served from the binary:
+//! `/` is its page, `/assets/…` its scripts and styles, whose names carry a content hash and
+//! so may be cached for good.
 
-pub const PAGE: &str = r##"<!doctype html>
-<html lang="en"><head><meta charset="utf-8"><title>meshflow engine</title>
-<style>
-body{font:14px system-ui,sans-serif;margin:2em;max-width:70em}
-textarea{width:100%;height:14em;font:13px monospace}
-table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 6px;text-align:left}
-.down{color:#a00}.ok{color:#070}pre{background:#f6f6f6;padding:.5em;overflow:auto}
-</style></head><body>
-<h1>meshflow engine</h1>
-<h2>Hosts</h2><table id="hosts"></table>
-<h2>Services</h2><table id="services"></table>
-<h2>Run a workflow</h2>
-<p>Input mesh: <input type="file" id="file"> or URL <input id="url" size="50"></p>
-<textarea id="workflow">{"steps": [
-  {"run": "remove-smallest-components"},
-  {"run": "laplacian-smoothing", "params": {"iterations": 1}},
-  {"run": "fill-holes"},
-  {"run": "remove-degenerate-triangles"}
-], "transfer": "auto"}</textarea>
-<p><button id="go">Run</button> <span id="state"></span></p>
-<table id="steps"></table><p id="result"></p>
-<script>
-const $ = id => document.getElementById(id);
-const esc = s => String(s ?? "").replace(/[&<>]/g, c => ({"&":"&amp;","<":"&lt;",">":"&gt;"})[c]);
-async function refresh() {
-  const hosts = await (await fetch("/hosts")).json();
-  $("hosts").innerHTML = "<tr><th>host</th><th>state</th><th>running</th><th>services</th></tr>" +
-    hosts.map(h => `<tr><td>${esc(h.url)}</td><td class="${h.up?"ok":"down"}">${h.up?"up":"down"}</td>` +
-      `<td>${h.running}</td><td>${esc(h.services.join(", "))}</td></tr>`).join("");
-  const services = await (await fetch("/services")).json();
-  $("services").innerHTML = "<tr><th>service</th><th>kind</th><th>parameters</th><th>hosts</th></tr>" +
-    services.map(s => `<tr><td title="${esc(s.doc)}">${esc(s.name)}</td><td>${esc(s.kind)}</td>` +
-      `<td>${esc(s.params.map(p => p.name).join(", "))}</td><td>${s.hosts.length}</td></tr>`).join("");
+use axum::extract::Path;
+use axum::http::{StatusCode, header};
+use axum::response::{IntoResponse, Response};
+
+/// Every file of the bundle by its path under the bundle's root.
+const ASSETS: &[(&str, &[u8])] = include!(concat!(env!("OUT_DIR"), "/web_assets.rs"));
+
+pub async fn index() -> Response {
+    serve("index.html", "no-cache")
 }
-function showStep(s) {
-  const row = document.createElement("tr");
-  const size = s.correction_bytes == null ? "" : `${(s.correction_bytes/1024).toFixed(1)} KB`;
-  row.innerHTML = `<td>${s.index}</td><td>${esc(s.path)}</td><td>${esc(s.service)}</td>` +
-    `<td>${esc(s.host)}</td><td>${s.compute_ms.toFixed(1)} ms</td><td>${size}</td>` +
-    `<td>${esc(s.value == null ? "" : JSON.stringify(s.value))}</td>`;
-  $("steps").appendChild(row);
+
+pub async fn asset(Path(file): Path<String>) -> Response {
+    serve(&format!("assets/{file}"), "public, max-age=31536000, immutable")
 }
-$("go").onclick = async () => {
-  $("steps").innerHTML = "<tr><th>#</th><th>step</th><th>service</th><th>host</th><th>compute</th><th>correction</th><th>value</th></tr>";
-  $("result").textContent = "";
-  let input = $("url").value || null;
-  const file = $("file").files[0];
-  if (file) {
-    const up = await fetch("/inputs?name=" + encodeURIComponent(file.name), {method: "POST", body: file});
-    const body = await up.json();
-    if (!up.ok) { $("state").textContent = body.error.message; return; }
-    input = body.url;
-  }
-  let workflow;
-  try { workflow = JSON.parse($("workflow").value); } catch (e) { $("state").textContent = "workflow: " + e; return; }
-  const answer = await fetch("/runs", {method: "POST", headers: {"content-type": "application/json"},
-    body: JSON.stringify({workflow, input})});
-  const run = await answer.json();
-  if (!answer.ok) { $("state").textContent = run.error.message; return; }
-  $("state").textContent = "run " + run.id + ": running";
-  const events = new EventSource(`/runs/${run.id}/events`);
-  events.addEventListener("step", e => showStep(JSON.parse(e.data)));
-  events.addEventListener("status", e => {
-    const s = JSON.parse(e.data);
-    $("state").textContent = `run ${run.id}: ${s.status}` + (s.error ? ` — ${s.error}` : "") +
-      (s.total_ms ? ` in ${(s.total_ms/1000).toFixed(2)} s` : "");
-    if (s.status === "completed") $("result").innerHTML = `<a href="/runs/${run.id}/result">download the result (.mfm)</a>`;
-    if (["completed", "failed", "cancelled", "interrupted"].includes(s.status)) events.close();
-  });
-};
-refresh(); setInterval(refresh, 3000);
-</script></body></html>
-"##;
+
+fn serve(name: &str, cache: &'static str) -> Response {
+    match ASSETS.iter().find(|(asset, _)| *asset == name) {
+        Some((_, bytes)) => {
+            let headers = [(header::CONTENT_TYPE, content_type(name)), (header::CACHE_CONTROL, cache)];
+            (headers, *bytes).into_response()
+        }
+        None => (StatusCode::NOT_FOUND, "no such file").into_response(),
+    }
+}
+
+fn content_type(name: &str) -> &'static str {
+    match name.rsplit_once('.').map(|(_, ext)| ext) {
+        Some("html") => "text/html; charset=utf-8",
+        Some("js") => "text/javascript; charset=utf-8",
+        Some("css") => "text/css; charset=utf-8",
+        Some("json") => "application/json",
+        Some("svg") => "image/svg+xml",
+        _ => "application/octet-stream",
+    }
+}
