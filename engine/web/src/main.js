@@ -86,6 +86,11 @@ async function cancelRun() {
 async function startRun() {
   runButton.disabled = true;
   runNote.textContent = '';
+  // The last run's view goes at once: nothing of it can be taken for the new run's.
+  current?.close();
+  current = null;
+  cancelButton.hidden = true;
+  fill(runRoot, el('p', { testid: 'run-status', className: 'status', 'data-status': 'starting' }, 'Starting a new run…'));
   try {
     let input = inputUrl.value.trim() || null;
     const file = meshFile.files[0];

@@ -85,7 +85,7 @@ export class RunView {
   draw() {
     const r = this.record;
     const steps = r.steps.filter(Boolean);
-    const status = el('p', { testid: 'run-status', className: `status ${r.status}`, 'data-status': r.status }, statusLine(r));
+    const status = el('p', { testid: 'run-status', className: `status ${r.status}`, 'data-status': r.status, 'data-run': r.id }, statusLine(r));
     const running = r.status === 'running' && steps.length ? `now after ${steps.at(-1).path} on ${steps.at(-1).host}` : '';
     fill(this.root,
       status,

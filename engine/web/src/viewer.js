@@ -78,25 +78,33 @@ export class Viewer {
   async load(label, path) {
     const slot = label === 'input' ? 'before' : 'after';
     const started = performance.now();
+    // Only the latest request changes what is shown; an earlier one still fills its slot.
+    const asked = (this.latest = Symbol(label));
+    delete this.canvas.dataset.shown;
     this.status.textContent = `loading ${label}…`;
+    let mesh;
     try {
-      const buffer = await (await request(`${path}?format=raw`)).arrayBuffer();
-      const mesh = parseRaw(buffer);
-      this.put(slot, label, mesh);
+      mesh = parseRaw(await (await request(`${path}?format=raw`)).arrayBuffer());
+    } catch (error) {
+      if (asked === this.latest) this.status.textContent = `cannot show ${label}: ${error.message}`;
+      return;
+    }
+    this.put(slot, label, mesh);
+    if (asked === this.latest) {
       this.setMode(this.slots.before && this.slots.after && this.mode === 'side' ? 'side' : slot);
       this.fit();
       await new Promise((resolve) => requestAnimationFrame(resolve));
       const firstFrameMs = performance.now() - started;
-      this.canvas.dataset.firstFrameMs = firstFrameMs.toFixed(0);
-      this.canvas.dataset.pageToFrameMs = performance.now().toFixed(0);
-      this.canvas.dataset.shown = label;
-      this.canvas.dataset.vertices = mesh.vertices;
+      Object.assign(this.canvas.dataset, {
+        firstFrameMs: firstFrameMs.toFixed(0),
+        pageToFrameMs: performance.now().toFixed(0),
+        shown: label,
+        vertices: mesh.vertices,
+      });
       this.status.textContent = `${label}: ${mesh.vertices.toLocaleString('en')} vertices, ${mesh.triangles.toLocaleString('en')} triangles; first frame ${firstFrameMs.toFixed(0)} ms after asking`;
-      // Holes after the first frame: sorting a large mesh's edges takes a moment.
-      setTimeout(() => this.addBoundary(slot, mesh), 0);
-    } catch (error) {
-      this.status.textContent = `cannot show ${label}: ${error.message}`;
     }
+    // Holes after the first frame: sorting a large mesh's edges takes a moment.
+    setTimeout(() => this.addBoundary(slot, mesh), 0);
   }
 
   put(slot, label, mesh) {
@@ -129,8 +137,7 @@ export class Viewer {
     geometry.setIndex(new THREE.BufferAttribute(pairs, 1));
     entry.boundary = new THREE.LineSegments(geometry, new THREE.LineBasicMaterial({ color: 0xdc2626 }));
     entry.scene.add(entry.boundary);
-    this.canvas.dataset[`${slot}BoundaryEdges`] = pairs.length / 2;
-    this.status.textContent += `; ${pairs.length / 2} boundary edges (red)`;
+    this.canvas.dataset.boundaryEdges = pairs.length / 2;
     this.applyStyle();
   }
 

@@ -1,0 +1,220 @@
+// The workbench in a real browser (Debian's Chromium, headless, driven over the DevTools
+// protocol by playwright-core: no browser download, and the DevTools client reads the
+// canvas and catches downloads, which WebDriver cannot do as simply).
+//
+//   node e2e/workbench.mjs <phase>
+//
+// Environment: MESHFLOW_URL (the engine), ARTEFACTS (screenshots, downloads, runs.json),
+// BUNNY, SCAN (meshes to upload), REPAIR (repair.json), BAD_MESH (random bytes as .stl),
+// optionally BIG_RUN (a finished run of a large result, for the time-to-first-frame figure).
+// Phases: `main` (build, run, watch, view, download, failures, reload) and `restarted`
+// (history after the engine restarted). Exits non-zero on the first failed expectation.
+
+import { chromium } from 'playwright-core';
+import { writeFileSync, readFileSync, mkdirSync } from 'node:fs';
+import { join } from 'node:path';
+import assert from 'node:assert/strict';
+
+const BASE = process.env.MESHFLOW_URL;
+const ARTEFACTS = process.env.ARTEFACTS;
+const RUN_TIMEOUT = 180_000;
+mkdirSync(ARTEFACTS, { recursive: true });
+
+const FLAGS = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+  '--disable-background-networking', '--disable-component-update', '--disable-sync',
+  // WebGL without a GPU: SwiftShader, in software.
+  '--use-angle=swiftshader', '--enable-unsafe-swiftshader'];
+
+const log = (...parts) => console.log(`[workbench ${((performance.now()) / 1000).toFixed(1)}s]`, ...parts);
+
+async function shot(page, name) {
+  await page.screenshot({ path: join(ARTEFACTS, `${name}.png`), fullPage: true });
+}
+
+/** Waits for the run view to show a final status; that status. */
+async function finalStatus(page) {
+  const status = page.getByTestId('run-status');
+  await page.waitForFunction(() => {
+    const s = document.querySelector('[data-testid=run-status]')?.dataset.status;
+    return ['completed', 'failed', 'cancelled', 'interrupted'].includes(s);
+  }, null, { timeout: RUN_TIMEOUT });
+  return status.getAttribute('data-status');
+}
+
+async function runId(page) {
+  return page.getByTestId('run-status').getAttribute('data-run');
+}
+
+/** The viewer's canvas has drawn a mesh: some pixels differ from the background. */
+async function canvasNotBlank(page, label) {
+  await page.waitForFunction((shown) => document.querySelector('[data-testid=viewer]')?.dataset.shown === shown, label, { timeout: RUN_TIMEOUT });
+  const share = await page.evaluate(() => {
+    const canvas = document.querySelector('[data-testid=viewer]');
+    const copy = document.createElement('canvas');
+    copy.width = canvas.width;
+    copy.height = canvas.height;
+    const context = copy.getContext('2d');
+    context.drawImage(canvas, 0, 0);
+    const pixels = context.getImageData(0, 0, copy.width, copy.height).data;
+    const [r, g, b] = [pixels[0], pixels[1], pixels[2]];
+    let differing = 0;
+    for (let i = 0; i < pixels.length; i += 4) {
+      if (Math.abs(pixels[i] - r) + Math.abs(pixels[i + 1] - g) + Math.abs(pixels[i + 2] - b) > 30) differing += 1;
+    }
+    return differing / (pixels.length / 4);
+  });
+  log(`viewer shows ${label}: ${(share * 100).toFixed(1)}% of pixels are mesh`);
+  assert.ok(share > 0.01, `the viewer's canvas is blank (${share})`);
+}
+
+async function main(page) {
+  const runs = {};
+  await page.goto(BASE);
+  await page.getByTestId('tab-catalogue').click();
+  await page.getByTestId('service-list').locator('[data-service=fill-holes]').waitFor();
+  const catalogue = await page.getByTestId('service-list').textContent();
+  for (const expected of ['laplacian-smoothing', 'iterations', 'cotangent', 'Offered by']) {
+    assert.ok(catalogue.includes(expected), `the catalogue lacks ${expected}`);
+  }
+  await shot(page, '01-catalogue');
+
+  // The repair workflow by clicks only.
+  await page.getByTestId('tab-build').click();
+  for (const service of ['remove-smallest-components', 'laplacian-smoothing', 'fill-holes', 'remove-degenerate-triangles']) {
+    await page.getByTestId('add-step-service').selectOption(service);
+    await page.getByTestId('add-step').click();
+  }
+  await page.locator('[data-path="steps[1]"] [data-param=iterations]').fill('1');
+  await page.getByText('The engine accepts this workflow.').waitFor();
+  const built = JSON.parse(await page.getByTestId('workflow-json').inputValue());
+  const repair = JSON.parse(readFileSync(process.env.REPAIR, 'utf8'));
+  assert.deepEqual(built, repair, 'the clicked workflow is repair.json');
+  // A bad parameter is refused with its step path, as the engine would.
+  await page.locator('[data-path="steps[1]"] [data-param=iterations]').fill('0');
+  await page.getByTestId('validation').getByText('steps[1]').waitFor();
+  assert.ok(await page.locator('.card.invalid[data-path="steps[1]"]').count() === 1, 'the bad step is marked');
+  await shot(page, '02-builder-invalid');
+  await page.locator('[data-path="steps[1]"] [data-param=iterations]').fill('1');
+  await page.getByText('The engine accepts this workflow.').waitFor();
+  await shot(page, '03-builder');
+
+  await page.getByTestId('mesh-file').setInputFiles(process.env.BUNNY);
+  await page.getByTestId('run').click();
+  await page.getByTestId('step-row').first().waitFor({ timeout: RUN_TIMEOUT });
+  assert.equal(await finalStatus(page), 'completed');
+  runs.bunny = await runId(page);
+  assert.equal(await page.getByTestId('step-row').count(), 4);
+  await canvasNotBlank(page, 'result');
+  await shot(page, '04-run-bunny');
+
+  // repair.json from a file, on an uploaded scan; steps arrive while it runs.
+  await page.getByTestId('clear-workflow').click();
+  await page.getByTestId('workflow-file').setInputFiles(process.env.REPAIR);
+  await page.getByText('The engine accepts this workflow.').waitFor();
+  assert.deepEqual(JSON.parse(await page.getByTestId('workflow-json').inputValue()), repair);
+  await page.getByTestId('mesh-file').setInputFiles(process.env.SCAN);
+  await page.getByTestId('run').click();
+  await page.waitForFunction((last) => {
+    const run = document.querySelector('[data-testid=run-status]')?.dataset.run;
+    return run && run !== last;
+  }, runs.bunny);
+  const seen = new Set();
+  for (;;) {
+    const status = await page.getByTestId('run-status').getAttribute('data-status').catch(() => null);
+    seen.add(`${status}:${await page.getByTestId('step-row').count()}`);
+    if (['completed', 'failed'].includes(status)) break;
+    await page.waitForTimeout(50);
+  }
+  log('scan run, status:rows seen', [...seen].join(' '));
+  assert.ok([...seen].some((s) => /^running:[1-3]$/.test(s)), 'steps arrived one by one while running');
+  assert.equal(await finalStatus(page), 'completed');
+  runs.scan = await runId(page);
+  await canvasNotBlank(page, 'result');
+  await page.getByTestId('show-input').click();
+  await canvasNotBlank(page, 'input');
+  await page.getByTestId('view-side').click();
+  await page.waitForTimeout(200);
+  await shot(page, '05-run-scan-side-by-side');
+  const [download] = await Promise.all([page.waitForEvent('download'), page.getByTestId('download-ply').click()]);
+  const name = download.suggestedFilename();
+  assert.match(name, /-result\.ply$/);
+  await download.saveAs(join(ARTEFACTS, name));
+  log('downloaded', name);
+  runs.download = name;
+
+  // Failures show failed, in words, never "running" forever; a new run never mixes with the last.
+  await page.getByTestId('mesh-file').setInputFiles([]);
+  await page.getByTestId('input-url').fill('http://127.0.0.1:9/nothing.ply');
+  await page.getByTestId('run').click();
+  assert.equal(await finalStatus(page), 'failed');
+  runs.deadPort = await runId(page);
+  assert.equal(await page.getByTestId('step-row').count(), 0, 'no rows of the previous run');
+  assert.ok((await page.getByTestId('run-error').textContent()).length > 10);
+  await shot(page, '06-failed-dead-port');
+  await page.getByTestId('input-url').fill('');
+  await page.getByTestId('mesh-file').setInputFiles(process.env.BAD_MESH);
+  await page.getByTestId('run').click();
+  assert.equal(await finalStatus(page), 'failed');
+  runs.badMesh = await runId(page);
+  await shot(page, '07-failed-bad-mesh');
+
+  // An empty workflow is refused before it runs, in words.
+  await page.getByTestId('clear-workflow').click();
+  await page.getByTestId('validation').getByText('at least one step').waitFor();
+  await page.getByTestId('run').click();
+  await page.getByTestId('run-note').getByText('at least one step').waitFor();
+
+  // History survives a reload.
+  await page.reload();
+  await page.getByTestId('tab-history').click();
+  for (const id of [runs.bunny, runs.scan, runs.deadPort, runs.badMesh]) {
+    await page.locator(`[data-testid=history-row][data-run="${id}"]`).waitFor();
+  }
+  await shot(page, '08-history');
+  writeFileSync(join(ARTEFACTS, 'runs.json'), JSON.stringify(runs, null, 2));
+}
+
+async function restarted(page) {
+  const runs = JSON.parse(readFileSync(join(ARTEFACTS, 'runs.json'), 'utf8'));
+  await page.goto(BASE);
+  await page.getByTestId('tab-history').click();
+  const expected = { bunny: 'completed', scan: 'completed', deadPort: 'failed', badMesh: 'failed' };
+  for (const [key, status] of Object.entries(expected)) {
+    const row = page.locator(`[data-testid=history-row][data-run="${runs[key]}"]`);
+    await row.waitFor();
+    assert.equal(await row.getAttribute('data-status'), status, key);
+  }
+  // Open a finished run from history: the same view, its result in the viewer.
+  await page.locator(`[data-testid=history-row][data-run="${runs.scan}"] [data-testid=history-open]`).click();
+  assert.equal(await finalStatus(page), 'completed');
+  assert.ok(await page.getByTestId('step-row').count() >= 4);
+  await canvasNotBlank(page, 'result');
+  await shot(page, '09-after-restart');
+}
+
+/** Opens the page on a finished run with a large result: time from navigation to its first frame. */
+async function big(page) {
+  await page.goto(`${BASE}/?run=${process.env.BIG_RUN}`);
+  await page.waitForFunction(() => document.querySelector('[data-testid=viewer]')?.dataset.shown === 'result', null, { timeout: RUN_TIMEOUT });
+  const figures = await page.evaluate(() => ({ ...document.querySelector('[data-testid=viewer]').dataset }));
+  log('large result', JSON.stringify(figures));
+  await canvasNotBlank(page, 'result');
+  await shot(page, '10-large-result');
+  writeFileSync(join(ARTEFACTS, 'first-frame.json'), JSON.stringify(figures, null, 2));
+}
+
+const phases = { main, restarted, big };
+const phase = phases[process.argv[2]];
+assert.ok(phase, `phase: one of ${Object.keys(phases).join(', ')}`);
+const browser = await chromium.launch({ executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium', args: FLAGS });
+const page = await (await browser.newContext({ acceptDownloads: true, viewport: { width: 1400, height: 1000 } })).newPage();
+page.on('pageerror', (error) => log('page error:', error.message));
+try {
+  await phase(page);
+  log(`phase ${process.argv[2]}: ok`);
+} catch (error) {
+  await shot(page, `failed-${process.argv[2]}`).catch(() => {});
+  throw error;
+} finally {
+  await browser.close();
+}
