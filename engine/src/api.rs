@@ -444,6 +444,12 @@ async fn forward_plugin(
     let uploaded =
         engine.registry.client(&host).upload_plugin(wasm.to_vec(), token).await.map_err(|e| {
             match e {
+                // The host's 401 is 403 here: a 401 from the engine means its own API token.
+                meshflow_api::ClientError::Refused { status: 401, code, message, .. } => ApiError(
+                    StatusCode::FORBIDDEN,
+                    "host-unauthorized",
+                    format!("{host} refused the upload token ({code}: {message})"),
+                ),
                 meshflow_api::ClientError::Refused { status, code, message, .. } => {
                     let status = StatusCode::from_u16(status).unwrap_or(StatusCode::BAD_GATEWAY);
                     ApiError(status, "host-refused", format!("{host} answered {code}: {message}"))

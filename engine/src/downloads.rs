@@ -322,6 +322,75 @@ mod tests {
         assert_eq!(stem_of("..."), "mesh");
     }
 
+    /// A stand-in host serving one packed mesh under any `.mfm` name but `missing.mfm`.
+    async fn host_serving(mesh: &MeshData) -> String {
+        use axum::extract::Path;
+        use axum::http::StatusCode;
+        let packed = meshflow_codec::pack::encode(mesh).unwrap();
+        let app = axum::Router::new().route(
+            "/blobs/{name}",
+            axum::routing::get(move |Path(name): Path<String>| async move {
+                match name.as_str() {
+                    "missing.mfm" => Err(StatusCode::NOT_FOUND),
+                    _ => Ok(packed.clone()),
+                }
+            }),
+        );
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let url = format!("http://{}", listener.local_addr().unwrap());
+        tokio::spawn(async move { axum::serve(listener, app).await });
+        url
+    }
+
+    fn completed(url: String, hash: String) -> RunRecord {
+        let mut record = RunRecord::new("r-1".into(), crate::workflow::Transfer::Auto);
+        record.status = Status::Completed;
+        record.result = Some(meshflow_api::engine::ResultRecord {
+            url,
+            hash,
+            bytes: None,
+            vertices: 3,
+            triangles: 1,
+        });
+        record
+    }
+
+    #[tokio::test]
+    async fn a_mesh_whose_hash_is_not_the_records_is_never_served() {
+        let mesh = MeshData::new(vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], vec![0, 1, 2]);
+        let host = host_serving(&mesh).await;
+        let downloads = Downloads::default();
+        let none = |_: &str| None;
+        let good = completed(format!("{host}/blobs/a.mfm"), mesh.content_hash().to_hex());
+        let ply = MeshFormat::File(Format::Ply);
+        let served = downloads.mesh(&good, Which::Result, ply, "tri", &none).await.unwrap();
+        assert_eq!(served.file_name, "tri-result.ply");
+        let back = meshflow_meshio::load_bytes(&served.bytes, Format::Ply, "x").unwrap();
+        assert_eq!(back.content_hash(), mesh.content_hash());
+
+        let forged = completed(format!("{host}/blobs/a.mfm"), "00".repeat(32));
+        let refused = downloads.mesh(&forged, Which::Result, ply, "tri", &none).await;
+        assert!(matches!(refused, Err(DownloadError::HashMismatch { .. })), "{:?}", refused.err());
+    }
+
+    #[tokio::test]
+    async fn a_step_output_its_host_no_longer_holds_is_gone() {
+        let mesh = MeshData::new(vec![0.0; 9], vec![0, 1, 2]);
+        let host = host_serving(&mesh).await;
+        let mut record = completed(format!("{host}/blobs/a.mfm"), mesh.content_hash().to_hex());
+        let step: meshflow_api::engine::StepRecord = serde_json::from_value(serde_json::json!({
+            "index": 0, "path": "steps[0]", "kind": "filter", "service": "fill-holes",
+            "host": host, "plugin": "p", "params": {}, "started_ms": 0.0, "finished_ms": 1.0,
+            "compute_ms": 1.0, "wait_ms": 0.0, "overhead_ms": 0.0, "input_hash": "i",
+            "output_hash": "missing", "report": "", "failed_hosts": [], "transfers": []
+        }))
+        .unwrap();
+        record.steps.push(step);
+        let none = |_: &str| None;
+        let gone = Downloads::default().mesh(&record, Which::Step(0), MeshFormat::Raw, "m", &none);
+        assert!(matches!(gone.await, Err(DownloadError::Gone { index: 0, .. })));
+    }
+
     #[test]
     fn raw_is_a_header_then_the_arrays() {
         let mesh = MeshData::new(vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0], vec![0, 1, 2]);

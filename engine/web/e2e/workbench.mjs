@@ -158,6 +158,14 @@ async function main(page) {
   runs.badMesh = await runId(page);
   await shot(page, '07-failed-bad-mesh');
 
+  // Values from users and hosts are text: markup in a service name stays inert.
+  const hostile = '<img src=x onerror="window.__xss=1">x" onmouseover="window.__xss=2';
+  await page.getByTestId('workflow-json').fill(JSON.stringify({ steps: [{ run: hostile }] }));
+  await page.getByTestId('validation').getByText('Not valid').waitFor();
+  assert.ok((await page.getByTestId('validation').textContent()).includes('<img src=x'), 'the name shows as text');
+  assert.equal(await page.locator('#app img, [onmouseover]').count(), 0, 'no element was made from the name');
+  assert.equal(await page.evaluate(() => window.__xss), undefined);
+
   // An empty workflow is refused before it runs, in words.
   await page.getByTestId('clear-workflow').click();
   await page.getByTestId('validation').getByText('at least one step').waitFor();
