@@ -54,7 +54,10 @@ fn write_table(path: &Path, dist: &Path) {
     assert!(files.iter().any(|(name, _)| name == "index.html"), "the bundle has no index.html");
     let mut table = String::from("&[\n");
     for (name, file) in files {
-        table.push_str(&format!("    ({name:?}, include_bytes!({:?})),\n", file.display().to_string()));
+        table.push_str(&format!(
+            "    ({name:?}, include_bytes!({:?})),\n",
+            file.display().to_string()
+        ));
     }
     table.push(']');
     std::fs::write(path, table).expect("writing the asset table");

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use common::process::EngineProcess;
-use common::{Input, start_hosts};
+use common::{EngineApi, Input, start_hosts, text};
 use meshflow_meshio as io;
 
 const SPREAD: &[&[&str]] =
@@ -21,13 +21,16 @@ const SPREAD: &[&[&str]] =
 const CHROMIUM: &str = "/usr/bin/chromium";
 /// The uploaded scan of the file-loaded run (issue 14 asks for 200k vertices).
 const SCAN_VERTICES: usize = 200_000;
+/// The large result whose time to first frame is measured.
+const LARGE_VERTICES: usize = 1_000_000;
 
 fn web_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("engine/web")
 }
 
-/// Runs one phase of the browser script; panics with its output when it fails.
-fn browse(phase: &str, engine: &str, artefacts: &Path) {
+/// Runs one phase of the browser script (`extra`: more environment); panics with its output
+/// when it fails.
+fn browse(phase: &str, engine: &str, artefacts: &Path, extra: &[(&str, &str)]) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let output = Command::new("node")
         .current_dir(web_dir())
@@ -39,6 +42,7 @@ fn browse(phase: &str, engine: &str, artefacts: &Path) {
         .env("REPAIR", root.join("examples/workflows/repair.json"))
         .env("SCAN", artefacts.join("scan.ply"))
         .env("BAD_MESH", artefacts.join("random.stl"))
+        .envs(extra.iter().copied())
         .output()
         .expect("running node (is Node.js installed?)");
     let text = |bytes: &[u8]| String::from_utf8_lossy(bytes).into_owned();
@@ -67,7 +71,8 @@ async fn the_workbench_builds_runs_shows_downloads_and_remembers_runs() {
     std::fs::create_dir_all(&artefacts).unwrap();
     std::fs::write(artefacts.join("scan.ply"), Input::scan(SCAN_VERTICES, 3).bytes).unwrap();
     // Not a mesh: the run must end failed, not hang "running".
-    let noise: Vec<u8> = (0..4096u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8).collect();
+    let noise: Vec<u8> =
+        (0..4096u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8).collect();
     std::fs::write(artefacts.join("random.stl"), noise).unwrap();
 
     let data = tempfile::tempdir().unwrap();
@@ -75,19 +80,20 @@ async fn the_workbench_builds_runs_shows_downloads_and_remembers_runs() {
     let urls: Vec<String> = hosts.iter().map(|h| h.url.clone()).collect();
     let mut engine = EngineProcess::start(&data.path().join("engine"), &urls).await;
 
-    browse("main", &engine.url, &artefacts);
+    browse("main", &engine.url, &artefacts, &[]);
     let runs: serde_json::Value =
         serde_json::from_slice(&std::fs::read(artefacts.join("runs.json")).unwrap()).unwrap();
     // The downloaded PLY is the repaired scan, named after the upload.
     let name = runs["download"].as_str().unwrap();
     assert_eq!(name, "scan-result.ply");
     let mesh = io::load(&artefacts.join(name)).unwrap();
-    let record: serde_json::Value = reqwest::get(format!("{}/runs/{}", engine.url, runs["scan"].as_str().unwrap()))
-        .await
-        .unwrap()
-        .json()
-        .await
-        .unwrap();
+    let record: serde_json::Value =
+        reqwest::get(format!("{}/runs/{}", engine.url, runs["scan"].as_str().unwrap()))
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
     assert_eq!(mesh.content_hash().to_hex(), record["result"]["hash"].as_str().unwrap());
     let info = Command::new(env!("CARGO_BIN_EXE_meshflow"))
         .arg("info")
@@ -96,6 +102,15 @@ async fn the_workbench_builds_runs_shows_downloads_and_remembers_runs() {
         .unwrap();
     assert!(info.status.success(), "meshflow info refused the download");
 
+    // A 1M-vertex result: the page opened on its run must draw it (time to first frame).
+    let api = EngineApi::new(&engine.url);
+    let large = api.upload(&Input::scan(LARGE_VERTICES, 5)).await;
+    let record = api
+        .run(&serde_json::json!({"steps": [{"run": "remove-degenerate-triangles"}]}), &large)
+        .await;
+    assert_eq!(record["status"], "completed", "{record:#}");
+    browse("big", &engine.url, &artefacts, &[("BIG_RUN", text(&record["id"]))]);
+
     engine.kill_and_restart().await;
-    browse("restarted", &engine.url, &artefacts);
+    browse("restarted", &engine.url, &artefacts, &[]);
 }

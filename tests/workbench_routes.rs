@@ -12,7 +12,8 @@ use serde_json::{Value as Json, json};
 const FAMILIES: &[&[&str]] = &[&["cleanup", "smoothing", "holes", "checks"], &["checks"]];
 
 fn repair() -> Json {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/workflows/repair.json");
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/workflows/repair.json");
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
@@ -39,7 +40,8 @@ async fn results_steps_and_inputs_download_in_every_format_named_after_the_input
 
     for format in Format::ALL {
         let ext = format.extension();
-        let (status, disposition, body) = get(&cluster, &format!("/runs/{id}/result?format={ext}")).await;
+        let (status, disposition, body) =
+            get(&cluster, &format!("/runs/{id}/result?format={ext}")).await;
         assert_eq!(status, 200, "{}", String::from_utf8_lossy(&body));
         assert_eq!(disposition, format!("attachment; filename=\"bunny-result.{ext}\""));
         let mesh = io::load_bytes(&body, format, ext).unwrap();
@@ -57,7 +59,8 @@ async fn results_steps_and_inputs_download_in_every_format_named_after_the_input
 
     // A filter step's output, and the viewer's raw arrays of the input.
     let first = &steps(&record)[0];
-    let (status, disposition, body) = get(&cluster, &format!("/runs/{id}/steps/0/output?format=obj")).await;
+    let (status, disposition, body) =
+        get(&cluster, &format!("/runs/{id}/steps/0/output?format=obj")).await;
     assert_eq!(status, 200, "{}", String::from_utf8_lossy(&body));
     assert_eq!(disposition, "attachment; filename=\"bunny-step0-remove-smallest-components.obj\"");
     let output = io::load_bytes(&body, Format::Obj, "obj").unwrap();
@@ -106,7 +109,10 @@ async fn validation_answers_as_submitting_would() {
             (answer.status().as_u16(), answer.json::<Json>().await.unwrap())
         }
     };
-    assert_eq!(post("/workflows/validate", json!({"workflow": repair()})).await, (200, json!({"valid": true})));
+    assert_eq!(
+        post("/workflows/validate", json!({"workflow": repair()})).await,
+        (200, json!({"valid": true}))
+    );
     let bad = json!({"workflow": {"steps": [{"run": "fill-holes"},
         {"while": {"check": "hole-count", "op": ">", "value": 0},
          "do": [{"run": "laplacian-smoothing", "params": {"iterations": 0}}]}]},
@@ -117,7 +123,10 @@ async fn validation_answers_as_submitting_would() {
     assert!(message.starts_with("steps[1].do[0]"), "{message}");
     assert_eq!(post("/runs", bad).await, (400, validated));
     let (status, empty) = post("/workflows/validate", json!({"steps": []})).await;
-    assert_eq!((status, text(&empty["error"]["message"])), (400, "steps: a workflow needs at least one step"));
+    assert_eq!(
+        (status, text(&empty["error"]["message"])),
+        (400, "steps: a workflow needs at least one step")
+    );
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -146,7 +155,9 @@ async fn plugins_are_forwarded_to_a_registered_host_with_the_users_token() {
     assert_eq!((status, text(&refused["error"]["code"])), (400, "unknown-host"));
     let (status, uploaded) = upload(host.clone(), TOKEN).await;
     assert_eq!(status, 201, "{uploaded}");
-    assert!(uploaded["services"].as_array().unwrap().iter().any(|s| s["name"] == "laplacian-smoothing"));
+    assert!(
+        uploaded["services"].as_array().unwrap().iter().any(|s| s["name"] == "laplacian-smoothing")
+    );
     // The catalogue knows at once.
     let services = cluster.services().await;
     assert!(services.as_array().unwrap().iter().any(|s| s["name"] == "laplacian-smoothing"));

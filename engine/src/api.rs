@@ -17,8 +17,8 @@ use serde::Deserialize;
 use serde_json::{Value as Json_, json};
 use tokio_stream::wrappers::BroadcastStream;
 
-use crate::inputs::InputError;
 use crate::downloads::{DownloadError, MeshFormat, Which};
+use crate::inputs::InputError;
 use crate::limits::{MAX_PLUGIN_FORWARD_BYTES, MAX_REGISTER_BYTES, MAX_SUBMIT_BYTES, RETRY_AFTER};
 use crate::record::Status;
 use crate::registry::RegisterError;
@@ -387,10 +387,7 @@ async fn mesh_download(
     let download = engine.download(record, which, format).await.map_err(download_error)?;
     let headers = [
         (header::CONTENT_TYPE, "application/octet-stream".to_owned()),
-        (
-            header::CONTENT_DISPOSITION,
-            format!("attachment; filename=\"{}\"", download.file_name),
-        ),
+        (header::CONTENT_DISPOSITION, format!("attachment; filename=\"{}\"", download.file_name)),
     ];
     Ok((headers, download.bytes).into_response())
 }

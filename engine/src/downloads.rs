@@ -174,12 +174,18 @@ impl Downloads {
         Ok(Download { bytes, file_name })
     }
 
-    async fn fetch(&self, url: &str, step: Option<&(usize, String)>) -> Result<Vec<u8>, DownloadError> {
-        meshflow_api::fetch(&self.http, url, MAX_DOWNLOAD_FETCH_BYTES).await.map_err(|e| match (e, step) {
-            (ClientError::Refused { status: 404, .. }, Some((index, host))) => {
-                DownloadError::Gone { index: *index, host: host.clone() }
+    async fn fetch(
+        &self,
+        url: &str,
+        step: Option<&(usize, String)>,
+    ) -> Result<Vec<u8>, DownloadError> {
+        meshflow_api::fetch(&self.http, url, MAX_DOWNLOAD_FETCH_BYTES).await.map_err(|e| {
+            match (e, step) {
+                (ClientError::Refused { status: 404, .. }, Some((index, host))) => {
+                    DownloadError::Gone { index: *index, host: host.clone() }
+                }
+                (e, _) => DownloadError::Fetch(e),
             }
-            (e, _) => DownloadError::Fetch(e),
         })
     }
 }
@@ -387,8 +393,9 @@ mod tests {
         .unwrap();
         record.steps.push(step);
         let none = |_: &str| None;
-        let gone = Downloads::default().mesh(&record, Which::Step(0), MeshFormat::Raw, "m", &none);
-        assert!(matches!(gone.await, Err(DownloadError::Gone { index: 0, .. })));
+        let downloads = Downloads::default();
+        let gone = downloads.mesh(&record, Which::Step(0), MeshFormat::Raw, "m", &none).await;
+        assert!(matches!(gone, Err(DownloadError::Gone { index: 0, .. })), "{:?}", gone.err());
     }
 
     #[test]

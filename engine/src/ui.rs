@@ -20,7 +20,8 @@ pub async fn asset(Path(file): Path<String>) -> Response {
 fn serve(name: &str, cache: &'static str) -> Response {
     match ASSETS.iter().find(|(asset, _)| *asset == name) {
         Some((_, bytes)) => {
-            let headers = [(header::CONTENT_TYPE, content_type(name)), (header::CACHE_CONTROL, cache)];
+            let headers =
+                [(header::CONTENT_TYPE, content_type(name)), (header::CACHE_CONTROL, cache)];
             (headers, *bytes).into_response()
         }
         None => (StatusCode::NOT_FOUND, "no such file").into_response(),

@@ -67,8 +67,32 @@ async function canvasNotBlank(page, label) {
   assert.ok(share > 0.01, `the viewer's canvas is blank (${share})`);
 }
 
+/** The login and the engine's failures, in words (the engine's answers stubbed in the page). */
+async function login(page) {
+  const asked = page.waitForRequest((r) => r.url().endsWith('/services'));
+  await page.goto(`${BASE}/#token=secret-1`);
+  assert.equal((await asked).headers().authorization, 'Bearer secret-1', 'the token goes as a bearer header');
+  assert.equal(await page.evaluate(() => location.hash), '', 'the token left the address bar');
+  await page.route('**/services', (route) => route.fulfill({ status: 401, contentType: 'application/json',
+    body: JSON.stringify({ error: { code: 'unauthorized', message: 'a valid API token is needed' } }) }));
+  await page.reload();
+  await page.getByTestId('login').waitFor();
+  await page.getByTestId('login-token').fill('secret-2');
+  await page.unroute('**/services');
+  const again = page.waitForRequest((r) => r.url().endsWith('/services'));
+  await page.getByTestId('login-submit').click();
+  assert.equal((await again).headers().authorization, 'Bearer secret-2');
+  await page.route('**/services', (route) => route.abort('connectionrefused'));
+  await page.reload();
+  await page.getByTestId('engine-banner').getByText('cannot be reached').waitFor();
+  await shot(page, '00-engine-unreachable');
+  await page.unroute('**/services');
+  await page.evaluate(() => sessionStorage.clear());
+}
+
 async function main(page) {
   const runs = {};
+  await login(page);
   await page.goto(BASE);
   await page.getByTestId('tab-catalogue').click();
   await page.getByTestId('service-list').locator('[data-service=fill-holes]').waitFor();
@@ -205,6 +229,7 @@ async function big(page) {
   await page.goto(`${BASE}/?run=${process.env.BIG_RUN}`);
   await page.waitForFunction(() => document.querySelector('[data-testid=viewer]')?.dataset.shown === 'result', null, { timeout: RUN_TIMEOUT });
   const figures = await page.evaluate(() => ({ ...document.querySelector('[data-testid=viewer]').dataset }));
+  assert.ok(Number(figures.vertices) > 900_000, `the large result has ${figures.vertices} vertices`);
   log('large result', JSON.stringify(figures));
   await canvasNotBlank(page, 'result');
   await shot(page, '10-large-result');

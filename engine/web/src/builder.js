@@ -88,10 +88,14 @@ export class Builder {
   }
 
   redraw() {
+    this.drawCards();
+    this.changed();
+  }
+
+  drawCards() {
     const steps = Array.isArray(this.workflow.steps) ? this.workflow.steps : null;
     this.transfer.value = this.workflow.transfer ?? 'auto';
     fill(this.cards, steps ? this.stepList(steps, 'steps', true) : el('p', { className: 'error' }, '"steps" is not a list: edit the JSON'));
-    this.changed();
   }
 
   jsonEdited() {
@@ -102,9 +106,7 @@ export class Builder {
       return;
     }
     this.jsonNote.textContent = '';
-    const steps = Array.isArray(this.workflow.steps) ? this.workflow.steps : null;
-    this.transfer.value = this.workflow.transfer ?? 'auto';
-    fill(this.cards, steps ? this.stepList(steps, 'steps', true) : el('p', { className: 'error' }, '"steps" is not a list'));
+    this.drawCards();
     this.validateSoon();
   }
 
