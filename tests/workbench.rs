@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use common::process::EngineProcess;
-use common::{EngineApi, Input, start_hosts, text};
+use common::{EngineApi, Input, TOKEN, builtin, start_hosts, text};
 use meshflow_meshio as io;
 
 const SPREAD: &[&[&str]] =
@@ -42,6 +42,8 @@ fn browse(phase: &str, engine: &str, artefacts: &Path, extra: &[(&str, &str)]) {
         .env("REPAIR", root.join("examples/workflows/repair.json"))
         .env("SCAN", artefacts.join("scan.ply"))
         .env("BAD_MESH", artefacts.join("random.stl"))
+        .env("PLUGIN", artefacts.join("smoothing.wasm"))
+        .env("UPLOAD_TOKEN", TOKEN)
         .envs(extra.iter().copied())
         .output()
         .expect("running node (is Node.js installed?)");
@@ -74,6 +76,8 @@ async fn the_workbench_builds_runs_shows_downloads_and_remembers_runs() {
     let noise: Vec<u8> =
         (0..4096u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8).collect();
     std::fs::write(artefacts.join("random.stl"), noise).unwrap();
+    // A plugin to upload from the page (the hosts take uploads with TOKEN).
+    std::fs::write(artefacts.join("smoothing.wasm"), builtin("smoothing")).unwrap();
 
     let data = tempfile::tempdir().unwrap();
     let hosts = start_hosts(SPREAD, data.path()).await;

@@ -166,6 +166,30 @@ async function main(page) {
   log('downloaded', name);
   runs.download = name;
 
+  // A WHILE from the examples: check values rounded, whether each condition held.
+  await page.getByTestId('example-smooth-while-unstable').click();
+  await page.getByText('The engine accepts this workflow.').waitFor();
+  await page.getByTestId('mesh-file').setInputFiles(process.env.BUNNY);
+  await page.getByTestId('run').click();
+  await page.waitForFunction((last) => document.querySelector('[data-testid=run-status]')?.dataset.run !== last, runs.scan);
+  assert.equal(await finalStatus(page), 'completed');
+  runs.loop = await runId(page);
+  const values = await page.getByTestId('step-value').allTextContents();
+  assert.ok(values.some((v) => v.includes('✓ condition held')), values.join(' | '));
+  assert.ok(values.some((v) => v.includes('✗ condition did not hold')), values.join(' | '));
+  assert.ok(values.every((v) => !/\d\.\d{5}/.test(v)), `values are rounded: ${values.join(' | ')}`);
+  await shot(page, '05b-run-while');
+
+  // A WHILE and an IF by clicks, nested: the builder's own JSON, accepted by the engine.
+  await page.getByTestId('clear-workflow').click();
+  await page.getByTestId('add-while').click();
+  await page.locator('[data-path="steps[0]"] .add-bar button', { hasText: '+ IF' }).click();
+  await page.locator('[data-path="steps[0].do[0]"] .branch').first().locator('.add-bar button', { hasText: '+ step' }).click();
+  await page.getByText('The engine accepts this workflow.').waitFor();
+  const nested = JSON.parse(await page.getByTestId('workflow-json').inputValue());
+  assert.ok(nested.steps[0].while && nested.steps[0].do[0].if && nested.steps[0].do[0].then[0].run, JSON.stringify(nested));
+  await shot(page, '05c-builder-nested');
+
   // Failures show failed, in words, never "running" forever; a new run never mixes with the last.
   await page.getByTestId('mesh-file').setInputFiles([]);
   await page.getByTestId('input-url').fill('http://127.0.0.1:9/nothing.ply');
@@ -196,6 +220,19 @@ async function main(page) {
   await page.getByTestId('run').click();
   await page.getByTestId('run-note').getByText('at least one step').waitFor();
 
+  // A plugin uploaded to a chosen host through the engine, with the host's token.
+  await page.getByTestId('tab-plugins').click();
+  await page.getByTestId('plugin-token').fill('wrong');
+  await page.getByTestId('plugin-file').setInputFiles(process.env.PLUGIN);
+  await page.getByTestId('plugin-upload').click();
+  await page.getByTestId('plugin-answer').getByText('refused the upload token').waitFor();
+  assert.equal(await page.getByTestId('login').isHidden(), true, "the host's refusal is not a login prompt");
+  await page.getByTestId('plugin-token').fill(process.env.UPLOAD_TOKEN);
+  await page.getByTestId('plugin-upload').click();
+  await page.getByTestId('plugin-answer').getByText('laplacian-smoothing').waitFor();
+  await shot(page, '07b-plugin-uploaded');
+  await page.getByTestId('tab-build').click();
+
   // History survives a reload.
   await page.reload();
   await page.getByTestId('tab-history').click();
@@ -222,6 +259,21 @@ async function restarted(page) {
   assert.ok(await page.getByTestId('step-row').count() >= 4);
   await canvasNotBlank(page, 'result');
   await shot(page, '09-after-restart');
+
+  // Compare two runs' records; re-run one with its workflow and input.
+  await page.getByTestId('tab-history').click();
+  for (const id of [runs.bunny, runs.scan]) {
+    await page.locator(`[data-testid=history-row][data-run="${id}"] input[type=checkbox]`).check();
+  }
+  await page.getByTestId('history-compare').click();
+  await page.getByTestId('comparison').locator('table.compare').waitFor();
+  assert.ok((await page.getByTestId('comparison').textContent()).includes('bytes sent between hosts'));
+  await shot(page, '10-compare');
+  await page.locator(`[data-testid=history-row][data-run="${runs.deadPort}"] [data-testid=history-rerun]`).click();
+  assert.equal(await page.getByTestId('input-url').inputValue(), 'http://127.0.0.1:9/nothing.ply');
+  await page.getByTestId('run').click();
+  await page.waitForFunction((last) => document.querySelector('[data-testid=run-status]')?.dataset.run !== last, runs.scan);
+  assert.equal(await finalStatus(page), 'failed');
 }
 
 /** Opens the page on a finished run with a large result: time from navigation to its first frame. */
@@ -232,7 +284,7 @@ async function big(page) {
   assert.ok(Number(figures.vertices) > 900_000, `the large result has ${figures.vertices} vertices`);
   log('large result', JSON.stringify(figures));
   await canvasNotBlank(page, 'result');
-  await shot(page, '10-large-result');
+  await shot(page, '11-large-result');
   writeFileSync(join(ARTEFACTS, 'first-frame.json'), JSON.stringify(figures, null, 2));
 }
 
