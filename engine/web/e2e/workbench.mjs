@@ -204,6 +204,7 @@ async function main(page) {
   await page.getByTestId('run').click();
   assert.equal(await finalStatus(page), 'failed');
   runs.badMesh = await runId(page);
+  assert.equal(await page.getByTestId('viewer').getAttribute('data-shown'), null, 'no mesh of an earlier run is shown');
   await shot(page, '07-failed-bad-mesh');
 
   // Values from users and hosts are text: markup in a service name stays inert.

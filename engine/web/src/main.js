@@ -66,6 +66,7 @@ fill(panels.build,
 
 function open(id) {
   current?.close();
+  viewer.clear();
   current = new RunView(runRoot, id, { show: (label, path) => viewer.load(label, path) });
   cancelButton.hidden = false;
   showTab('build');
@@ -89,6 +90,7 @@ async function startRun() {
   // The last run's view goes at once: nothing of it can be taken for the new run's.
   current?.close();
   current = null;
+  viewer.clear();
   cancelButton.hidden = true;
   fill(runRoot, el('p', { testid: 'run-status', className: 'status', 'data-status': 'starting' }, 'Starting a new run…'));
   try {

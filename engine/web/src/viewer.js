@@ -52,6 +52,8 @@ export class Viewer {
     this.canvas = el('canvas', { testid: 'viewer', width: 800, height: 500 });
     this.status = el('div', { className: 'note', testid: 'viewer-status' }, 'Nothing to show yet: run a workflow or open a run.');
     this.slots = {};
+    /** Counts clears, so a load that began before one is dropped. */
+    this.generation = 0;
     this.mode = 'after';
     const toggle = (label, mode) => el('button', { testid: `view-${mode}`, onclick: () => this.setMode(mode) }, label);
     this.wireframe = el('input', { type: 'checkbox', testid: 'view-wireframe', onchange: () => this.applyStyle() });
@@ -80,6 +82,7 @@ export class Viewer {
     const started = performance.now();
     // Only the latest request changes what is shown; an earlier one still fills its slot.
     const asked = (this.latest = Symbol(label));
+    const generation = this.generation;
     delete this.canvas.dataset.shown;
     this.status.textContent = `loading ${label}…`;
     let mesh;
@@ -89,6 +92,7 @@ export class Viewer {
       if (asked === this.latest) this.status.textContent = `cannot show ${label}: ${error.message}`;
       return;
     }
+    if (generation !== this.generation) return; // Cleared meanwhile: another run's mesh.
     this.put(slot, label, mesh);
     if (asked === this.latest) {
       this.setMode(this.slots.before && this.slots.after && this.mode === 'side' ? 'side' : slot);
@@ -105,6 +109,17 @@ export class Viewer {
     }
     // Holes after the first frame: sorting a large mesh's edges takes a moment.
     setTimeout(() => this.addBoundary(slot, mesh), 0);
+  }
+
+  /** Forgets both meshes (another run is shown: its meshes must not mix with these). */
+  clear() {
+    for (const entry of Object.values(this.slots)) entry.scene.traverse((node) => node.geometry?.dispose());
+    this.slots = {};
+    this.generation += 1;
+    this.latest = Symbol('cleared');
+    delete this.canvas.dataset.shown;
+    this.status.textContent = 'Nothing to show yet.';
+    this.render();
   }
 
   put(slot, label, mesh) {
