@@ -271,6 +271,7 @@ async function restarted(page) {
   assert.ok((await page.getByTestId('comparison').textContent()).includes('bytes sent between hosts'));
   await shot(page, '10-compare');
   await page.locator(`[data-testid=history-row][data-run="${runs.deadPort}"] [data-testid=history-rerun]`).click();
+  await page.getByTestId('run-note').getByText('Loaded the run').waitFor();
   assert.equal(await page.getByTestId('input-url').inputValue(), 'http://127.0.0.1:9/nothing.ply');
   await page.getByTestId('run').click();
   await page.waitForFunction((last) => document.querySelector('[data-testid=run-status]')?.dataset.run !== last, runs.scan);
