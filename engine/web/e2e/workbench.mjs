@@ -134,6 +134,7 @@ async function main(page) {
   // repair.json from a file, on an uploaded scan; steps arrive while it runs.
   await page.getByTestId('clear-workflow').click();
   await page.getByTestId('workflow-file').setInputFiles(process.env.REPAIR);
+  await page.getByTestId('json-note').getByText('loaded repair.json').waitFor();
   await page.getByText('The engine accepts this workflow.').waitFor();
   assert.deepEqual(JSON.parse(await page.getByTestId('workflow-json').inputValue()), repair);
   await page.getByTestId('mesh-file').setInputFiles(process.env.SCAN);

@@ -111,6 +111,9 @@ export class Builder {
   }
 
   validateSoon() {
+    // No verdict of an earlier version stays on show.
+    this.validation.className = 'validation pending';
+    this.validation.textContent = 'Checking with the engine…';
     clearTimeout(this.validateTimer);
     this.validateTimer = setTimeout(() => this.validate(), VALIDATE_DELAY_MS);
   }
