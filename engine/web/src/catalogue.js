@@ -16,7 +16,7 @@ export function drawCatalogue(root, services) {
         s.result_type ? el('span', { className: 'note' }, ` → ${s.result_type}`) : ''),
       el('p', { className: 'doc' }, s.doc),
       s.params.length
-        ? el('table', { className: 'params' },
+        ? el('table', { className: 'param-table' },
           el('thead', {}, el('tr', {}, ['parameter', 'type', 'default', 'range', 'choices', 'doc'].map((h) => el('th', {}, h)))),
           el('tbody', {}, s.params.map((p) => el('tr', {},
             el('td', {}, el('code', {}, p.name)), el('td', {}, p.type), el('td', {}, JSON.stringify(p.default)),
