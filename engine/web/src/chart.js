@@ -5,8 +5,9 @@ import { bytes } from './dom.js';
 
 const SVG = 'http://www.w3.org/2000/svg';
 const SERIES = [
-  { key: 'correction', colour: '#3b82f6', of: (s) => s.correction_bytes ?? 0 },
-  { key: 'full mesh', colour: '#d1d5db', of: (s) => s.full_bytes ?? 0 },
+  // null: not known (a full mesh is measured only when it was packed to be sent).
+  { key: 'correction', colour: '#3b82f6', of: (s) => s.correction_bytes ?? null },
+  { key: 'full mesh', colour: '#9ca3af', of: (s) => s.full_bytes ?? null },
   { key: 'sent', colour: '#f59e0b', of: (s) => s.transfers.reduce((sum, t) => sum + t.bytes, 0) },
 ];
 const BAR = 8;
@@ -31,10 +32,11 @@ export function bytesChart(steps) {
     chart.append(svg('text', { x: 0, y: y + ROW / 2 + 4, 'font-size': 11 }, `${step.index} ${step.service}`));
     SERIES.forEach((series, i) => {
       const value = series.of(step);
-      const width = ((WIDTH - LABEL - 80) * value) / most;
+      const width = ((WIDTH - LABEL - 80) * (value ?? 0)) / most;
+      const label = value === null ? `${series.key} not measured` : bytes(value);
       const bar = svg('rect', { x: LABEL, y: y + i * BAR, width: Math.max(width, 1), height: BAR - 1, fill: series.colour });
-      bar.append(svg('title', {}, `${series.key}: ${bytes(value)}`));
-      chart.append(bar, svg('text', { x: LABEL + width + 4, y: y + i * BAR + BAR - 1, 'font-size': 9 }, bytes(value)));
+      bar.append(svg('title', {}, `${series.key}: ${label}`));
+      chart.append(bar, svg('text', { x: LABEL + width + 4, y: y + i * BAR + BAR - 1, 'font-size': 9 }, label));
     });
   });
   SERIES.forEach((series, i) => {
