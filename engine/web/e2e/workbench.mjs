@@ -131,6 +131,16 @@ async function main(page) {
   await canvasNotBlank(page, 'result');
   await shot(page, '04-run-bunny');
 
+  // The same run with `transfer: full`: what was sent says so.
+  await page.getByTestId('transfer').selectOption('full');
+  await page.getByTestId('run').click();
+  await page.waitForFunction((last) => document.querySelector('[data-testid=run-status]')?.dataset.run !== last, runs.bunny);
+  assert.equal(await finalStatus(page), 'completed');
+  runs.bunnyFull = await runId(page);
+  const sentCells = await page.locator('td.sent').allTextContents();
+  assert.ok(sentCells.some((c) => c.includes(': full ')) && !sentCells.some((c) => c.includes(': correction ')), sentCells.join(' | '));
+  await page.getByTestId('transfer').selectOption('auto');
+
   // repair.json from a file, on an uploaded scan; steps arrive while it runs.
   await page.getByTestId('clear-workflow').click();
   await page.getByTestId('workflow-file').setInputFiles(process.env.REPAIR);
@@ -142,7 +152,7 @@ async function main(page) {
   await page.waitForFunction((last) => {
     const run = document.querySelector('[data-testid=run-status]')?.dataset.run;
     return run && run !== last;
-  }, runs.bunny);
+  }, runs.bunnyFull);
   const seen = new Set();
   for (;;) {
     const status = await page.getByTestId('run-status').getAttribute('data-status').catch(() => null);
@@ -264,12 +274,13 @@ async function restarted(page) {
 
   // Compare two runs' records; re-run one with its workflow and input.
   await page.getByTestId('tab-history').click();
-  for (const id of [runs.bunny, runs.scan]) {
+  for (const id of [runs.bunny, runs.bunnyFull]) {
     await page.locator(`[data-testid=history-row][data-run="${id}"] input[type=checkbox]`).check();
   }
   await page.getByTestId('history-compare').click();
   await page.getByTestId('comparison').locator('table.compare').waitFor();
-  assert.ok((await page.getByTestId('comparison').textContent()).includes('bytes sent between hosts'));
+  const comparison = await page.getByTestId('comparison').textContent();
+  assert.ok(comparison.includes('bytes sent between hosts') && comparison.includes('transfer: full'), comparison);
   await shot(page, '10-compare');
   await page.locator(`[data-testid=history-row][data-run="${runs.deadPort}"] [data-testid=history-rerun]`).click();
   await page.getByTestId('run-note').getByText('Loaded the run').waitFor();
