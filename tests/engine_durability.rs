@@ -36,7 +36,7 @@ async fn an_engine_killed_mid_runs_resumes_them_after_a_restart_and_loses_none()
     let data = tempfile::tempdir().unwrap();
     let hosts = start_hosts(SPREAD, data.path(), &[]).await;
     let urls: Vec<String> = hosts.iter().map(|h| h.url.clone()).collect();
-    let mut engine = EngineProcess::start(&data.path().join("engine"), &urls).await;
+    let mut engine = EngineProcess::start(&data.path().join("engine"), &urls, &[]).await;
     let api = EngineApi::new(&engine.url);
 
     let (workflow, input) = (example("repair"), Input::scan(30_000, 7));
@@ -224,7 +224,7 @@ async fn submit_wait_follows_its_run_across_an_engine_restart() {
     let data = tempfile::tempdir().unwrap();
     let hosts = start_hosts(SPREAD, data.path(), &[]).await;
     let urls: Vec<String> = hosts.iter().map(|h| h.url.clone()).collect();
-    let mut engine = EngineProcess::start(&data.path().join("engine"), &urls).await;
+    let mut engine = EngineProcess::start(&data.path().join("engine"), &urls, &[]).await;
     let api = EngineApi::new(&engine.url);
     let input = Input::scan(30_000, 11);
     let repair = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/workflows/repair.json");

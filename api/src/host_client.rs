@@ -202,8 +202,12 @@ impl HostClient {
     /// A blob of this host (or another host's, by URL), with the host's error message when
     /// it has none.
     pub async fn download(&self, url: &str) -> Result<Vec<u8>, ClientError> {
-        let response =
-            send(self.endpoint.request(Method::GET, url).timeout(WORK_TIMEOUT), url).await?;
-        read_capped(response, url, u64::MAX).await
+        self.download_at_most(url, u64::MAX).await
+    }
+
+    /// As [`download`](Self::download), refusing more than `limit` bytes.
+    pub async fn download_at_most(&self, url: &str, limit: u64) -> Result<Vec<u8>, ClientError> {
+        let request = self.endpoint.request(Method::GET, url).timeout(WORK_TIMEOUT);
+        read_capped(send(request, url).await?, url, limit).await
     }
 }

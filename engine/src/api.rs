@@ -9,7 +9,7 @@ use axum::extract::rejection::BytesRejection;
 use axum::extract::{DefaultBodyLimit, Path, Query, State};
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
-use axum::response::{Html, IntoResponse, Response};
+use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::{Json, Router};
 use futures_util::{Stream, StreamExt, stream};
@@ -17,8 +17,9 @@ use serde::Deserialize;
 use serde_json::{Value as Json_, json};
 use tokio_stream::wrappers::BroadcastStream;
 
+use crate::downloads::{DownloadError, MeshFormat, Which};
 use crate::inputs::InputError;
-use crate::limits::{MAX_REGISTER_BYTES, MAX_SUBMIT_BYTES, RETRY_AFTER};
+use crate::limits::{MAX_PLUGIN_FORWARD_BYTES, MAX_REGISTER_BYTES, MAX_SUBMIT_BYTES, RETRY_AFTER};
 use crate::record::Status;
 use crate::registry::RegisterError;
 use crate::{Engine, SubmitError};
@@ -29,7 +30,8 @@ use meshflow_api::fetch_rules::quoted;
 
 pub fn router(engine: Arc<Engine>) -> Router {
     Router::new()
-        .route("/", get(|| async { Html(crate::ui::PAGE) }))
+        .route("/", get(crate::ui::index))
+        .route("/assets/{file}", get(crate::ui::asset))
         .route("/health", get(|| async { Json(json!({"status": "ok"})) }))
         .route(
             "/hosts",
@@ -43,7 +45,18 @@ pub fn router(engine: Arc<Engine>) -> Router {
         .route("/runs/{id}", get(run_status))
         .route("/runs/{id}/cancel", post(cancel_run))
         .route("/runs/{id}/events", get(run_events))
+        .route("/runs/{id}/workflow", get(run_workflow))
         .route("/runs/{id}/result", get(run_result))
+        .route("/runs/{id}/input", get(run_input))
+        .route("/runs/{id}/steps/{index}/output", get(step_output))
+        .route(
+            "/workflows/validate",
+            post(validate_workflow).layer(DefaultBodyLimit::max(MAX_SUBMIT_BYTES)),
+        )
+        .route(
+            "/plugins",
+            post(forward_plugin).layer(DefaultBodyLimit::max(MAX_PLUGIN_FORWARD_BYTES)),
+        )
         .layer(axum::middleware::from_fn_with_state(engine.clone(), crate::auth::check))
         .with_state(engine)
 }
@@ -173,52 +186,63 @@ async fn download_input(
     Ok((headers, body).into_response())
 }
 
-/// `POST /runs` takes `{"workflow": W, "input"?: URL}` or a bare workflow `W`.
+/// `POST /runs` (and `POST /workflows/validate`) take `{"workflow": W, "input"?: URL}` or a
+/// bare workflow `W`.
+fn read_submission(body: &[u8]) -> ApiResult<(Json_, Option<String>)> {
+    let request: Json_ = serde_json::from_slice(body).map_err(|e| {
+        ApiError(StatusCode::BAD_REQUEST, "bad-json", format!("the request is not JSON: {e}"))
+    })?;
+    let Some(workflow) = request.get("workflow") else {
+        return Ok((request, None));
+    };
+    let input = match request.get("input") {
+        None | Some(Json_::Null) => None,
+        Some(Json_::String(url)) => Some(url.clone()),
+        Some(_) => {
+            return Err(ApiError(
+                StatusCode::BAD_REQUEST,
+                "invalid-workflow",
+                "input: must be a URL string".into(),
+            ));
+        }
+    };
+    Ok((workflow.clone(), input))
+}
+
+fn invalid(error: crate::workflow::WorkflowError) -> ApiError {
+    ApiError(StatusCode::BAD_REQUEST, "invalid-workflow", error.to_string())
+}
+
 async fn submit(
     State(engine): State<Arc<Engine>>,
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult<(StatusCode, Json<RunSubmitted>)> {
-    let body = body.map_err(body_refused)?;
-    let request: Json_ = serde_json::from_slice(&body).map_err(|e| {
-        ApiError(StatusCode::BAD_REQUEST, "bad-json", format!("the request is not JSON: {e}"))
-    })?;
-    let (workflow, input) = match request.get("workflow") {
-        Some(workflow) => {
-            let input = match request.get("input") {
-                None | Some(Json_::Null) => None,
-                Some(Json_::String(url)) => Some(url.clone()),
-                Some(_) => {
-                    return Err(ApiError(
-                        StatusCode::BAD_REQUEST,
-                        "invalid-workflow",
-                        "input: must be a URL string".into(),
-                    ));
-                }
-            };
-            (workflow, input)
+    let (workflow, input) = read_submission(&body.map_err(body_refused)?)?;
+    let run = engine.submit(workflow, input, &client_of(&headers)).await.map_err(|e| match e {
+        SubmitError::Invalid(error) => invalid(error),
+        SubmitError::NoInput => ApiError(StatusCode::BAD_REQUEST, "no-input", e.to_string()),
+        SubmitError::Busy(_) => {
+            ApiError(StatusCode::TOO_MANY_REQUESTS, "too-many-runs", e.to_string())
         }
-        None => (&request, None),
-    };
-    let run =
-        engine.submit(workflow.clone(), input, &client_of(&headers)).await.map_err(
-            |e| match e {
-                SubmitError::Invalid(_) => {
-                    ApiError(StatusCode::BAD_REQUEST, "invalid-workflow", e.to_string())
-                }
-                SubmitError::NoInput => {
-                    ApiError(StatusCode::BAD_REQUEST, "no-input", e.to_string())
-                }
-                SubmitError::Busy(_) => {
-                    ApiError(StatusCode::TOO_MANY_REQUESTS, "too-many-runs", e.to_string())
-                }
-                SubmitError::InputRefused(_) => {
-                    ApiError(StatusCode::BAD_REQUEST, "input-not-allowed", e.to_string())
-                }
-                SubmitError::Store(error) => internal(error),
-            },
-        )?;
+        SubmitError::InputRefused(_) => {
+            ApiError(StatusCode::BAD_REQUEST, "input-not-allowed", e.to_string())
+        }
+        SubmitError::Store(error) => internal(error),
+    })?;
     Ok((StatusCode::ACCEPTED, Json(RunSubmitted { id: run.id.clone(), status: run.status() })))
+}
+
+/// `POST /workflows/validate`: the checks of `POST /runs` without the run, so the workbench
+/// validates as the user types with the engine's own rules. 200 `{"valid": true}` or the
+/// same 400 `invalid-workflow` (with the step path) that submitting would give.
+async fn validate_workflow(
+    State(engine): State<Arc<Engine>>,
+    body: Result<Bytes, BytesRejection>,
+) -> ApiResult<Json<Json_>> {
+    let (workflow, _) = read_submission(&body.map_err(body_refused)?)?;
+    engine.check_workflow(&workflow).map_err(invalid)?;
+    Ok(Json(json!({"valid": true})))
 }
 
 /// `POST /runs/{id}/cancel`: the run stops at once (a step running on a host is abandoned)
@@ -256,6 +280,15 @@ async fn run_status(
 ) -> ApiResult<Json<Json_>> {
     let run = engine.run(&id).ok_or_else(|| not_found("run", &id))?;
     Ok(Json(json!(run.record())))
+}
+
+/// `GET /runs/{id}/workflow`: what was submitted, as `POST /runs` takes it (to run again).
+async fn run_workflow(
+    State(engine): State<Arc<Engine>>,
+    Path(id): Path<String>,
+) -> ApiResult<Json<Json_>> {
+    let run = engine.run(&id).ok_or_else(|| not_found("run", &id))?;
+    Ok(Json(json!({"workflow": run.workflow, "input": run.input})))
 }
 
 /// Progress as server-sent events: first the whole record (`record`), then each change
@@ -297,14 +330,24 @@ async fn run_events(
     Ok(Sse::new(first.chain(changes)).keep_alive(KeepAlive::default()))
 }
 
-/// The final mesh (`.mfm`), fetched from the host holding it with the cluster token (a
-/// user holds no cluster token, so a redirect to the host would not do).
+#[derive(Deserialize)]
+struct FormatQuery {
+    format: Option<String>,
+}
+
+/// `GET /runs/{id}/result`: without `format`, the packed mesh (`.mfm`) as its host serves
+/// it, fetched with the cluster token (a user holds none, so a redirect would not do); with
+/// `format`, the checked and converted mesh.
 async fn run_result(
     State(engine): State<Arc<Engine>>,
     Path(id): Path<String>,
+    Query(query): Query<FormatQuery>,
 ) -> ApiResult<Response> {
     let run = engine.run(&id).ok_or_else(|| not_found("run", &id))?;
     let record = run.record();
+    if query.format.is_some() {
+        return mesh_download(&engine, &record, Which::Result, query.format).await;
+    }
     match (record.status, record.result) {
         (Status::Completed, Some(result)) => {
             // Only from where a host of ours serves the recorded mesh: the record's URL
@@ -340,4 +383,113 @@ async fn run_result(
             Err(ApiError(StatusCode::CONFLICT, "not-finished", format!("run {id} is still going")))
         }
     }
+}
+
+/// `GET /runs/{id}/input?format=`: the run's input, if it was uploaded to this engine.
+async fn run_input(
+    State(engine): State<Arc<Engine>>,
+    Path(id): Path<String>,
+    Query(query): Query<FormatQuery>,
+) -> ApiResult<Response> {
+    let run = engine.run(&id).ok_or_else(|| not_found("run", &id))?;
+    mesh_download(&engine, &run.record(), Which::Input, query.format).await
+}
+
+/// `GET /runs/{id}/steps/{index}/output?format=`: a filter step's output, while its host
+/// still holds it.
+async fn step_output(
+    State(engine): State<Arc<Engine>>,
+    Path((id, index)): Path<(String, usize)>,
+    Query(query): Query<FormatQuery>,
+) -> ApiResult<Response> {
+    let run = engine.run(&id).ok_or_else(|| not_found("run", &id))?;
+    mesh_download(&engine, &run.record(), Which::Step(index), query.format).await
+}
+
+async fn mesh_download(
+    engine: &Engine,
+    record: &crate::record::RunRecord,
+    which: Which,
+    format: Option<String>,
+) -> ApiResult<Response> {
+    let name = format.unwrap_or_else(|| "mfm".into());
+    let format = MeshFormat::parse(&name)
+        .ok_or_else(|| download_error(DownloadError::BadFormat(name.chars().take(16).collect())))?;
+    let download = engine.download(record, which, format).await.map_err(download_error)?;
+    let headers = [
+        (header::CONTENT_TYPE, "application/octet-stream".to_owned()),
+        (header::CONTENT_DISPOSITION, format!("attachment; filename=\"{}\"", download.file_name)),
+    ];
+    Ok((headers, download.bytes).into_response())
+}
+
+fn download_error(error: DownloadError) -> ApiError {
+    use DownloadError as E;
+    let (status, code) = match &error {
+        E::BadFormat(_) => (StatusCode::BAD_REQUEST, "bad-format"),
+        E::NotFinished(_) => (StatusCode::CONFLICT, "not-finished"),
+        E::NoResult { .. } => (StatusCode::CONFLICT, "run-failed"),
+        E::NoStep { .. } | E::NotAFilter { .. } | E::NoInput(_) => {
+            (StatusCode::NOT_FOUND, "not-found")
+        }
+        E::Gone { .. } => (StatusCode::GONE, "gone"),
+        E::Fetch(_) | E::UnknownHost(_) | E::Corrupt { .. } => {
+            (StatusCode::BAD_GATEWAY, "download-failed")
+        }
+        E::HashMismatch { .. } => (StatusCode::BAD_GATEWAY, "hash-mismatch"),
+        E::Convert { .. } => (StatusCode::INTERNAL_SERVER_ERROR, "convert-failed"),
+    };
+    ApiError(status, code, error.to_string())
+}
+
+#[derive(Deserialize)]
+struct PluginQuery {
+    host: Option<String>,
+}
+
+/// The header carrying a host's upload token through `POST /plugins` (the `Authorization`
+/// header is the engine's own API token).
+const UPLOAD_TOKEN_HEADER: &str = "x-upload-token";
+
+/// `POST /plugins?host=<registered host>`: forwards a `.wasm` to that host with the upload
+/// token from [`UPLOAD_TOKEN_HEADER`] (never logged), for the browser, which cannot call
+/// hosts of other origins. Answers what the host answered.
+async fn forward_plugin(
+    State(engine): State<Arc<Engine>>,
+    Query(query): Query<PluginQuery>,
+    headers: HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+) -> ApiResult<(StatusCode, Json<Json_>)> {
+    let wasm = body.map_err(body_refused)?;
+    let host = query.host.unwrap_or_default();
+    // Only registered hosts: the engine must not post to any address a client names.
+    if !engine.registry.hosts().iter().any(|h| h.url == host) {
+        return Err(ApiError(
+            StatusCode::BAD_REQUEST,
+            "unknown-host",
+            format!("\"{}\" is not a registered host", host.chars().take(200).collect::<String>()),
+        ));
+    }
+    let token = headers.get(UPLOAD_TOKEN_HEADER).and_then(|v| v.to_str().ok());
+    let uploaded =
+        engine.registry.client(&host).upload_plugin(wasm.to_vec(), token).await.map_err(|e| {
+            match e {
+                // The host's 401 is 403 here: a 401 from the engine means its own API token.
+                meshflow_api::ClientError::Refused { status: 401, code, message, .. } => ApiError(
+                    StatusCode::FORBIDDEN,
+                    "host-unauthorized",
+                    format!("{host} refused the upload token ({code}: {message})"),
+                ),
+                meshflow_api::ClientError::Refused { status, code, message, .. } => {
+                    let status = StatusCode::from_u16(status).unwrap_or(StatusCode::BAD_GATEWAY);
+                    ApiError(status, "host-refused", format!("{host} answered {code}: {message}"))
+                }
+                other => ApiError(StatusCode::BAD_GATEWAY, "host-failed", other.to_string()),
+            }
+        })?;
+    // The catalogue learns the new services now rather than at the next poll.
+    if let Some(entry) = engine.registry.hosts().iter().find(|h| h.url == host) {
+        entry.refresh().await;
+    }
+    Ok((StatusCode::CREATED, Json(json!(uploaded))))
 }

@@ -108,7 +108,9 @@ pub async fn check(State(engine): State<Arc<Engine>>, request: Request, next: Ne
     let path = request.uri().path();
     let get = request.method() == Method::GET;
     let mut given = bearer(request.headers()).map(str::to_owned);
-    let allowed = if get && (path == "/" || path == "/health") {
+    // The page and its bundled files are public; what they show needs the API token.
+    let page = path == "/" || path == "/health" || path.starts_with("/assets/");
+    let allowed = if get && page {
         Ok(())
     } else if path == "/hosts" && request.method() == Method::POST {
         let tokens: Vec<&str> = cluster.or(api).into_iter().collect();

@@ -9,6 +9,7 @@
 mod admission;
 mod api;
 pub mod auth;
+pub mod downloads;
 mod executor;
 mod inputs;
 pub mod limits;
@@ -51,6 +52,7 @@ pub struct Engine {
     inputs: inputs::Inputs,
     store: Store,
     admission: admission::Admission,
+    downloads: downloads::Downloads,
     /// Told of every change to a run, for the persister.
     changed: Arc<Notify>,
     public_url: String,
@@ -95,6 +97,7 @@ impl Engine {
             inputs: inputs::Inputs::new(config.data_dir.join("inputs"))?,
             store,
             admission: admission::Admission::default(),
+            downloads: downloads::Downloads::default(),
             changed,
             public_url,
             access: config.access,
@@ -134,11 +137,10 @@ impl Engine {
         input: Option<String>,
         client: &str,
     ) -> Result<Arc<Run>, SubmitError> {
-        let workflow = Workflow::from_json(&workflow_json)?;
+        let workflow = self.check_workflow(&workflow_json)?;
         let input = input.or_else(|| workflow.input.clone()).ok_or(SubmitError::NoInput)?;
         let hosts = self.registry.hosts().into_iter().map(|host| host.url.clone());
         self.access.check_input(&input, &self.public_url, hosts)?;
-        validate::validate(&workflow, &|name| self.registry.service(name))?;
         let ticket = self.admission.admit(client)?;
         let id = new_run_id();
         let stored = StoredRun {
@@ -207,11 +209,49 @@ impl Engine {
         body: impl futures_util::Stream<Item = Result<bytes::Bytes, E>>,
     ) -> Result<(String, u64), inputs::InputError> {
         let stored = self.inputs.put(name, body, limits::MAX_INPUT_BYTES).await?;
-        let (file, bytes) = (stored.file.clone(), stored.bytes);
-        if let Err(error) = self.store.call(move |c| store::add_input(c, &file, bytes)).await {
+        let (file, bytes, name) = (stored.file.clone(), stored.bytes, name.to_owned());
+        let recorded = self.store.call(move |c| store::add_input(c, &file, &name, bytes)).await;
+        if let Err(error) = recorded {
             tracing::warn!("recording input {}: {error}", stored.file);
         }
         Ok((format!("{}/inputs/{}", self.public_url, stored.file), stored.bytes))
+    }
+
+    /// Reads a workflow and checks it against the catalogue: what [`Engine::submit`] and
+    /// `POST /workflows/validate` both do.
+    pub fn check_workflow(&self, workflow_json: &Json) -> Result<Workflow, WorkflowError> {
+        let workflow = Workflow::from_json(workflow_json)?;
+        validate::validate(&workflow, &|name| self.registry.service(name))?;
+        Ok(workflow)
+    }
+
+    /// One mesh of a run (its input, a step's output or its result) as `format`, checked
+    /// against the run record's hash; named after the input the run was given.
+    pub async fn download(
+        &self,
+        record: &RunRecord,
+        which: downloads::Which,
+        format: downloads::MeshFormat,
+    ) -> Result<downloads::Download, downloads::DownloadError> {
+        let stem = downloads::stem_of(&self.input_name(record).await);
+        let stored = |file: &str| self.inputs.path(file);
+        let hosts = |url: &str| self.registry.blob_client(url);
+        self.downloads.mesh(record, which, format, &stem, &stored, &hosts).await
+    }
+
+    /// The name the run's input was uploaded under, else the last part of its URL.
+    async fn input_name(&self, record: &RunRecord) -> String {
+        let url = record.input.as_ref().map(|i| i.url.clone()).unwrap_or_default();
+        let file = url.rsplit('/').next().unwrap_or_default().to_owned();
+        let lookup = file.clone();
+        match self.store.call(move |c| store::input_name(c, &lookup)).await {
+            Ok(Some(name)) => name,
+            Ok(None) => file,
+            Err(error) => {
+                tracing::warn!("looking up the name of input {file}: {error}");
+                file
+            }
+        }
     }
 
     /// Deletes a run's host sessions (best effort: a host that is gone drops them itself).

@@ -9,7 +9,7 @@
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
-use rusqlite::{Connection, params};
+use rusqlite::{Connection, OptionalExtension, params};
 
 use crate::record::{RunRecord, Status};
 use crate::run::Changes;
@@ -49,6 +49,10 @@ CREATE TABLE IF NOT EXISTS inputs (
     file TEXT PRIMARY KEY,
     bytes INTEGER NOT NULL,
     stored_unix INTEGER NOT NULL
+);
+CREATE TABLE IF NOT EXISTS input_names (
+    file TEXT PRIMARY KEY,
+    name TEXT NOT NULL
 );
 ";
 
@@ -263,13 +267,31 @@ pub fn load_hosts(connection: &mut Connection) -> Result<Vec<String>, StoreError
     Ok(rows.collect::<Result<_, _>>()?)
 }
 
-pub fn add_input(connection: &mut Connection, file: &str, bytes: u64) -> Result<(), StoreError> {
+/// Records an uploaded input and the name it was uploaded under (the last name wins when
+/// the same bytes come again), which downloads are named after.
+pub fn add_input(
+    connection: &mut Connection,
+    file: &str,
+    name: &str,
+    bytes: u64,
+) -> Result<(), StoreError> {
     connection.execute(
         "INSERT INTO inputs (file, bytes, stored_unix) VALUES (?1, ?2, ?3)
          ON CONFLICT (file) DO UPDATE SET stored_unix = excluded.stored_unix",
         params![file, bytes as i64, unix_now()],
     )?;
+    connection.execute(
+        "INSERT INTO input_names (file, name) VALUES (?1, ?2)
+         ON CONFLICT (file) DO UPDATE SET name = excluded.name",
+        params![file, name],
+    )?;
     Ok(())
+}
+
+/// The name an input was uploaded under.
+pub fn input_name(connection: &mut Connection, file: &str) -> Result<Option<String>, StoreError> {
+    let mut statement = connection.prepare("SELECT name FROM input_names WHERE file = ?1")?;
+    Ok(statement.query_row([file], |row| row.get(0)).optional()?)
 }
 
 /// Inputs stored before `before` that no kept run names (by their file name in its input
@@ -289,6 +311,7 @@ pub fn take_unused_inputs(
     };
     for file in &files {
         transaction.execute("DELETE FROM inputs WHERE file = ?1", [file])?;
+        transaction.execute("DELETE FROM input_names WHERE file = ?1", [file])?;
     }
     transaction.commit()?;
     Ok(files)

@@ -61,17 +61,22 @@ pub struct EngineProcess {
     pub url: String,
     port: u16,
     data: std::path::PathBuf,
+    /// What a restart is started with (no `--host`: it must know them from before).
+    args: Vec<String>,
     child: Child,
 }
 
 impl EngineProcess {
-    /// Starts `meshflow engine` with its state under `data` and the given `--host`s, and
-    /// waits until it answers `/health`.
-    pub async fn start(data: &Path, hosts: &[String]) -> Self {
+    /// Starts `meshflow engine` with its state under `data`, the given `--host`s and inputs
+    /// also allowed from `origins`, and waits until it answers `/health`.
+    pub async fn start(data: &Path, hosts: &[String], origins: &[String]) -> Self {
         let port = free_port();
-        let child = Self::spawn(port, data, hosts);
-        let engine =
-            Self { url: format!("http://127.0.0.1:{port}"), port, data: data.into(), child };
+        let allow: Vec<String> =
+            origins.iter().flat_map(|o| ["--allow-input-from".into(), o.clone()]).collect();
+        let named = hosts.iter().flat_map(|h| ["--host".into(), h.clone()]);
+        let child = Self::spawn(port, data, &named.chain(allow.clone()).collect::<Vec<_>>());
+        let url = format!("http://127.0.0.1:{port}");
+        let engine = Self { url, port, data: data.into(), args: allow, child };
         engine.wait_healthy().await;
         engine
     }
@@ -80,16 +85,14 @@ impl EngineProcess {
     /// stored.
     pub async fn kill_and_restart(&mut self) {
         self.kill();
-        self.child = Self::spawn(self.port, &self.data, &[]);
+        self.child = Self::spawn(self.port, &self.data, &self.args);
         self.wait_healthy().await;
     }
 
-    fn spawn(port: u16, data: &Path, hosts: &[String]) -> Child {
+    fn spawn(port: u16, data: &Path, args: &[String]) -> Child {
         let mut command = Command::new(env!("CARGO_BIN_EXE_meshflow"));
         command.args(["engine", "--listen", &format!("127.0.0.1:{port}"), "--data"]).arg(data);
-        for host in hosts {
-            command.args(["--host", host]);
-        }
+        command.args(args);
         // Tokens travel in the environment, never on a command line.
         command.env("MESHFLOW_API_TOKEN", super::API_TOKEN);
         command.env("MESHFLOW_CLUSTER_TOKEN", super::CLUSTER_TOKEN);

@@ -1,0 +1,197 @@
+// One run, live or finished: its status, where each step ran, its times, what moved to whom,
+// check values and conditions, warnings and failures in words, a chart of bytes moved, and
+// downloads. A RunView belongs to one run id: a new run gets a new view (no mixing).
+
+import { el, fill, round, bytes, ms, saveBlob } from './dom.js';
+import { followEvents, getJson, request } from './api.js';
+import { bytesChart } from './chart.js';
+
+export const FORMATS = ['ply', 'obj', 'off', 'stl', 'mfm'];
+const FINAL = new Set(['completed', 'failed', 'cancelled', 'interrupted']);
+/** Events that change a part of the record the view patches in place. */
+const PATCHES = {
+  status: (record, data) => Object.assign(record, data),
+  input: (record, data) => { record.input = data; },
+  broadcast: (record, data) => { record.broadcast = data; },
+  result: (record, data) => { record.result = data; },
+  warning: (record, data) => { record.warnings.push(data); },
+  step: (record, data) => { record.steps[data.index] = data; },
+  transfer: (record, data) => { record.steps[data.step]?.transfers.push(data.transfer); },
+  condition: (record, data) => { if (record.steps[data.step]) record.steps[data.step].condition = data.condition; },
+};
+
+/** Downloads `path` with the token and saves it under the engine's file name. */
+export async function download(path) {
+  const response = await request(path);
+  const disposition = response.headers.get('Content-Disposition') ?? '';
+  const name = /filename="([^"]+)"/.exec(disposition)?.[1] ?? 'mesh';
+  saveBlob(await response.blob(), name);
+  return name;
+}
+
+export class RunView {
+  /** `show(label, path)` puts a mesh (a `?format=raw` path) into the viewer. */
+  constructor(root, id, { show }) {
+    this.root = root;
+    this.id = id;
+    this.show = show;
+    this.abort = new AbortController();
+    this.record = null;
+    this.shownResult = false;
+    fill(root, el('p', { testid: 'run-status', className: 'status' }, `run ${id}: connecting…`));
+  }
+
+  close() {
+    this.abort.abort();
+  }
+
+  /** Follows the run's events until the stream ends; reconnects once if it breaks early. */
+  async follow() {
+    for (let attempt = 0; attempt < 3; attempt += 1) {
+      try {
+        await followEvents(this.id, (kind, data) => this.event(kind, data), this.abort.signal);
+        if (this.record && FINAL.has(this.record.status)) return;
+      } catch (error) {
+        if (this.abort.signal.aborted) return;
+        this.problem(error.message);
+      }
+      if (this.abort.signal.aborted) return;
+      await new Promise((resolve) => setTimeout(resolve, 1000));
+    }
+    // The stream keeps breaking: read the record as it is.
+    try {
+      this.event('record', await getJson(`/runs/${encodeURIComponent(this.id)}`));
+    } catch (error) {
+      this.problem(error.message);
+    }
+  }
+
+  async event(kind, data) {
+    if (this.abort.signal.aborted) return;
+    if (kind === 'record') this.record = data;
+    else if (this.record && PATCHES[kind]) PATCHES[kind](this.record, data);
+    else {
+      // A restart or resume rewrote the record: read it whole.
+      this.record = await getJson(`/runs/${encodeURIComponent(this.id)}`);
+    }
+    this.draw();
+  }
+
+  problem(message) {
+    const status = this.root.querySelector('[data-testid=run-status]');
+    if (status) status.textContent = `run ${this.id}: ${message}`;
+  }
+
+  draw() {
+    const r = this.record;
+    const steps = r.steps.filter(Boolean);
+    const status = el('p', { testid: 'run-status', className: `status ${r.status}`, 'data-status': r.status, 'data-run': r.id }, statusLine(r));
+    const running = r.status === 'running' && steps.length ? `now after ${steps.at(-1).path} on ${steps.at(-1).host}` : '';
+    fill(this.root,
+      status,
+      running && el('p', { className: 'note' }, running),
+      r.error && el('p', { className: 'error', testid: 'run-error' }, plainError(r.error)),
+      r.warnings.length > 0 && el('ul', { className: 'warnings', testid: 'run-warnings' }, r.warnings.map((w) => el('li', {}, w))),
+      r.input && el('p', {}, `Input: ${r.input.vertices.toLocaleString('en')} vertices, ${r.input.triangles.toLocaleString('en')} triangles `,
+        el('button', { testid: 'show-input', onclick: () => this.show('input', this.path('input')) }, 'view input')),
+      r.broadcast && el('p', { className: 'note' }, `Input loaded on ${r.broadcast.hosts.length} host(s) in ${ms(r.broadcast.ms)}: `,
+        r.broadcast.hosts.map((h) => `${h.host} (${bytes(h.bytes)}, ${ms(h.download_ms)} download, ${ms(h.load_ms)} load)`).join('; ')),
+      this.stepTable(steps),
+      steps.length > 0 && el('div', { className: 'chart' }, el('h4', {}, `Bytes moved per step (transfer: ${r.transfer})`), bytesChart(steps)),
+      r.result && this.resultBar(r));
+    if (r.status === 'completed' && r.result && !this.shownResult) {
+      this.shownResult = true;
+      this.show('result', this.path('result'));
+    }
+  }
+
+  path(which) {
+    return `/runs/${encodeURIComponent(this.id)}/${which}`;
+  }
+
+  resultBar(r) {
+    const note = el('span', { className: 'note', testid: 'download-note' });
+    const get = async (format) => {
+      try {
+        note.textContent = `saved ${await download(`${this.path('result')}?format=${format}`)}`;
+      } catch (error) {
+        note.textContent = error.message;
+      }
+    };
+    return el('div', { className: 'result' },
+      `Result: ${r.result.vertices.toLocaleString('en')} vertices, ${r.result.triangles.toLocaleString('en')} triangles, hash ${r.result.hash.slice(0, 12)}… `,
+      el('button', { testid: 'show-result', onclick: () => this.show('result', this.path('result')) }, 'view result'),
+      ' Download: ', FORMATS.map((f) => el('button', { testid: `download-${f}`, onclick: () => get(f) }, f.toUpperCase())),
+      ' ', note);
+  }
+
+  stepTable(steps) {
+    if (!steps.length) return el('p', { className: 'note' }, 'No step has finished yet.');
+    const head = ['#', 'step', 'service', 'host', 'compute', 'queue', 'overhead', 'transfer / apply', 'mesh', 'correction vs full', 'sent', 'value', ''];
+    return el('table', { className: 'steps' },
+      el('thead', {}, el('tr', {}, head.map((h) => el('th', {}, h)))),
+      el('tbody', {}, steps.map((s) => this.stepRow(s))));
+  }
+
+  stepRow(s) {
+    const transferMs = s.transfers.reduce((sum, t) => sum + t.download_ms, 0);
+    const applyMs = s.transfers.reduce((sum, t) => sum + t.apply_ms, 0);
+    const sent = s.transfers.map((t) =>
+      `→ ${t.host}: ${t.via} ${bytes(t.bytes)}${t.fallback ? ` (fell back: ${t.fallback})` : ''}${t.error ? ` (failed: ${t.error})` : ''}`);
+    const value = s.kind === 'check'
+      ? [round(s.value), s.condition === null || s.condition === undefined ? '' : s.condition ? ' ✓ condition held' : ' ✗ condition did not hold']
+      : '';
+    const actions = s.kind === 'filter' && el('span', {},
+      el('button', { testid: 'show-step', onclick: () => this.show(`step ${s.index}`, this.path(`steps/${s.index}/output`)) }, 'view'),
+      stepDownload(this.path(`steps/${s.index}/output`)));
+    return el('tr', { testid: 'step-row', className: s.kind, 'data-path': s.path },
+      el('td', {}, s.index), el('td', {}, el('code', {}, s.path)), el('td', { title: s.report }, s.service),
+      el('td', {}, s.host, s.failed_hosts.length ? ` (after ${s.failed_hosts.join(', ')} failed)` : ''),
+      el('td', {}, ms(s.compute_ms)), el('td', {}, ms(s.wait_ms)), el('td', {}, ms(s.overhead_ms)),
+      el('td', {}, s.transfers.length ? `${ms(transferMs)} / ${ms(applyMs)}` : '—'),
+      el('td', {}, s.vertices != null ? `${s.vertices.toLocaleString('en')} v, ${s.triangles.toLocaleString('en')} t` : ''),
+      el('td', {}, s.kind === 'filter' ? `${bytes(s.correction_bytes)} vs ${bytes(s.full_bytes)}` : ''),
+      el('td', { className: 'sent' }, sent.length ? sent.map((line) => el('div', {}, line)) : '—'),
+      el('td', { testid: 'step-value' }, value),
+      el('td', {}, actions));
+  }
+}
+
+function stepDownload(path) {
+  const format = el('select', {}, FORMATS.map((f) => el('option', { value: f }, f)));
+  const note = el('span', { className: 'note' });
+  return el('span', {}, ' ', format, el('button', {
+    testid: 'download-step',
+    onclick: async () => {
+      try {
+        note.textContent = `saved ${await download(`${path}?format=${format.value}`)}`;
+      } catch (error) {
+        note.textContent = error.message;
+      }
+    },
+  }, 'download'), note);
+}
+
+function statusLine(r) {
+  const total = r.total_ms ? ` in ${ms(r.total_ms)}` : '';
+  const words = {
+    queued: 'queued: waiting for a run slot',
+    running: 'running',
+    completed: `completed${total}`,
+    failed: `failed${total}`,
+    cancelled: `cancelled${total}`,
+    interrupted: 'interrupted by an engine restart',
+  };
+  return `run ${r.id}: ${words[r.status] ?? r.status}`;
+}
+
+/** The engine's error, with a plain-words lead for the failures users meet most. */
+function plainError(error) {
+  const leads = [
+    [/cannot connect|unreachable|connection refused/i, 'A host or the input could not be reached.'],
+    [/does not load|not a mesh|parse|decode|garbage|truncated/i, 'The input is not a mesh the hosts can read.'],
+    [/plugin-failed|trapped|fuel|deadline/i, 'A plugin failed while running.'],
+  ];
+  const lead = leads.find(([pattern]) => pattern.test(error))?.[1];
+  return lead ? `${lead} ${error}` : `The run failed: ${error}`;
+}
