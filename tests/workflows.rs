@@ -521,7 +521,8 @@ async fn submit_refuses_a_result_that_is_not_the_recorded_mesh_and_writes_nothin
     .unwrap();
     let stderr = String::from_utf8_lossy(&ran.stderr);
     assert!(!ran.status.success(), "submit took the fake's mesh: {stderr}");
-    assert!(stderr.contains(&format!("not the recorded {claimed}")), "{stderr}");
+    // The engine refuses to serve it (and the CLI would refuse it too).
+    assert!(stderr.contains("hash-mismatch") && stderr.contains(&claimed), "{stderr}");
     assert!(!output.exists(), "a file was written");
     assert_eq!(fake.runs(), 1);
 }

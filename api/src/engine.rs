@@ -71,6 +71,9 @@ pub struct ServiceOffer {
     #[serde(flatten)]
     pub info: ServiceInfo,
     pub hosts: Vec<String>,
+    /// The SHA-256 digests of the plugins that provide it, on any host, each once.
+    #[serde(default)]
+    pub plugins: Vec<String>,
 }
 
 /// One entry of `GET /hosts`.

@@ -26,7 +26,6 @@ use crate::{Engine, SubmitError};
 use meshflow_api::engine::{
     HostInfo, InputUploaded, RegisterHost, RunSubmitted, RunSummary, ServiceOffer,
 };
-use meshflow_api::fetch_rules::quoted;
 
 pub fn router(engine: Arc<Engine>) -> Router {
     Router::new()
@@ -335,9 +334,9 @@ struct FormatQuery {
     format: Option<String>,
 }
 
-/// `GET /runs/{id}/result`: without `format`, the packed mesh (`.mfm`) as its host serves
-/// it, fetched with the cluster token (a user holds none, so a redirect would not do); with
-/// `format`, the checked and converted mesh.
+/// `GET /runs/{id}/result[?format=]`: the final mesh, fetched from its host with the cluster
+/// token (a user holds none, so a redirect would not do), served only if it is the mesh the
+/// record names (its content hash checked), in the asked format (`.mfm` by default).
 async fn run_result(
     State(engine): State<Arc<Engine>>,
     Path(id): Path<String>,
@@ -345,44 +344,8 @@ async fn run_result(
 ) -> ApiResult<Response> {
     let run = engine.run(&id).ok_or_else(|| not_found("run", &id))?;
     let record = run.record();
-    if query.format.is_some() {
-        return mesh_download(&engine, &record, Which::Result, query.format).await;
-    }
-    match (record.status, record.result) {
-        (Status::Completed, Some(result)) => {
-            // Only from where a host of ours serves the recorded mesh: the record's URL
-            // passed the executor's checks, and is checked again here.
-            let unavailable =
-                |message: String| ApiError(StatusCode::BAD_GATEWAY, "result-unavailable", message);
-            let hosts = engine.registry.hosts();
-            let served = crate::executor::is_content_hash(&result.hash)
-                && hosts
-                    .iter()
-                    .any(|h| result.url == crate::executor::full_mesh_url(&h.url, &result.hash));
-            if !served {
-                return Err(ApiError(
-                    StatusCode::BAD_GATEWAY,
-                    "unverified-result",
-                    format!("run {id}: no known host serves its result mesh {}", result.hash),
-                ));
-            }
-            let client = engine.registry.blob_client(&result.url).ok_or_else(|| {
-                unavailable(format!("{}: not on a registered host", quoted(&result.url)))
-            })?;
-            let bytes =
-                client.download(&result.url).await.map_err(|e| unavailable(e.to_string()))?;
-            let headers = [(header::CONTENT_TYPE, "application/octet-stream")];
-            Ok((headers, Body::from(bytes)).into_response())
-        }
-        (status, _) if status.is_final() => Err(ApiError(
-            StatusCode::CONFLICT,
-            "run-failed",
-            record.error.unwrap_or_else(|| format!("the run ended {status:?} without a result")),
-        )),
-        _ => {
-            Err(ApiError(StatusCode::CONFLICT, "not-finished", format!("run {id} is still going")))
-        }
-    }
+    // `.mfm` unless asked otherwise: the CLI decodes it (and checks it once more).
+    mesh_download(&engine, &record, Which::Result, query.format).await
 }
 
 /// `GET /runs/{id}/input?format=`: the run's input, if it was uploaded to this engine.

@@ -137,10 +137,13 @@ impl Engine {
         input: Option<String>,
         client: &str,
     ) -> Result<Arc<Run>, SubmitError> {
-        let workflow = self.check_workflow(&workflow_json)?;
+        // The input's origin first: a URL the engine will not fetch is refused whatever the
+        // workflow says.
+        let workflow = Workflow::from_json(&workflow_json)?;
         let input = input.or_else(|| workflow.input.clone()).ok_or(SubmitError::NoInput)?;
         let hosts = self.registry.hosts().into_iter().map(|host| host.url.clone());
         self.access.check_input(&input, &self.public_url, hosts)?;
+        validate::validate(&workflow, &|name| self.registry.service(name))?;
         let ticket = self.admission.admit(client)?;
         let id = new_run_id();
         let stored = StoredRun {

@@ -324,11 +324,15 @@ impl Registry {
                 continue;
             }
             for service in state.services {
-                offers
-                    .entry(service.info.name.clone())
-                    .or_insert_with(|| Offer { info: service.info.clone(), hosts: Vec::new() })
-                    .hosts
-                    .push(host.url.clone());
+                let offer = offers.entry(service.info.name.clone()).or_insert_with(|| Offer {
+                    info: service.info.clone(),
+                    hosts: Vec::new(),
+                    plugins: Vec::new(),
+                });
+                offer.hosts.push(host.url.clone());
+                if !offer.plugins.contains(&service.plugin) {
+                    offer.plugins.push(service.plugin);
+                }
             }
         }
         offers

@@ -13,7 +13,7 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
 
-pub(crate) use verify::{full_mesh_url, is_content_hash};
+pub(crate) use verify::full_mesh_url;
 
 use meshflow_api::ClientError;
 use meshflow_api::host::{

@@ -102,6 +102,7 @@ async function main(page) {
   for (const expected of ['laplacian-smoothing', 'iterations', 'cotangent', 'Offered by']) {
     assert.ok(catalogue.includes(expected), `the catalogue lacks ${expected}`);
   }
+  assert.match(catalogue, /Plugin digest\(s\): [0-9a-f]{16}…/, 'the catalogue names the plugin digests');
   await shot(page, '01-catalogue');
 
   // The repair workflow by clicks only.

@@ -22,5 +22,7 @@ export function drawCatalogue(root, services) {
             el('td', {}, el('code', {}, p.name)), el('td', {}, p.type), el('td', {}, JSON.stringify(p.default)),
             el('td', {}, range(p)), el('td', {}, (p.choices ?? []).join(', ')), el('td', {}, p.doc)))))
         : el('p', { className: 'note' }, 'No parameters.'),
-      el('p', { className: 'note' }, `Offered by ${s.hosts.length} host(s): ${s.hosts.join(', ')}`))));
+      el('p', { className: 'note' }, `Offered by ${s.hosts.length} host(s): ${s.hosts.join(', ')}`),
+      el('p', { className: 'note', testid: 'service-plugins' },
+        `Plugin digest(s): ${(s.plugins ?? []).map((digest) => digest.slice(0, 16) + '…').join(', ')}`))));
 }
