@@ -26,6 +26,22 @@ fn example(name: &str) -> Json {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
+/// Waits until no host holds a session (`GET /health`), failing after `within`.
+async fn sessions_all_closed(hosts: &[meshflow_host::HostHandle], within: Duration) {
+    let deadline = tokio::time::Instant::now() + within;
+    for host in hosts {
+        let health = format!("{}/health", host.url);
+        loop {
+            let health: Json = reqwest::get(&health).await.unwrap().json().await.unwrap();
+            if health["sessions"] == 0 {
+                break;
+            }
+            assert!(tokio::time::Instant::now() < deadline, "{}: {health}", host.url);
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+    }
+}
+
 /// Every run's record through `GET /runs/{id}`, once all have ended.
 async fn all_ended(api: &EngineApi, ids: &[String]) -> Vec<Json> {
     futures_util::future::join_all(ids.iter().map(|id| api.finished(id))).await
@@ -116,18 +132,7 @@ async fn an_engine_killed_mid_runs_resumes_them_after_a_restart_and_loses_none()
     assert_eq!(listed.len(), 21);
 
     // Every session the runs opened, before and after the restart, is deleted in the end.
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
-    for host in &hosts {
-        let health = format!("{}/health", host.url);
-        loop {
-            let health: Json = reqwest::get(&health).await.unwrap().json().await.unwrap();
-            if health["sessions"] == 0 {
-                break;
-            }
-            assert!(tokio::time::Instant::now() < deadline, "{}: {health}", host.url);
-            tokio::time::sleep(Duration::from_millis(100)).await;
-        }
-    }
+    sessions_all_closed(&hosts, Duration::from_secs(20)).await;
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -158,18 +163,7 @@ async fn a_cancelled_run_stops_within_a_second_and_frees_its_host_sessions() {
     assert_eq!(cluster.record(&id).await["steps"].as_array().unwrap().len(), steps);
     let cancel = cluster.url(&format!("/runs/{id}/cancel"));
     assert_eq!(cluster.http.post(&cancel).send().await.unwrap().status(), 409);
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
-    for host in &cluster.hosts {
-        loop {
-            let health: Json =
-                reqwest::get(format!("{}/health", host.url)).await.unwrap().json().await.unwrap();
-            if health["sessions"] == 0 {
-                break;
-            }
-            assert!(tokio::time::Instant::now() < deadline, "{}: {health}", host.url);
-            tokio::time::sleep(Duration::from_millis(100)).await;
-        }
-    }
+    sessions_all_closed(&cluster.hosts, Duration::from_secs(10)).await;
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

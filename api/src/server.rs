@@ -88,10 +88,9 @@ impl IntoResponse for Unauthorized {
         let mut response = error_response(StatusCode::UNAUTHORIZED, "unauthorized", self.0);
         // The request's body was never read: the connection cannot carry another request,
         // so tell the client not to put it back in its pool.
-        response.headers_mut().insert(
-            axum::http::header::CONNECTION,
-            axum::http::HeaderValue::from_static("close"),
-        );
+        response
+            .headers_mut()
+            .insert(axum::http::header::CONNECTION, axum::http::HeaderValue::from_static("close"));
         response
     }
 }
