@@ -55,7 +55,15 @@ async fn an_engine_killed_mid_runs_resumes_them_after_a_restart_and_loses_none()
     let mut engine = EngineProcess::start(&data.path().join("engine"), &urls, &[]).await;
     let api = EngineApi::new(&engine.url);
 
-    let (workflow, input) = (example("repair"), Input::scan(30_000, 7));
+    // The repair, then a WHILE that smooths for 20 rounds: long enough that runs are caught
+    // part-way, and a resumed WHILE must count its rounds on from the record.
+    let mut workflow = example("repair");
+    workflow["steps"].as_array_mut().unwrap().push(json!({
+        "while": {"check": "vertex-count", "op": ">", "value": 0},
+        "do": [{"run": "laplacian-smoothing"}],
+        "max-iterations": 20
+    }));
+    let input = Input::scan(30_000, 7);
     let expected = Local::new(&components_cache())
         .run(&Workflow::from_json(&workflow).unwrap(), input.mesh.clone());
     let input_url = api.upload(&input).await;
