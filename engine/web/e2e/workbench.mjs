@@ -234,6 +234,7 @@ async function main(page) {
   await page.getByTestId('validation').getByText('at least one step').waitFor();
   await page.getByTestId('run').click();
   await page.getByTestId('run-note').getByText('at least one step').waitFor();
+  assert.equal(await page.getByTestId('run-status').getAttribute('data-status'), 'refused', 'no run is shown as starting');
 
   // A plugin uploaded to a chosen host through the engine, with the host's token.
   await page.getByTestId('tab-plugins').click();

@@ -108,6 +108,8 @@ async function startRun() {
     open(run.id);
   } catch (error) {
     runNote.textContent = error.code === 'invalid-workflow' ? `Not valid: ${error.message}` : error.message;
+    // No run started: say so where the run would show.
+    fill(runRoot, el('p', { testid: 'run-status', className: 'status', 'data-status': 'refused' }, 'No run started.'));
   } finally {
     runButton.disabled = false;
     progress.hidden = true;
