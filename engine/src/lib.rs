@@ -2,9 +2,10 @@
 //! between them, and serves the engine HTTP API (DESIGN §5–6). Its state lives in SQLite
 //! under the data folder, so a restart loses no run (DESIGN §10).
 //!
-//! This crate must not depend on wasmtime, the mesh store, the codecs or the host server:
-//! it speaks to hosts only through `meshflow-api` (`cargo tree -p meshflow-engine -e normal`
-//! shows no wasmtime, cranelift or constriction).
+//! This crate must not depend on wasmtime or the host server: it speaks to hosts only
+//! through `meshflow-api` (`cargo tree -p meshflow-engine -e normal` shows no wasmtime or
+//! cranelift). It links the pure-Rust codec and mesh-file crates only to hand users meshes
+//! in their format, checked against the record (`downloads.rs`).
 
 mod admission;
 mod api;
