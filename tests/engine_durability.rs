@@ -42,6 +42,17 @@ async fn sessions_all_closed(hosts: &[meshflow_host::HostHandle], within: Durati
     }
 }
 
+/// In-process hosts (SPREAD) and an engine process that can be killed, under `data`.
+async fn hosts_and_engine_process(
+    data: &Path,
+) -> (Vec<meshflow_host::HostHandle>, EngineProcess, EngineApi) {
+    let hosts = start_hosts(SPREAD, data, &[]).await;
+    let urls: Vec<String> = hosts.iter().map(|h| h.url.clone()).collect();
+    let engine = EngineProcess::start(&data.join("engine"), &urls, &[]).await;
+    let api = EngineApi::new(&engine.url);
+    (hosts, engine, api)
+}
+
 /// Every run's record through `GET /runs/{id}`, once all have ended.
 async fn all_ended(api: &EngineApi, ids: &[String]) -> Vec<Json> {
     futures_util::future::join_all(ids.iter().map(|id| api.finished(id))).await
@@ -50,10 +61,7 @@ async fn all_ended(api: &EngineApi, ids: &[String]) -> Vec<Json> {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_engine_killed_mid_runs_resumes_them_after_a_restart_and_loses_none() {
     let data = tempfile::tempdir().unwrap();
-    let hosts = start_hosts(SPREAD, data.path(), &[]).await;
-    let urls: Vec<String> = hosts.iter().map(|h| h.url.clone()).collect();
-    let mut engine = EngineProcess::start(&data.path().join("engine"), &urls, &[]).await;
-    let api = EngineApi::new(&engine.url);
+    let (hosts, mut engine, api) = hosts_and_engine_process(data.path()).await;
 
     // The repair, then a WHILE that smooths for 20 rounds: long enough that runs are caught
     // part-way, and a resumed WHILE must count its rounds on from the record.
@@ -100,7 +108,7 @@ async fn an_engine_killed_mid_runs_resumes_them_after_a_restart_and_loses_none()
     // The hosts come back from the database: the restart named none.
     let known: Json = api.http.get(api.url("/hosts")).send().await.unwrap().json().await.unwrap();
     let known: BTreeSet<&str> = known.as_array().unwrap().iter().map(|h| text(&h["url"])).collect();
-    assert_eq!(known, urls.iter().map(String::as_str).collect());
+    assert_eq!(known, hosts.iter().map(|h| h.url.as_str()).collect());
     // The run finished before the crash reads back the same.
     assert_eq!(api.record(text(&finished_before["id"])).await, finished_before);
 
@@ -224,10 +232,8 @@ async fn event_streams_end_with_their_run_and_at_once_for_a_finished_one() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn submit_wait_follows_its_run_across_an_engine_restart() {
     let data = tempfile::tempdir().unwrap();
-    let hosts = start_hosts(SPREAD, data.path(), &[]).await;
-    let urls: Vec<String> = hosts.iter().map(|h| h.url.clone()).collect();
-    let mut engine = EngineProcess::start(&data.path().join("engine"), &urls, &[]).await;
-    let api = EngineApi::new(&engine.url);
+    // The hosts must outlive the test body: kept, if unused.
+    let (_hosts, mut engine, api) = hosts_and_engine_process(data.path()).await;
     let input = Input::scan(30_000, 11);
     let repair = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/workflows/repair.json");
     let expected = Local::new(&components_cache())
