@@ -109,18 +109,33 @@ pub struct FullRef {
     pub hash: String,
 }
 
-/// Which of the two transfers a receiving host should use.
+/// How a receiving host should bring itself up to date: replay the edit log
+/// (`correction`), re-run the step (`replay`), or take the full mesh.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum Transfer {
     Correction,
+    Replay,
     Full,
+}
+
+impl Transfer {
+    pub fn name(self) -> &'static str {
+        match self {
+            Transfer::Correction => "correction",
+            Transfer::Replay => "replay",
+            Transfer::Full => "full",
+        }
+    }
 }
 
 /// `POST /sessions/{id}/update`.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Update {
     pub correction: Option<BlobRef>,
+    /// The step named (`.mfr`), to re-run here; the edit log is the fallback.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub replay: Option<BlobRef>,
     pub full: FullRef,
     #[serde(rename = "use")]
     pub use_: Transfer,
@@ -135,7 +150,7 @@ pub struct Updated {
     pub bytes: u64,
     pub download_ms: f64,
     pub apply_ms: f64,
-    /// Why the correction was not used, when the host fell back to the full mesh.
+    /// Why the transfer asked for was not used, when the host fell back to another.
     pub fallback: Option<String>,
 }
 
@@ -174,6 +189,8 @@ pub struct FilterResult {
     pub queue_ms: f64,
     pub report: String,
     pub correction: BlobRef,
+    /// The step named: plugin digest, service, resolved parameters, hashes (`.mfr`).
+    pub replay: BlobRef,
     pub full: FullRef,
 }
 

@@ -14,6 +14,7 @@ pub mod downloads;
 mod executor;
 mod inputs;
 pub mod limits;
+mod measured;
 pub mod plan;
 pub mod record;
 pub mod registry;

@@ -1,5 +1,6 @@
 //! The hosts an engine knows: their services, whether they answer, and how busy they are.
 
+use crate::measured::Measured;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -65,6 +66,12 @@ impl HostEntry {
     }
 
     /// Whether the host is up, not suspect and offers `service`.
+    /// Whether the host has the plugin with this digest loaded (a replay there needs no
+    /// plugin download).
+    pub fn has_plugin(&self, digest: &str) -> bool {
+        self.state.lock().unwrap().services.iter().any(|s| s.plugin == digest)
+    }
+
     pub fn offers(&self, service: &str) -> bool {
         let state = self.state.lock().unwrap();
         state.up && state.services.iter().any(|s| s.info.name == service) && !self.is_suspect()
@@ -150,6 +157,8 @@ pub struct Registry {
     access: ClusterAccess,
     /// One pool for all hosts; names resolve only to addresses that may be fetched.
     http: reqwest::Client,
+    /// Links and speeds measured across runs, for the cost model.
+    pub measured: Measured,
 }
 
 pub use meshflow_api::engine::ServiceOffer as Offer;
@@ -207,7 +216,8 @@ impl Registry {
         let access = ClusterAccess::new(cluster_token);
         access.set_peers(vec![own_origin.clone()]);
         let http = guarded_client().connect_timeout(CONNECT_TIMEOUT).build()?;
-        Ok(Self { hosts: Mutex::default(), store, own_origin, access, http })
+        let measured = Measured::default();
+        Ok(Self { hosts: Mutex::default(), store, own_origin, access, http, measured })
     }
 
     /// A client for the host at `url`, with the cluster's token.

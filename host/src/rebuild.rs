@@ -5,11 +5,11 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::blobs::Stored;
-use super::meshes::{self, CORRECTION, MeshEncoding};
+use super::meshes::{self, CORRECTION, MeshEncoding, REPLAY};
 use super::sessions::{CurrentMesh, LoadTimes, SessionRecord};
 use super::state::Host;
 use meshflow_api::host::millis;
-use meshflow_codec::correction;
+use meshflow_codec::{correction, replay};
 use meshflow_mesh::MeshData;
 
 /// Loads session `id` from its record; on failure the session is failed with the reason.
@@ -92,8 +92,12 @@ async fn read_mesh_blob(host: &Host, name: &str) -> Result<MeshData, String> {
         .map_err(|e| e.to_string())?
 }
 
-/// One replayed step: a correction applied to `mesh`, or a full mesh replacing it.
+/// One replayed step: a correction applied to `mesh`, a named step run again, or a full
+/// mesh replacing it.
 async fn apply_blob(host: &Host, mesh: MeshData, name: &str) -> Result<MeshData, String> {
+    if name.ends_with(&format!(".{REPLAY}")) {
+        return rerun_blob(host, mesh, name).await;
+    }
     if !name.ends_with(&format!(".{CORRECTION}")) {
         return read_mesh_blob(host, name).await;
     }
@@ -104,6 +108,21 @@ async fn apply_blob(host: &Host, mesh: MeshData, name: &str) -> Result<MeshData,
     })
     .await
     .map_err(|e| e.to_string())?
+}
+
+/// A step this host re-ran from a replay correction: run again with the same plugin (one it
+/// offers or fetched for that replay; nothing is fetched now).
+async fn rerun_blob(host: &Host, mesh: MeshData, name: &str) -> Result<MeshData, String> {
+    let bytes = host.blobs.read(name).await?;
+    let step = replay::decode(&bytes).map_err(|e| format!("{name}: {e}"))?;
+    let scope = host.scope(&[])?;
+    let plugin = crate::replay::plugin_for(host, &scope, None, &step.plugin_hex())
+        .await
+        .map_err(|e| format!("replaying {name}: {e}"))?;
+    let next = crate::replay::rerun(host.runtime.clone(), plugin, step, Arc::new(mesh))
+        .await
+        .map_err(|e| format!("replaying {name}: {e}"))?;
+    Ok(Arc::unwrap_or_clone(next.mesh))
 }
 
 fn encoding_of(name: &str) -> Result<MeshEncoding, String> {

@@ -6,6 +6,7 @@
 //! a busy host is asked again, then left for another (`busy`).
 
 mod busy;
+mod cost;
 mod replica;
 mod verify;
 
@@ -98,10 +99,38 @@ struct Current {
     correction: Option<meshflow_api::host::BlobRef>,
     vertices: u64,
     triangles: u64,
-    /// The size of the last full mesh seen, to choose the smaller transfer in `auto`.
-    full_bytes_estimate: u64,
+    /// The size of the last full mesh seen and its vertex count, from which the cost model
+    /// estimates the current one's; shared with the forwarded updates, which see it first.
+    last_full: LastFull,
     /// The host whose filter made this mesh (none for the input).
     producer: Option<String>,
+}
+
+/// The last full mesh size seen in the run, with the vertex count it had; shared by the
+/// executor and its forwarded updates.
+#[derive(Clone)]
+pub(crate) struct LastFull(Arc<std::sync::Mutex<Option<(u64, u64)>>>);
+
+impl LastFull {
+    fn new(bytes: Option<u64>, vertices: u64) -> Self {
+        Self(Arc::new(std::sync::Mutex::new(bytes.map(|b| (b, vertices)))))
+    }
+
+    pub(crate) fn seen(&self, bytes: u64, vertices: u64) {
+        *self.0.lock().expect("last full lock") = Some((bytes, vertices));
+    }
+
+    /// The full size of a mesh of `vertices`, scaled from the last one seen (unknown: so
+    /// large that a full transfer is never expected to be quickest).
+    fn estimate(&self, vertices: u64) -> u64 {
+        match *self.0.lock().expect("last full lock") {
+            Some((bytes, seen)) if seen > 0 => {
+                (bytes as f64 * vertices as f64 / seen as f64).round() as u64
+            }
+            Some((bytes, _)) => bytes,
+            None => u64::MAX / 4,
+        }
+    }
 }
 
 /// Why a task could not run on its host.
@@ -320,7 +349,7 @@ impl Executor {
             correction: None,
             vertices,
             triangles,
-            full_bytes_estimate: status.input_bytes.unwrap_or(u64::MAX),
+            last_full: LastFull::new(status.input_bytes, vertices),
             producer: None,
         });
         self.run.update("input", |r| {
@@ -386,28 +415,45 @@ impl Executor {
         self.advance(&filter, &host);
         self.history.push((task.clone(), filter.output_hash.clone()));
         let current = self.current.as_ref().expect("the input is loaded");
-        let update = Update {
-            correction: Some(filter.correction.clone()),
-            full: filter.full.clone(),
-            use_: self.choose_transfer(filter.correction.bytes, current.full_bytes_estimate),
+        let output = cost::StepOutput {
+            correction_bytes: filter.correction.bytes,
+            replay_bytes: filter.replay.bytes,
+            full_bytes: current.last_full.estimate(filter.vertices as u64),
+            edits: filter.edits as u64,
+            vertices: filter.vertices as u64,
+            compute_ms: filter.compute_ms,
         };
         let hash = current.hash.clone();
+        let last_full = current.last_full.clone();
+        let measured = &self.registry.measured;
         for replica in &mut self.replicas {
             let wanted = receivers.iter().any(|h| Arc::ptr_eq(h, &replica.host));
-            if wanted && !Arc::ptr_eq(&replica.host, &host) {
-                replica.forward(&self.run, index, update.clone(), &hash, &host);
+            if !wanted || Arc::ptr_eq(&replica.host, &host) {
+                continue;
             }
+            let receiver = &replica.host;
+            let estimates = cost::estimate(
+                &output,
+                measured.link(&host.url, &receiver.url),
+                measured.speed(&receiver.url),
+                receiver.has_plugin(&filter.plugin),
+            );
+            let update = Update {
+                correction: Some(filter.correction.clone()),
+                replay: Some(filter.replay.clone()),
+                full: filter.full.clone(),
+                use_: cost::choose(self.transfer, &estimates),
+            };
+            let forwarded = replica::Forwarded {
+                update,
+                estimates: (self.transfer == Transfer::Auto).then_some(estimates),
+                output,
+                last_full: last_full.clone(),
+                registry: self.registry.clone(),
+            };
+            replica.forward(&self.run, index, forwarded, &hash, &host);
         }
         Ok(())
-    }
-
-    fn choose_transfer(&self, correction_bytes: u64, full_bytes: u64) -> Use {
-        match self.transfer {
-            Transfer::Full => Use::Full,
-            Transfer::Correction => Use::Correction,
-            Transfer::Auto if correction_bytes < full_bytes => Use::Correction,
-            Transfer::Auto => Use::Full,
-        }
     }
 
     /// The filter's output becomes the current mesh; the producer already holds it.
@@ -552,6 +598,7 @@ impl Executor {
             triangles: None,
             edits: None,
             correction_bytes: None,
+            replay_bytes: None,
             full_bytes: None,
             value: None,
             condition: None,
@@ -570,6 +617,7 @@ impl Executor {
                 record.triangles = Some(f.triangles as u64);
                 record.edits = Some(f.edits as u64);
                 record.correction_bytes = Some(f.correction.bytes);
+                record.replay_bytes = Some(f.replay.bytes);
             }
             RunResult::Check(c) => {
                 record.plugin = c.plugin.clone();
@@ -598,7 +646,7 @@ impl Executor {
             }
             for url in &sources {
                 let full = FullRef { url: url.clone(), hash: hash.clone() };
-                let update = Update { correction: None, full, use_: Use::Full };
+                let update = Update { correction: None, replay: None, full, use_: Use::Full };
                 match host.client.update(&replica.session, &update).await {
                     Ok(updated) => {
                         verify::updated(&updated, &hash)?;
@@ -716,7 +764,7 @@ impl Executor {
             correction: None,
             vertices: input.vertices,
             triangles: input.triangles,
-            full_bytes_estimate: u64::MAX,
+            last_full: LastFull::new(None, input.vertices),
             producer: None,
         });
         Ok(())
@@ -738,8 +786,8 @@ impl Executor {
         current.correction = None;
         current.vertices = step.vertices.unwrap_or(0);
         current.triangles = step.triangles.unwrap_or(0);
-        if let Some(bytes) = step.full_bytes {
-            current.full_bytes_estimate = bytes;
+        if let (Some(bytes), Some(vertices)) = (step.full_bytes, step.vertices) {
+            current.last_full.seen(bytes, vertices);
         }
         Ok(())
     }
