@@ -48,11 +48,23 @@ pub enum ReplayFailure {
 pub struct ReplayPlugins {
     dir: PathBuf,
     loaded: Mutex<HashMap<String, Plugin>>,
+    /// One fetch and compilation per digest at a time: updates that need the same plugin
+    /// at once wait for the first one's instead of each compiling it.
+    pending: Mutex<HashMap<String, Arc<tokio::sync::OnceCell<Plugin>>>>,
 }
 
 impl ReplayPlugins {
     pub fn new(dir: PathBuf) -> Self {
-        Self { dir, loaded: Mutex::default() }
+        Self { dir, loaded: Mutex::default(), pending: Mutex::default() }
+    }
+
+    fn pending(&self, digest: &str) -> Arc<tokio::sync::OnceCell<Plugin>> {
+        let mut pending = self.pending.lock().expect("replay plugins lock");
+        pending.entry(digest.to_owned()).or_default().clone()
+    }
+
+    fn done(&self, digest: &str) {
+        self.pending.lock().expect("replay plugins lock").remove(digest);
     }
 
     fn path(&self, digest: &str) -> PathBuf {
@@ -158,11 +170,25 @@ pub async fn plugin_for(
     producer: Option<&str>,
     digest: &str,
 ) -> Result<Plugin, ReplayFailure> {
-    let fail = |message: String| ReplayFailure::Plugin { digest: digest.to_owned(), message };
     if let Some(plugin) = host.plugins.by_digest(digest).or_else(|| host.replay_plugins.get(digest))
     {
         return Ok(plugin);
     }
+    let pending = host.replay_plugins.pending(digest);
+    let plugin = pending.get_or_try_init(|| obtain(host, scope, producer, digest)).await.cloned();
+    host.replay_plugins.done(digest);
+    plugin
+}
+
+/// Reads the plugin kept from an earlier replay, or fetches it from `producer`; checks its
+/// digest, loads (compiles) and keeps it.
+async fn obtain(
+    host: &Host,
+    scope: &FetchScope,
+    producer: Option<&str>,
+    digest: &str,
+) -> Result<Plugin, ReplayFailure> {
+    let fail = |message: String| ReplayFailure::Plugin { digest: digest.to_owned(), message };
     let stored = host.replay_plugins.path(digest);
     let bytes = match tokio::fs::read(&stored).await {
         Ok(bytes) => bytes,

@@ -3,7 +3,8 @@
 //!
 //! - edit log: its bytes over the link, then replaying its edits;
 //! - replay: its few hundred bytes over the link (plus the plugin's, if the receiver lacks
-//!   it), then the producer's compute time at the receiver's speed;
+//!   it), then the producer's compute time at the receiver's speed, once more for every
+//!   task the receiver is busy with (a re-run waits for a run slot there);
 //! - full mesh: the last full size seen, scaled to the current vertex count, over the link,
 //!   then unpacking it.
 
@@ -28,19 +29,26 @@ pub struct StepOutput {
     pub compute_ms: f64,
 }
 
-pub fn estimate(
-    step: &StepOutput,
-    link: Link,
-    speed: HostSpeed,
-    receiver_has_plugin: bool,
-) -> TransferEstimates {
+/// The receiving host as the engine sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct Receiver {
+    pub link: Link,
+    pub speed: HostSpeed,
+    pub has_plugin: bool,
+    /// Tasks running or assigned there.
+    pub load: u32,
+}
+
+pub fn estimate(step: &StepOutput, receiver: &Receiver) -> TransferEstimates {
+    let Receiver { link, speed, has_plugin: receiver_has_plugin, load } = *receiver;
+    let compute_ms = speed.replay_ratio * step.compute_ms;
     let plugin_ms = if receiver_has_plugin { 0.0 } else { link.transfer_ms(PLUGIN_BYTES_GUESS) };
     TransferEstimates {
         correction_ms: link.transfer_ms(step.correction_bytes)
             + speed.apply_ms_per_edit * step.edits as f64,
         replay_ms: link.transfer_ms(step.replay_bytes)
             + plugin_ms
-            + speed.replay_ratio * step.compute_ms,
+            + compute_ms * f64::from(1 + load),
         full_ms: link.transfer_ms(step.full_bytes)
             + speed.unpack_ms_per_vertex * step.vertices as f64,
     }
@@ -99,28 +107,43 @@ mod tests {
         compute_ms: 150.0,
     };
 
+    fn receiver(link: Link, has_plugin: bool, load: u32) -> Receiver {
+        Receiver { link, speed: SPEED, has_plugin, load }
+    }
+
     #[test]
     fn a_global_step_is_replayed_over_a_slow_link_and_shipped_over_a_fast_one() {
-        let slow = estimate(&GLOBAL, MBIT_5, SPEED, true);
+        let slow = estimate(&GLOBAL, &receiver(MBIT_5, true, 0));
         assert_eq!(choose(Transfer::Auto, &slow), Use::Replay, "{slow:?}");
         // A receiver without the plugin first fetches ~2 MB: still far less than 5 MB.
-        assert_eq!(choose(Transfer::Auto, &estimate(&GLOBAL, MBIT_5, SPEED, false)), Use::Replay);
+        let without = estimate(&GLOBAL, &receiver(MBIT_5, false, 0));
+        assert_eq!(choose(Transfer::Auto, &without), Use::Replay);
         // On a LAN the edit log (40 ms to fetch, 200 ms to apply) beats 360 ms of compute.
-        let fast = estimate(&GLOBAL, LAN, SPEED, true);
+        let fast = estimate(&GLOBAL, &receiver(LAN, true, 0));
         assert_eq!(choose(Transfer::Auto, &fast), Use::Correction, "{fast:?}");
     }
 
     #[test]
+    fn a_busy_receiver_is_not_given_compute_it_would_queue_for() {
+        let idle = estimate(&GLOBAL, &receiver(MBIT_5, true, 0));
+        let busy = estimate(&GLOBAL, &receiver(MBIT_5, true, 30));
+        assert!(busy.replay_ms > 30.0 * idle.replay_ms / 2.0, "{busy:?}");
+        assert_eq!(busy.correction_ms, idle.correction_ms);
+        assert_eq!(choose(Transfer::Auto, &busy), Use::Correction, "{busy:?}");
+    }
+
+    #[test]
     fn a_local_step_travels_as_its_edit_log() {
-        let slow = estimate(&LOCAL, MBIT_5, SPEED, true);
+        let slow = estimate(&LOCAL, &receiver(MBIT_5, true, 0));
         assert_eq!(choose(Transfer::Auto, &slow), Use::Correction, "{slow:?}");
     }
 
     #[test]
     fn a_forced_transfer_is_obeyed_whatever_the_estimates() {
-        let slow = estimate(&GLOBAL, MBIT_5, SPEED, true);
+        let slow = estimate(&GLOBAL, &receiver(MBIT_5, true, 0));
         assert_eq!(choose(Transfer::Full, &slow), Use::Full);
         assert_eq!(choose(Transfer::Correction, &slow), Use::Correction);
-        assert_eq!(choose(Transfer::Replay, &estimate(&LOCAL, LAN, SPEED, true)), Use::Replay);
+        let local = estimate(&LOCAL, &receiver(LAN, true, 0));
+        assert_eq!(choose(Transfer::Replay, &local), Use::Replay);
     }
 }

@@ -434,9 +434,12 @@ impl Executor {
             let receiver = &replica.host;
             let estimates = cost::estimate(
                 &output,
-                measured.link(&host.url, &receiver.url),
-                measured.speed(&receiver.url),
-                receiver.has_plugin(&filter.plugin),
+                &cost::Receiver {
+                    link: measured.link(&host.url, &receiver.url),
+                    speed: measured.speed(&receiver.url),
+                    has_plugin: receiver.has_plugin(&filter.plugin),
+                    load: receiver.load(),
+                },
             );
             let update = Update {
                 correction: Some(filter.correction.clone()),

@@ -243,13 +243,15 @@ pub async fn run(
     })
     .await?
     .map_err(|e| ApiError::internal(format!("encoding the correction: {e}")))?;
-    let correction_name = meshes::correction_name(&correction);
-    let correction_bytes = correction.len() as u64;
-    let stored = host.blobs.put(&correction_name, Arc::new(correction)).await?;
+    // The replay is stored first and not held: no session record names it, and a second
+    // hold taken while the correction's is held would queue behind a waiting eviction.
     let named = replay::name_step(&ran.0, &info, &ran.1, base_hash, &next)
         .map_err(|e| ApiError::internal(format!("naming the step: {e}")))?;
     let (replay_name, replay_bytes) = (meshes::replay_name(&named), named.len() as u64);
-    let stored_replay = host.blobs.put(&replay_name, Arc::new(named)).await?;
+    drop(host.blobs.put(&replay_name, Arc::new(named)).await?);
+    let correction_name = meshes::correction_name(&correction);
+    let correction_bytes = correction.len() as u64;
+    let stored = host.blobs.put(&correction_name, Arc::new(correction)).await?;
     let full_name = host.blobs.remember(next.mesh.clone(), &next.hash);
     let result = FilterResult {
         service,
@@ -267,7 +269,7 @@ pub async fn run(
         full: FullRef { url: host.blob_url(&full_name), hash: next.hash.clone() },
     };
     session.commit(next, correction_name)?;
-    drop((stored, stored_replay));
+    drop(stored);
     crate::eviction::enforce_budget(&host).await;
     Ok(Json(RunResult::Filter(result)))
 }
