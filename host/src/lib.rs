@@ -14,7 +14,7 @@ mod eviction;
 mod meshes;
 mod plugins;
 mod rebuild;
-mod replay;
+pub mod replay;
 mod routes;
 mod sessions;
 mod state;

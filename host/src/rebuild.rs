@@ -119,10 +119,9 @@ async fn rerun_blob(host: &Host, mesh: MeshData, name: &str) -> Result<MeshData,
     let plugin = crate::replay::plugin_for(host, &scope, None, &step.plugin_hex())
         .await
         .map_err(|e| format!("replaying {name}: {e}"))?;
-    let next = crate::replay::rerun(host.runtime.clone(), plugin, step, Arc::new(mesh))
+    crate::replay::rerun_off_thread(host.runtime.clone(), plugin, step, Arc::new(mesh))
         .await
-        .map_err(|e| format!("replaying {name}: {e}"))?;
-    Ok(Arc::unwrap_or_clone(next.mesh))
+        .map_err(|e| format!("replaying {name}: {e}"))
 }
 
 fn encoding_of(name: &str) -> Result<MeshEncoding, String> {

@@ -45,7 +45,7 @@ pub enum ReplayFailure {
 }
 
 /// The plugins fetched for replays, on disk and, once used, loaded.
-pub struct ReplayPlugins {
+pub(crate) struct ReplayPlugins {
     dir: PathBuf,
     loaded: Mutex<HashMap<String, Plugin>>,
     /// One fetch and compilation per digest at a time: updates that need the same plugin
@@ -85,32 +85,61 @@ impl ReplayPlugins {
     }
 }
 
-/// The replay correction of a filter step this host just ran.
-pub fn name_step(
+/// Names a filter step that ran `plugin`'s service `info` with `params` on mesh `base` and
+/// gave `result`: the replay correction (DESIGN §4), every parameter resolved.
+pub fn name(
     plugin: &Plugin,
     info: &ServiceInfo,
     params: &[(String, meshflow_params::Value)],
     base: ContentHash,
-    result: &CurrentMesh,
-) -> Result<Vec<u8>, String> {
+    result: &MeshData,
+    result_hash: ContentHash,
+) -> Result<Replay, String> {
     let resolved = meshflow_params::resolve(info, params).map_err(|e| e.to_string())?;
     let params: serde_json::Map<_, _> =
         resolved.into_iter().map(|(name, value)| (name, value_json(&value))).collect();
-    let step = Replay {
+    Ok(Replay {
         plugin: parse_digest(&plugin.digest).ok_or("the plugin digest is not SHA-256 hex")?,
         service: info.name.clone(),
         params: serde_json::Value::Object(params).to_string(),
         base,
-        result: ContentHash::from_hex(&result.hash).ok_or("the result hash is not a hash")?,
-        result_counts: [result.mesh.vertex_count() as u64, result.mesh.triangle_count() as u64],
-    };
-    Ok(replay::encode(&step))
+        result: result_hash,
+        result_counts: [result.vertex_count() as u64, result.triangle_count() as u64],
+    })
+}
+
+/// Re-runs `step` with `plugin` on `mesh` in the sandbox (blocking) and checks that it
+/// reaches the step's result hash.
+pub fn rerun(
+    runtime: &Runtime,
+    plugin: &Plugin,
+    step: &Replay,
+    mesh: Arc<MeshData>,
+) -> Result<MeshData, ReplayFailure> {
+    let service = step.service.clone();
+    let failed = |message: String| ReplayFailure::Run { service: service.clone(), message };
+    let info = plugin
+        .service(&step.service)
+        .ok_or_else(|| failed(format!("plugin {} has no such service", plugin.digest)))?;
+    let given: serde_json::Map<String, serde_json::Value> =
+        serde_json::from_str(&step.params).map_err(|e| ReplayFailure::Params(e.to_string()))?;
+    let params =
+        params_from_json(info, &given).map_err(|e| ReplayFailure::Params(e.to_string()))?;
+    let output =
+        runtime.run(plugin, &step.service, mesh, &params).map_err(|e| failed(e.to_string()))?;
+    let mesh = output.mesh.ok_or_else(|| failed("the service is a check".into()))?;
+    let found = mesh.content_hash();
+    if found != step.result {
+        let (expected, found) = (step.result.to_hex(), found.to_hex());
+        return Err(ReplayFailure::Diverged { service, expected, found });
+    }
+    Ok(mesh)
 }
 
 /// Re-runs the step `bytes` names on `base` (whose hash is known) and checks it reaches
 /// `expected`. `producer` is the origin that served the replay correction: where a missing
 /// plugin is fetched from.
-pub async fn apply(
+pub(crate) async fn apply(
     host: &Host,
     scope: &FetchScope,
     producer: Option<&str>,
@@ -128,43 +157,26 @@ pub async fn apply(
         return Err(ReplayFailure::OtherResult { expected, found });
     }
     let plugin = plugin_for(host, scope, producer, &step.plugin_hex()).await?;
-    rerun(host.runtime.clone(), plugin, step, base.mesh.clone()).await
+    let hash = step.result.to_hex();
+    let mesh = rerun_off_thread(host.runtime.clone(), plugin, step, base.mesh.clone()).await?;
+    Ok(CurrentMesh { mesh: Arc::new(mesh), hash })
 }
 
-/// Runs the step on `mesh` in the sandbox and checks the result hash.
-pub async fn rerun(
+/// [`rerun`] on a blocking thread.
+pub(crate) async fn rerun_off_thread(
     runtime: Arc<Runtime>,
     plugin: Plugin,
     step: Replay,
     mesh: Arc<MeshData>,
-) -> Result<CurrentMesh, ReplayFailure> {
-    let info = plugin.service(&step.service).cloned().ok_or_else(|| ReplayFailure::Run {
-        service: step.service.clone(),
-        message: format!("plugin {} has no such service", plugin.digest),
-    })?;
-    let given: serde_json::Map<String, serde_json::Value> =
-        serde_json::from_str(&step.params).map_err(|e| ReplayFailure::Params(e.to_string()))?;
-    let params =
-        params_from_json(&info, &given).map_err(|e| ReplayFailure::Params(e.to_string()))?;
+) -> Result<MeshData, ReplayFailure> {
     let service = step.service.clone();
-    tokio::task::spawn_blocking(move || {
-        let failed = |message: String| ReplayFailure::Run { service: service.clone(), message };
-        let output =
-            runtime.run(&plugin, &service, mesh, &params).map_err(|e| failed(e.to_string()))?;
-        let mesh = output.mesh.ok_or_else(|| failed("the service is a check".into()))?;
-        let found = mesh.content_hash();
-        if found != step.result {
-            let (expected, found) = (step.result.to_hex(), found.to_hex());
-            return Err(ReplayFailure::Diverged { service, expected, found });
-        }
-        Ok(CurrentMesh { mesh: Arc::new(mesh), hash: found.to_hex() })
-    })
-    .await
-    .map_err(|e| ReplayFailure::Run { service: step.service, message: e.to_string() })?
+    tokio::task::spawn_blocking(move || rerun(&runtime, &plugin, &step, mesh))
+        .await
+        .map_err(|e| ReplayFailure::Run { service, message: e.to_string() })?
 }
 
 /// The plugin with `digest`: offered here, fetched before, or fetched now from `producer`.
-pub async fn plugin_for(
+pub(crate) async fn plugin_for(
     host: &Host,
     scope: &FetchScope,
     producer: Option<&str>,

@@ -245,7 +245,10 @@ pub async fn run(
     .map_err(|e| ApiError::internal(format!("encoding the correction: {e}")))?;
     // The replay is stored first and not held: no session record names it, and a second
     // hold taken while the correction's is held would queue behind a waiting eviction.
-    let named = replay::name_step(&ran.0, &info, &ran.1, base_hash, &next)
+    let result_hash = ContentHash::from_hex(&next.hash)
+        .ok_or_else(|| ApiError::internal("the result hash is not a hash".to_owned()))?;
+    let named = replay::name(&ran.0, &info, &ran.1, base_hash, &next.mesh, result_hash)
+        .map(|step| meshflow_codec::replay::encode(&step))
         .map_err(|e| ApiError::internal(format!("naming the step: {e}")))?;
     let (replay_name, replay_bytes) = (meshes::replay_name(&named), named.len() as u64);
     drop(host.blobs.put(&replay_name, Arc::new(named)).await?);
