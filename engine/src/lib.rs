@@ -14,7 +14,7 @@ pub mod downloads;
 mod executor;
 mod inputs;
 pub mod limits;
-mod measured;
+pub mod measured;
 pub mod plan;
 pub mod record;
 pub mod registry;

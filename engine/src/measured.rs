@@ -94,6 +94,11 @@ impl Measured {
             .unwrap_or(DEFAULT_LINK)
     }
 
+    /// The link into `receiver` as its input downloads measured it, else the default.
+    pub fn link_into(&self, receiver: &str) -> Link {
+        self.tables().into.get(receiver).copied().unwrap_or(DEFAULT_LINK)
+    }
+
     pub fn speed(&self, host: &str) -> HostSpeed {
         self.tables().speeds.get(host).copied().unwrap_or(DEFAULT_SPEED)
     }

@@ -1,6 +1,5 @@
 //! The hosts an engine knows: their services, whether they answer, and how busy they are.
 
-use crate::measured::Measured;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
@@ -13,6 +12,7 @@ use meshflow_api::{CONNECT_TIMEOUT, ClusterAccess, HostClient};
 use serde::Serialize;
 
 use crate::limits::{MAX_HOSTS, SUSPECT_FOR};
+use crate::measured::Measured;
 use crate::store::{self, Store};
 
 /// How often the engine asks every host for its health and services.
@@ -361,6 +361,28 @@ pub(crate) fn test_registry(dir: &std::path::Path) -> (Registry, Store) {
     let registry =
         Registry::new("http://127.0.0.1:7000", Some("secret".into()), store.clone()).unwrap();
     (registry, store)
+}
+
+#[cfg(test)]
+impl HostEntry {
+    /// Makes the host up and offering `services` (as filters of plugin `d…d`), as a poll
+    /// would.
+    pub(crate) fn pretend_offering(&self, services: &[&str]) {
+        let entry = |name: &&str| ServiceEntry {
+            plugin: "d".repeat(64),
+            builtin: true,
+            info: ServiceInfo {
+                name: (*name).to_owned(),
+                kind: meshflow_api::params::ServiceKind::Filter,
+                doc: String::new(),
+                params: Vec::new(),
+                result_type: None,
+            },
+        };
+        let mut state = self.state.lock().unwrap();
+        state.up = true;
+        state.services = services.iter().map(entry).collect();
+    }
 }
 
 #[cfg(test)]

@@ -300,12 +300,16 @@ impl Executor {
                 match outcome {
                     Ok((session, status)) => {
                         let hash = status.hash.clone().unwrap_or_default();
-                        loads.push(HostLoad {
+                        let load = HostLoad {
                             host: host.url.clone(),
                             bytes: status.input_bytes.unwrap_or(0),
                             download_ms: status.download_ms.unwrap_or(0.0),
                             load_ms: status.load_ms.unwrap_or(0.0),
-                        });
+                        };
+                        // What the link into this host is worth, until pairs are measured.
+                        let measured = &self.registry.measured;
+                        measured.downloaded(None, &host.url, load.bytes, load.download_ms);
+                        loads.push(load);
                         self.set_input(input, &status);
                         self.replicas.push(Replica::new(host.clone(), session, hash));
                     }
@@ -370,7 +374,8 @@ impl Executor {
         let before = self.plan.hosts();
         for path in self.plan.tasks_on(host) {
             let service = self.plan.service(&path).to_owned();
-            let replacement = pick(&self.registry.hosts(), &before, &service, excluded)
+            let hosts = self.registry.hosts();
+            let replacement = pick(&hosts, &before, &service, excluded, &self.registry.measured)
                 .ok_or_else(|| {
                     format!(
                         "{path}: host {} failed and no other host offers \"{service}\"",
@@ -518,16 +523,21 @@ impl Executor {
                 failed.push(host.clone());
             }
             if failed.iter().any(|h| Arc::ptr_eq(h, &host)) {
-                let replacement =
-                    pick(&self.registry.hosts(), &self.plan.hosts(), &task.service, &failed)
-                        .ok_or_else(|| {
-                            format!(
-                                "{}: no host left for \"{}\" (failed: {})",
-                                task.path,
-                                task.service,
-                                reasons.join("; ")
-                            )
-                        })?;
+                let replacement = pick(
+                    &self.registry.hosts(),
+                    &self.plan.hosts(),
+                    &task.service,
+                    &failed,
+                    &self.registry.measured,
+                )
+                .ok_or_else(|| {
+                    format!(
+                        "{}: no host left for \"{}\" (failed: {})",
+                        task.path,
+                        task.service,
+                        reasons.join("; ")
+                    )
+                })?;
                 self.plan.assign(&task.path, replacement);
                 continue;
             }
