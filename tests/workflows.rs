@@ -112,6 +112,27 @@ async fn repair_gives_the_local_result_by_corrections_replays_or_full_meshes() {
     run_in_modes(&cluster, &workflow, &input, &expected, &["auto", "replay", "full"]).await;
 }
 
+/// `"quantize": 12` keeps the run on a grid over the input's bounding box: the hosts snap
+/// the input and every step's result, replays included, exactly as the local chain does.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_quantised_workflow_keeps_every_step_on_the_grid_as_locally() {
+    let cluster = Cluster::start(SPREAD).await;
+    let (mut workflow, input) = (example("repair"), Input::bunny());
+    workflow["quantize"] = 12.into();
+    let expected = locally(&workflow, &input);
+    let grid = expected.grid.expect("the local chain keeps a grid");
+    assert!(grid.holds(&expected.mesh.positions));
+    assert_ne!(expected.hash(), locally(&example("repair"), &input).hash());
+    run_in_modes(&cluster, &workflow, &input, &expected, &["auto", "replay"]).await;
+
+    workflow["quantize"] = 25.into();
+    let url = cluster.upload(&input).await;
+    let body = json!({"workflow": workflow, "input": url}).to_string();
+    let (status, answer) = cluster.post_run(body).await;
+    assert_eq!(status, 400, "{answer}");
+    assert!(answer["error"]["message"].as_str().unwrap().contains("quantize"), "{answer}");
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn smoothing_while_unstable_runs_as_many_rounds_as_locally() {
     let cluster = Cluster::start(SPREAD).await;

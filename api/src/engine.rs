@@ -137,9 +137,13 @@ pub struct RunRecord {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct InputRecord {
     pub url: String,
+    /// The hash of the mesh as the run holds it: on its grid, for a quantised run.
     pub hash: String,
     pub vertices: u64,
     pub triangles: u64,
+    /// The step exponents of a quantised run's grid.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grid: Option<[i32; 3]>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -53,6 +53,19 @@ pub struct Vouched<T> {
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct CreateSession {
     pub input: InputRef,
+    /// Keep the session's mesh on a coordinate grid (a workflow's `quantize`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grid: Option<GridSpec>,
+}
+
+/// A session's coordinate grid: made over the input's bounding box with at most `2^bits`
+/// cells per axis, or given by its step exponents (what a session made that way reports,
+/// for a host that joins the run later from a mesh already on the grid).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum GridSpec {
+    Bits(u32),
+    Exponents([i32; 3]),
 }
 
 /// Where a session's input mesh is, and optionally the content hash it must have.
@@ -93,6 +106,9 @@ pub struct SessionStatus {
     pub download_ms: Option<f64>,
     pub load_ms: Option<f64>,
     pub input_bytes: Option<u64>,
+    /// The step exponents of the session's grid, when it keeps one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grid: Option<[i32; 3]>,
 }
 
 /// A blob another host produced: a correction.

@@ -17,7 +17,13 @@ pub struct Workflow {
     /// The input mesh URL, when the workflow carries it.
     pub input: Option<String>,
     pub transfer: Transfer,
+    /// Keep the mesh on a grid of at most `2^bits` cells per axis over the input's
+    /// bounding box: the input is snapped at ingest, every step's result after it.
+    pub quantize: Option<u32>,
 }
+
+/// The grids a workflow may ask for, as `meshflow apply --quantize` takes them.
+pub const QUANTIZE_BITS: std::ops::RangeInclusive<u64> = 1..=24;
 
 #[derive(Debug, Clone, Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -114,7 +120,7 @@ impl Workflow {
         let (steps, object) = match json {
             Json::Array(steps) => (steps, None),
             Json::Object(object) => {
-                known_keys(object, "workflow", &["steps", "input", "transfer"])?;
+                known_keys(object, "workflow", &["steps", "input", "transfer", "quantize"])?;
                 let steps = object
                     .get("steps")
                     .and_then(Json::as_array)
@@ -134,13 +140,29 @@ impl Workflow {
         let transfer = match field("transfer") {
             None => Transfer::default(),
             Some(value) => value.as_str().and_then(Transfer::parse).ok_or_else(|| {
-                WorkflowError::new("transfer", "must be \"auto\", \"correction\" or \"full\"")
+                WorkflowError::new(
+                    "transfer",
+                    "must be \"auto\", \"correction\", \"replay\" or \"full\"",
+                )
             })?,
+        };
+        let quantize = match field("quantize") {
+            None | Some(Json::Null) => None,
+            Some(value) => match value.as_u64().filter(|bits| QUANTIZE_BITS.contains(bits)) {
+                Some(bits) => Some(bits as u32),
+                None => {
+                    return Err(WorkflowError::new(
+                        "quantize",
+                        "must be a number of bits per axis from 1 to 24",
+                    ));
+                }
+            },
         };
         if steps.is_empty() {
             return Err(WorkflowError::new("steps", "a workflow needs at least one step"));
         }
-        let workflow = Self { steps: parse_steps(steps, "steps", 0)?, input, transfer };
+        let steps = parse_steps(steps, "steps", 0)?;
+        let workflow = Self { steps, input, transfer, quantize };
         let tasks = workflow.tasks().len();
         if tasks > MAX_WORKFLOW_TASKS {
             return Err(WorkflowError::new(

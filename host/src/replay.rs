@@ -13,6 +13,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use meshflow_api::fetch_rules::FetchScope;
+use meshflow_codec::quantize::{self, Grid};
 use meshflow_codec::replay::{self, Replay};
 use meshflow_mesh::{ContentHash, MeshData};
 use meshflow_meshio as io;
@@ -108,13 +109,15 @@ pub fn name(
     })
 }
 
-/// Re-runs `step` with `plugin` on `mesh` in the sandbox (blocking) and checks that it
-/// reaches the step's result hash.
+/// Re-runs `step` with `plugin` on `mesh` in the sandbox (blocking), snaps the result onto
+/// `grid` as the producer did (a quantised run), and checks that it reaches the step's
+/// result hash.
 pub fn rerun(
     runtime: &Runtime,
     plugin: &Plugin,
     step: &Replay,
     mesh: Arc<MeshData>,
+    grid: Option<Grid>,
 ) -> Result<MeshData, ReplayFailure> {
     let service = step.service.clone();
     let failed = |message: String| ReplayFailure::Run { service: service.clone(), message };
@@ -125,9 +128,18 @@ pub fn rerun(
         serde_json::from_str(&step.params).map_err(|e| ReplayFailure::Params(e.to_string()))?;
     let params =
         params_from_json(info, &given).map_err(|e| ReplayFailure::Params(e.to_string()))?;
-    let output =
-        runtime.run(plugin, &step.service, mesh, &params).map_err(|e| failed(e.to_string()))?;
-    let mesh = output.mesh.ok_or_else(|| failed("the service is a check".into()))?;
+    let output = runtime
+        .run(plugin, &step.service, Arc::clone(&mesh), &params)
+        .map_err(|e| failed(e.to_string()))?;
+    let result = output.mesh.ok_or_else(|| failed("the service is a check".into()))?;
+    let mesh = match grid {
+        Some(grid) => {
+            quantize::snap_step(&grid, &mesh, result, output.log)
+                .map_err(|e| failed(format!("snapping to the grid: {e}")))?
+                .0
+        }
+        None => result,
+    };
     let found = mesh.content_hash();
     if found != step.result {
         let (expected, found) = (step.result.to_hex(), found.to_hex());
@@ -144,6 +156,7 @@ pub(crate) async fn apply(
     scope: &FetchScope,
     producer: Option<&str>,
     base: &CurrentMesh,
+    grid: Option<Grid>,
     bytes: &[u8],
     expected: &str,
 ) -> Result<CurrentMesh, ReplayFailure> {
@@ -158,7 +171,8 @@ pub(crate) async fn apply(
     }
     let plugin = plugin_for(host, scope, producer, &step.plugin_hex()).await?;
     let hash = step.result.to_hex();
-    let mesh = rerun_off_thread(host.runtime.clone(), plugin, step, base.mesh.clone()).await?;
+    let mesh =
+        rerun_off_thread(host.runtime.clone(), plugin, step, base.mesh.clone(), grid).await?;
     Ok(CurrentMesh { mesh: Arc::new(mesh), hash })
 }
 
@@ -168,9 +182,10 @@ pub(crate) async fn rerun_off_thread(
     plugin: Plugin,
     step: Replay,
     mesh: Arc<MeshData>,
+    grid: Option<Grid>,
 ) -> Result<MeshData, ReplayFailure> {
     let service = step.service.clone();
-    tokio::task::spawn_blocking(move || rerun(&runtime, &plugin, &step, mesh))
+    tokio::task::spawn_blocking(move || rerun(&runtime, &plugin, &step, mesh, grid))
         .await
         .map_err(|e| ReplayFailure::Run { service, message: e.to_string() })?
 }

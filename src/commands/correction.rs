@@ -111,7 +111,7 @@ fn rerun(mesh: &Arc<MeshData>, bytes: &[u8], plugins: &PluginArgs) -> anyhow::Re
             step.service
         );
     };
-    Ok(meshflow_host::replay::rerun(&runtime, plugin, &step, Arc::clone(mesh))?)
+    Ok(meshflow_host::replay::rerun(&runtime, plugin, &step, Arc::clone(mesh), None)?)
 }
 
 fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {

@@ -18,7 +18,8 @@ pub(crate) use verify::full_mesh_url;
 
 use meshflow_api::ClientError;
 use meshflow_api::host::{
-    FilterResult, FullRef, RunRequest, RunResult, SessionState, Transfer as Use, Update,
+    CreateSession, FilterResult, FullRef, GridSpec, InputRef, RunRequest, RunResult, SessionState,
+    Transfer as Use, Update,
 };
 use meshflow_api::params::ValueType;
 use serde_json::{Value as Json, json};
@@ -104,6 +105,8 @@ struct Current {
     last_full: LastFull,
     /// The host whose filter made this mesh (none for the input).
     producer: Option<String>,
+    /// A quantised run's grid (step exponents), for hosts that join from this mesh.
+    grid: Option<[i32; 3]>,
 }
 
 /// The last full mesh size seen in the run, with the vertex count it had; shared by the
@@ -191,6 +194,8 @@ struct Executor {
     registry: Arc<Registry>,
     plan: Plan,
     transfer: Transfer,
+    /// The workflow's `quantize`: bits per axis of the grid every session keeps.
+    quantize: Option<u32>,
     replicas: Vec<Replica>,
     current: Option<Current>,
     /// The input's URL and every filter run since, with its output hash: a host that must
@@ -219,6 +224,7 @@ impl Executor {
             registry,
             plan,
             transfer: workflow.transfer,
+            quantize: workflow.quantize,
             replicas: Vec::new(),
             current: None,
             input: String::new(),
@@ -293,7 +299,9 @@ impl Executor {
         let mut excluded = Vec::new();
         while !hosts.is_empty() {
             let run = &self.run;
-            let attempts = hosts.iter().map(|host| load_input(run, host.clone(), input, None));
+            let grid = self.quantize.map(GridSpec::Bits);
+            let attempts =
+                hosts.iter().map(|host| load_input(run, host.clone(), input, None, grid));
             let outcomes = futures_util::future::join_all(attempts).await;
             let mut retry = Vec::new();
             for (host, outcome) in hosts.iter().zip(outcomes) {
@@ -355,9 +363,11 @@ impl Executor {
             triangles,
             last_full: LastFull::new(status.input_bytes, vertices),
             producer: None,
+            grid: status.grid,
         });
         self.run.update("input", |r| {
-            let record = InputRecord { url: url.to_owned(), hash, vertices, triangles };
+            let grid = status.grid;
+            let record = InputRecord { url: url.to_owned(), hash, vertices, triangles, grid };
             let json = json!(record);
             r.input = Some(record);
             json
@@ -391,7 +401,7 @@ impl Executor {
     /// The hosts of every task still on the active list, bodies of IF and WHILE included.
     fn hosts_of(&self, active: &VecDeque<Active>) -> Vec<Arc<HostEntry>> {
         let steps: Vec<Step> = active.iter().map(|a| a.step.clone()).collect();
-        let workflow = Workflow { steps, input: None, transfer: self.transfer };
+        let workflow = Workflow { steps, input: None, transfer: self.transfer, quantize: None };
         let mut hosts: Vec<Arc<HostEntry>> = Vec::new();
         for task in workflow.tasks() {
             let host = self.plan.host(&task.path);
@@ -672,8 +682,9 @@ impl Executor {
             }
             self.replicas.remove(index);
         }
+        let grid = self.current.as_ref().and_then(|c| c.grid).map(GridSpec::Exponents);
         for url in &sources {
-            match load_input(&self.run, host.clone(), url, Some(hash.clone())).await {
+            match load_input(&self.run, host.clone(), url, Some(hash.clone()), grid).await {
                 Ok((session, _)) => {
                     self.replicas.push(Replica::new(host.clone(), session.clone(), hash));
                     return Ok(session);
@@ -708,7 +719,9 @@ impl Executor {
     /// each output hash against the record.
     async fn replay_from_input(&mut self, host: &Arc<HostEntry>) -> Result<String, Failure> {
         let input_hash = self.run.record().input.map(|i| i.hash);
-        let (session, _) = load_input(&self.run, host.clone(), &self.input, input_hash).await?;
+        let grid = self.quantize.map(GridSpec::Bits);
+        let (session, _) =
+            load_input(&self.run, host.clone(), &self.input, input_hash, grid).await?;
         for (task, expected) in &self.history {
             let request = RunRequest {
                 service: task.service.clone(),
@@ -779,6 +792,7 @@ impl Executor {
             triangles: input.triangles,
             last_full: LastFull::new(None, input.vertices),
             producer: None,
+            grid: input.grid,
         });
         Ok(())
     }
@@ -837,8 +851,10 @@ async fn load_input(
     host: Arc<HostEntry>,
     url: &str,
     hash: Option<String>,
+    grid: Option<GridSpec>,
 ) -> Result<(String, meshflow_api::host::SessionStatus), Failure> {
-    let created = host.client.create_session(url, hash.as_deref()).await?;
+    let input = InputRef { url: url.to_owned(), hash: hash.clone() };
+    let created = host.client.create_session_with(CreateSession { input, grid }).await?;
     run.session_opened(&host.url, &created.id);
     let status = host.client.wait_ready(&created.id).await?;
     match status.state {

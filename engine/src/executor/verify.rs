@@ -334,6 +334,7 @@ mod tests {
     #[test]
     fn loaded_sessions_and_updates_must_name_the_right_mesh() {
         let status = |hash: &str, vertices| SessionStatus {
+            grid: None,
             id: "s".into(),
             state: SessionState::Ready,
             hash: Some(hash.into()),

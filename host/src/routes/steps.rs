@@ -20,6 +20,7 @@ use meshflow_api::host::{
     Vouched, millis,
 };
 use meshflow_codec::correction;
+use meshflow_codec::quantize::{Grid, snap_step};
 use meshflow_mesh::{ContentHash, MeshData};
 use meshflow_params::{from_json as params_from_json, value_json};
 use meshflow_runtime::ServiceKind;
@@ -50,8 +51,8 @@ pub async fn update(
             reasons.push(format!("no {} was given", via.name()));
             continue;
         };
-        let attempt =
-            apply_step(&host, &scope, &session.current, blob, via, &update.full.hash).await;
+        let (base, grid) = (&session.current, session.grid);
+        let attempt = apply_step(&host, &scope, base, grid, blob, via, &update.full.hash).await;
         downloaded += attempt.bytes;
         download_ms += attempt.download_ms;
         match attempt.result {
@@ -128,6 +129,7 @@ async fn apply_step<'a>(
     host: &'a Host,
     scope: &FetchScope,
     base: &CurrentMesh,
+    grid: Option<Grid>,
     blob: &BlobRef,
     via: Transfer,
     expected: &str,
@@ -147,7 +149,8 @@ async fn apply_step<'a>(
     let (applied, name) = match via {
         Transfer::Replay => {
             let producer = reqwest::Url::parse(&blob.url).ok().map(|url| origin(&url));
-            let next = replay::apply(host, scope, producer.as_deref(), base, &bytes, expected)
+            let producer = producer.as_deref();
+            let next = replay::apply(host, scope, producer, base, grid, &bytes, expected)
                 .await
                 .map_err(|e| e.to_string());
             (next, meshes::replay_name(&bytes))
@@ -231,15 +234,25 @@ pub async fn run(
         return Ok(Json(RunResult::Check(result)));
     }
 
-    let edits = output.log.iter().map(|op| op.edit_count()).sum();
     let result = output.mesh.expect("a filter returns a mesh");
     let base_hash = ContentHash::from_hex(&input.hash).ok_or_else(|| {
         ApiError::internal(format!("session hash `{}` is not a hash", input.hash))
     })?;
+    // A quantised run: the plugin computes freely, its result goes back onto the grid.
+    let (result, log) = match session.grid {
+        Some(grid) => {
+            let base = input.mesh.clone();
+            tokio::task::spawn_blocking(move || snap_step(&grid, &base, result, output.log))
+                .await?
+                .map_err(|e| ApiError::internal(format!("snapping to the grid: {e}")))?
+        }
+        None => (result, output.log),
+    };
+    let edits = log.iter().map(|op| op.edit_count()).sum();
     let (next, correction) = tokio::task::spawn_blocking(move || {
-        correction::encode_known(input.mesh, base_hash, &output.log, &result).map(
-            |(bytes, hash)| (CurrentMesh { mesh: Arc::new(result), hash: hash.to_hex() }, bytes),
-        )
+        correction::encode_known(input.mesh, base_hash, &log, &result).map(|(bytes, hash)| {
+            (CurrentMesh { mesh: Arc::new(result), hash: hash.to_hex() }, bytes)
+        })
     })
     .await?
     .map_err(|e| ApiError::internal(format!("encoding the correction: {e}")))?;
