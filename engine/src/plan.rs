@@ -6,11 +6,12 @@ use std::sync::Arc;
 
 use crate::measured::Measured;
 use crate::registry::{HostEntry, Registry};
-use crate::workflow::{Workflow, WorkflowError};
+use crate::workflow::{Placement, Workflow, WorkflowError};
 
 /// Which host runs which task (and its service), by task path.
 pub struct Plan {
     by_task: HashMap<String, (String, Arc<HostEntry>)>,
+    placement: Placement,
 }
 
 impl Plan {
@@ -18,19 +19,21 @@ impl Plan {
         let mut chosen: Vec<Arc<HostEntry>> = Vec::new();
         let mut by_task = HashMap::new();
         for task in workflow.tasks() {
-            let host = pick(&registry.hosts(), &chosen, &task.service, &[], &registry.measured)
-                .ok_or_else(|| {
+            let measured = placed_by_link(workflow.placement, registry);
+            let host = pick(&registry.hosts(), &chosen, &task.service, &[], measured).ok_or_else(
+                || {
                     WorkflowError::new(
                         &task.path,
                         format!("no host that is up offers \"{}\"", task.service),
                     )
-                })?;
+                },
+            )?;
             if !chosen.iter().any(|h| Arc::ptr_eq(h, &host)) {
                 chosen.push(host.clone());
             }
             by_task.insert(task.path.clone(), (task.service.clone(), host));
         }
-        Ok(Self { by_task })
+        Ok(Self { by_task, placement: workflow.placement })
     }
 
     pub fn host(&self, task_path: &str) -> &Arc<HostEntry> {
@@ -60,6 +63,11 @@ impl Plan {
         paths
     }
 
+    /// How hosts were chosen, for replacements.
+    pub fn placement(&self) -> Placement {
+        self.placement
+    }
+
     /// The distinct hosts of the plan, in a stable order.
     pub fn hosts(&self) -> Vec<Arc<HostEntry>> {
         let mut hosts: Vec<Arc<HostEntry>> = Vec::new();
@@ -73,6 +81,11 @@ impl Plan {
     }
 }
 
+/// The measurements `pick` weighs, if the placement weighs links.
+pub fn placed_by_link(placement: Placement, registry: &Registry) -> Option<&Measured> {
+    (placement == Placement::Link).then_some(&registry.measured)
+}
+
 /// What bringing a host into a run costs, in the units of its measured link: a mesh of
 /// about a million vertices, packed.
 const REFERENCE_MESH_BYTES: u64 = 4 << 20;
@@ -80,21 +93,21 @@ const REFERENCE_MESH_BYTES: u64 = 4 << 20;
 const QUEUE_MS_PER_TASK: f64 = 500.0;
 
 /// Among the hosts that are up and offer `service` (and are not excluded), one already in
-/// the plan if any (few distinct hosts, few transfers); else the one where a task is
-/// expected soonest: the mesh brought over its measured link plus the wait behind its
-/// load (the paper's connection efficiency and load balancing). Ties go to the first
-/// registered.
+/// the plan if any (few distinct hosts, few transfers); else, with `measured` links, the
+/// one where a task is expected soonest: the mesh brought over its measured link plus the
+/// wait behind its load (the paper's connection efficiency and load balancing); without,
+/// the least loaded. Ties go to the first registered.
 pub fn pick(
     hosts: &[Arc<HostEntry>],
     in_plan: &[Arc<HostEntry>],
     service: &str,
     excluded: &[Arc<HostEntry>],
-    measured: &Measured,
+    measured: Option<&Measured>,
 ) -> Option<Arc<HostEntry>> {
     let is = |list: &[Arc<HostEntry>], h: &Arc<HostEntry>| list.iter().any(|x| Arc::ptr_eq(x, h));
     let expected_ms = |h: &Arc<HostEntry>| {
-        measured.link_into(&h.url).transfer_ms(REFERENCE_MESH_BYTES)
-            + QUEUE_MS_PER_TASK * f64::from(h.load())
+        let link = measured.map_or(0.0, |m| m.link_into(&h.url).transfer_ms(REFERENCE_MESH_BYTES));
+        link + QUEUE_MS_PER_TASK * f64::from(h.load())
     };
     hosts
         .iter()
@@ -128,9 +141,11 @@ mod tests {
             registry.measured.downloaded(None, &busy.url, 5_000_000, 800.0);
         }
         let _tasks: Vec<_> = (0..4).map(|_| busy.assign()).collect();
-        let measured = &registry.measured;
+        let measured = Some(&registry.measured);
         let chosen = pick(&hosts, &[], "smooth", &[], measured).unwrap();
         assert_eq!(chosen.url, fast.url);
+        // By load alone: the first registered of the idle ones, whatever its link.
+        assert_eq!(pick(&hosts, &[], "smooth", &[], None).unwrap().url, slow.url);
         // Without the fast one: 0.7 s of transfer and 4 tasks to wait for (2 s) beat 17 s.
         let chosen = pick(&hosts, &[], "smooth", std::slice::from_ref(fast), measured).unwrap();
         assert_eq!(chosen.url, busy.url);

@@ -20,6 +20,18 @@ pub struct Workflow {
     /// Keep the mesh on a grid of at most `2^bits` cells per axis over the input's
     /// bounding box: the input is snapped at ingest, every step's result after it.
     pub quantize: Option<u32>,
+    pub placement: Placement,
+}
+
+/// How hosts are chosen among those offering a service (a workflow's `"placement"`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Placement {
+    /// The expected time to get the mesh there over the measured link plus the queue.
+    #[default]
+    Link,
+    /// The least loaded (what the engine did before links were measured; for comparison).
+    Load,
 }
 
 /// The grids a workflow may ask for, as `meshflow apply --quantize` takes them.
@@ -120,7 +132,8 @@ impl Workflow {
         let (steps, object) = match json {
             Json::Array(steps) => (steps, None),
             Json::Object(object) => {
-                known_keys(object, "workflow", &["steps", "input", "transfer", "quantize"])?;
+                let known = ["steps", "input", "transfer", "quantize", "placement"];
+                known_keys(object, "workflow", &known)?;
                 let steps = object
                     .get("steps")
                     .and_then(Json::as_array)
@@ -161,8 +174,16 @@ impl Workflow {
         if steps.is_empty() {
             return Err(WorkflowError::new("steps", "a workflow needs at least one step"));
         }
+        let placement = match field("placement").map(|v| v.as_str()) {
+            None => Placement::default(),
+            Some(Some("link")) => Placement::Link,
+            Some(Some("load")) => Placement::Load,
+            Some(_) => {
+                return Err(WorkflowError::new("placement", "must be \"link\" or \"load\""));
+            }
+        };
         let steps = parse_steps(steps, "steps", 0)?;
-        let workflow = Self { steps, input, transfer, quantize };
+        let workflow = Self { steps, input, transfer, quantize, placement };
         let tasks = workflow.tasks().len();
         if tasks > MAX_WORKFLOW_TASKS {
             return Err(WorkflowError::new(
@@ -355,7 +376,7 @@ mod tests {
         );
         assert_eq!(
             error(json!({"steps": [], "transfer": "fast"})),
-            "transfer: must be \"auto\", \"correction\" or \"full\""
+            "transfer: must be \"auto\", \"correction\", \"replay\" or \"full\""
         );
         assert_eq!(
             error(json!([{"run": "a", "param": {}}])),
@@ -390,6 +411,30 @@ mod tests {
             nested = json!([{"while": {"check": "c", "op": "<", "value": 1}, "do": nested}]);
         }
         assert!(error(nested).ends_with("IF and WHILE blocks nest at most 16 deep"));
+    }
+
+    #[test]
+    fn transfer_quantize_and_placement_are_read_and_checked() {
+        let workflow = Workflow::from_json(&json!({
+            "steps": [{"run": "s"}], "transfer": "replay", "quantize": 16, "placement": "load"
+        }))
+        .unwrap();
+        assert_eq!(
+            (workflow.transfer, workflow.quantize, workflow.placement),
+            (Transfer::Replay, Some(16), Placement::Load)
+        );
+        let defaults = Workflow::from_json(&json!([{"run": "s"}])).unwrap();
+        assert_eq!((defaults.quantize, defaults.placement), (None, Placement::Link));
+        let error = |extra: (&str, Json)| {
+            let mut workflow = json!({"steps": [{"run": "s"}]});
+            workflow[extra.0] = extra.1;
+            Workflow::from_json(&workflow).unwrap_err().to_string()
+        };
+        for bad in [json!(0), json!(25), json!(-3), json!(12.5), json!("16")] {
+            assert!(error(("quantize", bad.clone())).starts_with("quantize: "), "{bad}");
+        }
+        assert!(error(("placement", json!("fastest"))).starts_with("placement: "));
+        assert!(error(("transfer", json!("teleport"))).contains("\"replay\""));
     }
 
     #[test]

@@ -25,7 +25,7 @@ use meshflow_api::params::ValueType;
 use serde_json::{Value as Json, json};
 
 use crate::limits::MAX_STEPS_PER_RUN;
-use crate::plan::{Plan, pick};
+use crate::plan::{Plan, pick, placed_by_link};
 use crate::record::{BroadcastRecord, HostLoad, InputRecord, ResultRecord, Status, StepRecord};
 use crate::registry::{HostEntry, Registry};
 use crate::run::Run;
@@ -385,8 +385,9 @@ impl Executor {
         for path in self.plan.tasks_on(host) {
             let service = self.plan.service(&path).to_owned();
             let hosts = self.registry.hosts();
-            let replacement = pick(&hosts, &before, &service, excluded, &self.registry.measured)
-                .ok_or_else(|| {
+            let measured = placed_by_link(self.plan.placement(), &self.registry);
+            let replacement =
+                pick(&hosts, &before, &service, excluded, measured).ok_or_else(|| {
                     format!(
                         "{path}: host {} failed and no other host offers \"{service}\"",
                         host.url
@@ -401,7 +402,13 @@ impl Executor {
     /// The hosts of every task still on the active list, bodies of IF and WHILE included.
     fn hosts_of(&self, active: &VecDeque<Active>) -> Vec<Arc<HostEntry>> {
         let steps: Vec<Step> = active.iter().map(|a| a.step.clone()).collect();
-        let workflow = Workflow { steps, input: None, transfer: self.transfer, quantize: None };
+        let workflow = Workflow {
+            steps,
+            input: None,
+            transfer: self.transfer,
+            quantize: None,
+            placement: self.plan.placement(),
+        };
         let mut hosts: Vec<Arc<HostEntry>> = Vec::new();
         for task in workflow.tasks() {
             let host = self.plan.host(&task.path);
@@ -538,7 +545,7 @@ impl Executor {
                     &self.plan.hosts(),
                     &task.service,
                     &failed,
-                    &self.registry.measured,
+                    placed_by_link(self.plan.placement(), &self.registry),
                 )
                 .ok_or_else(|| {
                     format!(
