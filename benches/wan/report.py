@@ -109,17 +109,22 @@ def pair(mesh, workflow, auto, full):
     }
 
 
-def load_placements(directory):
-    """The same workload placed by link and by load: totals side by side."""
+def read_records(directory):
+    """Run records named MESH.WORKFLOW.VARIANT.json, by (mesh, workflow) and variant."""
     records = {}
     for path in sorted(Path(directory).glob("*.json")):
-        mesh, workflow, placement = path.name[: -len(".json")].rsplit(".", 2)
+        mesh, workflow, variant = path.name[: -len(".json")].rsplit(".", 2)
         record = json.loads(path.read_text())
         if record["status"] != "completed":
             raise SystemExit(f"{path}: run {record['status']}: {record['error']}")
-        records.setdefault((mesh, workflow), {})[placement] = record
+        records.setdefault((mesh, workflow), {})[variant] = record
+    return records
+
+
+def load_placements(directory):
+    """The same workload placed by link and by load: totals side by side."""
     rows = []
-    for (mesh, workflow), runs in records.items():
+    for (mesh, workflow), runs in read_records(directory).items():
         link, load = runs["link"], runs["load"]
         hosts = lambda r: sorted({s["host"].removeprefix("http://").rsplit(":", 1)[0] for s in r["steps"]})
         rows.append({
@@ -136,13 +141,7 @@ def load_placements(directory):
 
 
 def load_runs(directory):
-    records = {}
-    for path in sorted(Path(directory).glob("*.json")):
-        mesh, workflow, mode = path.name[: -len(".json")].rsplit(".", 2)
-        record = json.loads(path.read_text())
-        if record["status"] != "completed":
-            raise SystemExit(f"{path}: run {record['status']}: {record['error']}")
-        records.setdefault((mesh, workflow), {})[mode] = record
+    records = read_records(directory)
     return [pair(mesh, wf, modes["auto"], modes["full"]) for (mesh, wf), modes in records.items()]
 
 

@@ -31,11 +31,12 @@
 
 use meshflow_mesh::ContentHash;
 
-use crate::correction::coding::bytes::{ByteReader, FramingError, put_varint};
+use crate::correction::coding::bytes::{
+    ByteReader, FramingError, SealError, open_sealed, put_varint, seal, sealed_front,
+};
 
 const MAGIC: [u8; 4] = *b"MFR\x1a";
 pub const VERSION: u16 = 1;
-const CHECKSUM_LEN: usize = 16;
 /// A service name is at most 64 bytes (the runtime refuses longer ones at load).
 pub const MAX_SERVICE_BYTES: usize = 64;
 /// Resolved parameters are a few numbers and words; anything longer is not one.
@@ -93,11 +94,21 @@ pub fn is_replay(bytes: &[u8]) -> bool {
     bytes.starts_with(&MAGIC)
 }
 
+impl From<SealError> for ReplayError {
+    fn from(e: SealError) -> Self {
+        match e {
+            SealError::BadMagic => ReplayError::BadMagic,
+            SealError::UnsupportedVersion(found) => {
+                ReplayError::UnsupportedVersion { found, supported: VERSION }
+            }
+            SealError::Truncated => ReplayError::Truncated,
+            SealError::ChecksumMismatch => ReplayError::ChecksumMismatch,
+        }
+    }
+}
+
 pub fn encode(step: &Replay) -> Vec<u8> {
-    let mut out = Vec::with_capacity(128 + step.service.len() + step.params.len());
-    out.extend_from_slice(&MAGIC);
-    out.extend_from_slice(&VERSION.to_le_bytes());
-    out.extend_from_slice(&[0; CHECKSUM_LEN]);
+    let mut out = sealed_front(MAGIC, VERSION, 128 + step.service.len() + step.params.len());
     out.extend_from_slice(&step.plugin);
     out.extend_from_slice(&step.base.0);
     out.extend_from_slice(&step.result.0);
@@ -108,24 +119,12 @@ pub fn encode(step: &Replay) -> Vec<u8> {
     put_varint(&mut out, step.params.len() as u64);
     out.extend_from_slice(step.service.as_bytes());
     out.extend_from_slice(step.params.as_bytes());
-    let checksum = blake3::hash(&out[6 + CHECKSUM_LEN..]);
-    out[6..6 + CHECKSUM_LEN].copy_from_slice(&checksum.as_bytes()[..CHECKSUM_LEN]);
+    seal(&mut out);
     out
 }
 
 pub fn decode(bytes: &[u8]) -> Result<Replay, ReplayError> {
-    let mut r = ByteReader::new(bytes);
-    if r.take(4).map_err(|_| ReplayError::BadMagic)? != MAGIC {
-        return Err(ReplayError::BadMagic);
-    }
-    let version = r.u16()?;
-    if version != VERSION {
-        return Err(ReplayError::UnsupportedVersion { found: version, supported: VERSION });
-    }
-    let checksum = r.take(CHECKSUM_LEN)?;
-    if blake3::hash(&bytes[6 + CHECKSUM_LEN..]).as_bytes()[..CHECKSUM_LEN] != *checksum {
-        return Err(ReplayError::ChecksumMismatch);
-    }
+    let mut r = open_sealed(bytes, MAGIC, VERSION)?;
     let plugin = r.array()?;
     let base = ContentHash(r.array()?);
     let result = ContentHash(r.array()?);

@@ -3,7 +3,7 @@
 use meshflow_mesh::ContentHash;
 use meshflow_mesh::store::{EditError, OpKind};
 
-use super::coding::bytes::FramingError;
+use super::coding::bytes::{FramingError, SealError};
 
 #[derive(Debug, thiserror::Error)]
 pub enum CorrectionError {
@@ -33,6 +33,19 @@ impl From<FramingError> for CorrectionError {
             FramingError::Truncated => CorrectionError::Truncated,
             FramingError::BadVarint => CorrectionError::Malformed("overlong varint".into()),
             FramingError::BadGrid => CorrectionError::Malformed("invalid grid".into()),
+        }
+    }
+}
+
+impl From<SealError> for CorrectionError {
+    fn from(e: SealError) -> Self {
+        match e {
+            SealError::BadMagic => CorrectionError::BadMagic,
+            SealError::UnsupportedVersion(found) => {
+                CorrectionError::UnsupportedVersion { found, supported: super::VERSION }
+            }
+            SealError::Truncated => CorrectionError::Truncated,
+            SealError::ChecksumMismatch => CorrectionError::ChecksumMismatch,
         }
     }
 }

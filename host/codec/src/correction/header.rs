@@ -15,11 +15,10 @@ use meshflow_mesh::ContentHash;
 use meshflow_mesh::store::OpKind;
 
 use super::CorrectionError;
-use super::coding::bytes::{ByteReader, put_grid, put_varint};
+use super::coding::bytes::{open_sealed, put_grid, put_varint, seal, sealed_front};
 
 pub(crate) const MAGIC: [u8; 4] = *b"MFC\x1a";
 pub const VERSION: u16 = 5;
-const CHECKSUM_LEN: usize = 16;
 
 /// The entropy-coded streams of a correction, in file order.
 pub const SECTIONS: [&str; 4] = ["ops", "ids", "connectivity", "geometry"];
@@ -71,10 +70,8 @@ pub(crate) fn kind_index(kind: OpKind) -> usize {
 
 /// The whole file: header fields, then the sections, with the checksum filled in.
 pub(crate) fn write(header: &Correction, sections: &[Vec<u8>; 4]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(256 + sections.iter().map(Vec::len).sum::<usize>());
-    out.extend_from_slice(&MAGIC);
-    out.extend_from_slice(&VERSION.to_le_bytes());
-    out.extend_from_slice(&[0; CHECKSUM_LEN]);
+    let capacity = 256 + sections.iter().map(Vec::len).sum::<usize>();
+    let mut out = sealed_front(MAGIC, VERSION, capacity);
     out.extend_from_slice(&header.base.0);
     out.extend_from_slice(&header.result.0);
     for n in header.base_counts.iter().chain(&header.result_counts) {
@@ -91,25 +88,14 @@ pub(crate) fn write(header: &Correction, sections: &[Vec<u8>; 4]) -> Vec<u8> {
     for s in sections {
         out.extend_from_slice(s);
     }
-    let checksum = blake3::hash(&out[6 + CHECKSUM_LEN..]);
-    out[6..6 + CHECKSUM_LEN].copy_from_slice(&checksum.as_bytes()[..CHECKSUM_LEN]);
+    seal(&mut out);
     out
 }
 
 /// Checks magic, version and checksum, reads the header, and splits off the sections.
 pub(crate) fn read(bytes: &[u8]) -> Result<(Correction, [&[u8]; 4]), CorrectionError> {
-    let mut r = ByteReader::new(bytes);
-    if r.take(4).map_err(|_| CorrectionError::BadMagic)? != MAGIC {
-        return Err(CorrectionError::BadMagic);
-    }
-    let version = r.u16()?;
-    if version != VERSION {
-        return Err(CorrectionError::UnsupportedVersion { found: version, supported: VERSION });
-    }
-    let checksum = r.take(CHECKSUM_LEN)?;
-    if blake3::hash(&bytes[6 + CHECKSUM_LEN..]).as_bytes()[..CHECKSUM_LEN] != *checksum {
-        return Err(CorrectionError::ChecksumMismatch);
-    }
+    let mut r = open_sealed(bytes, MAGIC, VERSION)?;
+    let version = VERSION;
     let base = ContentHash(r.array()?);
     let result = ContentHash(r.array()?);
     let mut counts = [0u64; 4];

@@ -1,6 +1,6 @@
 //! Why a mesh could not be packed or unpacked.
 
-use crate::correction::coding::bytes::FramingError;
+use crate::correction::coding::bytes::{FramingError, SealError};
 use meshflow_mesh::ContentHash;
 
 #[derive(Debug, thiserror::Error)]
@@ -29,6 +29,19 @@ impl From<FramingError> for PackError {
             FramingError::Truncated => PackError::Truncated,
             FramingError::BadVarint => PackError::Malformed("overlong varint".into()),
             FramingError::BadGrid => PackError::Malformed("invalid grid".into()),
+        }
+    }
+}
+
+impl From<SealError> for PackError {
+    fn from(e: SealError) -> Self {
+        match e {
+            SealError::BadMagic => PackError::BadMagic,
+            SealError::UnsupportedVersion(found) => {
+                PackError::UnsupportedVersion { found, supported: super::VERSION }
+            }
+            SealError::Truncated => PackError::Truncated,
+            SealError::ChecksumMismatch => PackError::ChecksumMismatch,
         }
     }
 }

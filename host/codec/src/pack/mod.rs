@@ -34,7 +34,9 @@ mod predict;
 
 pub use error::PackError;
 
-use crate::correction::coding::bytes::{ByteReader, put_grid, put_varint};
+use crate::correction::coding::bytes::{
+    ByteReader, open_sealed, put_grid, put_varint, seal, sealed_front,
+};
 use crate::correction::coding::residual::ResidualCoder;
 use crate::correction::coding::stream::{SymbolReader, SymbolWriter};
 use crate::quantize::Grid;
@@ -47,8 +49,6 @@ use predict::predict;
 const MAGIC: [u8; 4] = *b"MFM\x1a";
 /// The format version this build writes and reads.
 pub const VERSION: u16 = 4;
-const CHECKSUM_LEN: usize = 16;
-const CHECKSUM_AT: usize = 6;
 /// Declared counts may exceed the file size by at most this factor (the adaptive models'
 /// probability floor keeps honest files above it), so a forged count cannot make the
 /// decoder allocate more than a bounded multiple of its input.
@@ -73,10 +73,7 @@ pub fn encode(mesh: &MeshData) -> Result<Vec<u8>, PackError> {
         previous = Some(v);
     }
     let geometry = geometry.finish();
-    let mut out = Vec::with_capacity(64 + connectivity.len() + geometry.len());
-    out.extend_from_slice(&MAGIC);
-    out.extend_from_slice(&VERSION.to_le_bytes());
-    out.extend_from_slice(&[0; CHECKSUM_LEN]);
+    let mut out = sealed_front(MAGIC, VERSION, 64 + connectivity.len() + geometry.len());
     out.extend_from_slice(&mesh.content_hash().0);
     put_varint(&mut out, vertex_count as u64);
     put_varint(&mut out, mesh.triangle_count() as u64);
@@ -85,26 +82,13 @@ pub fn encode(mesh: &MeshData) -> Result<Vec<u8>, PackError> {
     put_varint(&mut out, geometry.len() as u64);
     out.extend_from_slice(&connectivity);
     out.extend_from_slice(&geometry);
-    let checksum = blake3::hash(&out[CHECKSUM_AT + CHECKSUM_LEN..]);
-    out[CHECKSUM_AT..CHECKSUM_AT + CHECKSUM_LEN]
-        .copy_from_slice(&checksum.as_bytes()[..CHECKSUM_LEN]);
+    seal(&mut out);
     Ok(out)
 }
 
 /// Unpacks a mesh; any damage is a typed error.
 pub fn decode(bytes: &[u8]) -> Result<MeshData, PackError> {
-    let mut r = ByteReader::new(bytes);
-    if r.take(4).map_err(|_| PackError::BadMagic)? != MAGIC {
-        return Err(PackError::BadMagic);
-    }
-    let version = r.u16()?;
-    if version != VERSION {
-        return Err(PackError::UnsupportedVersion { found: version, supported: VERSION });
-    }
-    let checksum = r.take(CHECKSUM_LEN)?;
-    if blake3::hash(&bytes[CHECKSUM_AT + CHECKSUM_LEN..]).as_bytes()[..CHECKSUM_LEN] != *checksum {
-        return Err(PackError::ChecksumMismatch);
-    }
+    let mut r = open_sealed(bytes, MAGIC, VERSION)?;
     let expected = ContentHash(r.array()?);
     let (vertex_count, triangle_count) = (r.varint()?, r.varint()?);
     let budget = ELEMENTS_PER_BYTE * bytes.len() as u64 + ELEMENT_SLACK;

@@ -140,3 +140,54 @@ mod tests {
         assert_eq!(ByteReader::new(&[1, 0, 0, 0xfe, 3]).grid(), Err(FramingError::BadGrid));
     }
 }
+
+/// The sealed front all three file formats share: magic, version (u16 LE), then a 16-byte
+/// BLAKE3 checksum of every byte after it.
+const CHECKSUM_LEN: usize = 16;
+const CHECKSUM_AT: usize = 6;
+
+/// Why a sealed file's front was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum SealError {
+    BadMagic,
+    UnsupportedVersion(u16),
+    Truncated,
+    ChecksumMismatch,
+}
+
+/// Starts a sealed file: magic, version and room for the checksum [`seal`] fills in.
+pub(crate) fn sealed_front(magic: [u8; 4], version: u16, capacity: usize) -> Vec<u8> {
+    let mut out = Vec::with_capacity(CHECKSUM_AT + CHECKSUM_LEN + capacity);
+    out.extend_from_slice(&magic);
+    out.extend_from_slice(&version.to_le_bytes());
+    out.extend_from_slice(&[0; CHECKSUM_LEN]);
+    out
+}
+
+/// Fills in the checksum of a file begun with [`sealed_front`].
+pub(crate) fn seal(out: &mut [u8]) {
+    let checksum = blake3::hash(&out[CHECKSUM_AT + CHECKSUM_LEN..]);
+    out[CHECKSUM_AT..CHECKSUM_AT + CHECKSUM_LEN]
+        .copy_from_slice(&checksum.as_bytes()[..CHECKSUM_LEN]);
+}
+
+/// Checks magic, version and checksum; a reader over what follows them.
+pub(crate) fn open_sealed(
+    bytes: &[u8],
+    magic: [u8; 4],
+    version: u16,
+) -> Result<ByteReader<'_>, SealError> {
+    let mut r = ByteReader::new(bytes);
+    if r.take(4).map_err(|_| SealError::BadMagic)? != magic {
+        return Err(SealError::BadMagic);
+    }
+    let found = r.u16().map_err(|_| SealError::Truncated)?;
+    if found != version {
+        return Err(SealError::UnsupportedVersion(found));
+    }
+    let checksum = r.take(CHECKSUM_LEN).map_err(|_| SealError::Truncated)?;
+    if blake3::hash(&bytes[CHECKSUM_AT + CHECKSUM_LEN..]).as_bytes()[..CHECKSUM_LEN] != *checksum {
+        return Err(SealError::ChecksumMismatch);
+    }
+    Ok(r)
+}
