@@ -1,11 +1,12 @@
 //! What the engine has measured of its hosts across runs, for the cost model (DESIGN §5):
 //! the link between each pair of hosts (bandwidth and latency, from the updates it
 //! forwarded), the link into each host (from its input downloads, until a pair is
-//! measured), and each host's speed at applying edits, unpacking meshes and re-running
-//! steps. Every figure is smoothed (an exponential moving average) and kept in memory: after
-//! a restart the defaults hold until the first transfers.
+//! measured), each host's speed at applying edits, unpacking meshes and re-running steps,
+//! and which plugins a host fetched for a replay. Every figure is its first sample, then a
+//! moving average; all is kept in memory: after a restart the defaults hold until the
+//! first transfers.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::sync::Mutex;
 
 /// Weight of a new sample in the moving averages.
@@ -29,16 +30,32 @@ impl Link {
     pub fn transfer_ms(&self, bytes: u64) -> f64 {
         self.latency_ms + bytes as f64 / self.bytes_per_ms
     }
+}
 
+/// A link as learned, with how many samples made each of its figures.
+#[derive(Clone, Copy, Debug)]
+struct Learned {
+    link: Link,
+    bandwidth_samples: u32,
+    latency_samples: u32,
+}
+
+impl Learned {
+    fn starting_from(link: Link) -> Self {
+        Self { link, bandwidth_samples: 0, latency_samples: 0 }
+    }
+
+    /// A download of `bytes` in `ms`: large ones tell the bandwidth, small ones the latency.
     fn learn(&mut self, bytes: u64, ms: f64) {
         if !(ms.is_finite() && ms > 0.0) {
             return;
         }
+        let link = &mut self.link;
         if bytes >= MIN_BANDWIDTH_SAMPLE_BYTES {
-            let rate = bytes as f64 / (ms - self.latency_ms).max(ms / 2.0);
-            self.bytes_per_ms = smooth(self.bytes_per_ms, rate);
+            let rate = bytes as f64 / (ms - link.latency_ms).max(ms / 2.0);
+            link.bytes_per_ms = learned(link.bytes_per_ms, rate, &mut self.bandwidth_samples);
         } else {
-            self.latency_ms = smooth(self.latency_ms, ms);
+            link.latency_ms = learned(link.latency_ms, ms, &mut self.latency_samples);
         }
     }
 }
@@ -70,10 +87,13 @@ pub struct Measured {
 #[derive(Default)]
 struct Tables {
     /// By (producer, receiver) host URL.
-    pairs: HashMap<(String, String), Link>,
+    pairs: HashMap<(String, String), Learned>,
     /// By receiver: from its input downloads.
-    into: HashMap<String, Link>,
-    speeds: HashMap<String, HostSpeed>,
+    into: HashMap<String, Learned>,
+    /// By host, with the sample count of each figure.
+    speeds: HashMap<String, (HostSpeed, [u32; 3])>,
+    /// (receiver, plugin digest): fetched there for a replay, so the next needs no download.
+    fetched: HashSet<(String, String)>,
 }
 
 impl Measured {
@@ -86,59 +106,77 @@ impl Measured {
     pub fn link(&self, producer: &str, receiver: &str) -> Link {
         let tables = self.tables();
         let pair = (producer.to_owned(), receiver.to_owned());
-        tables
-            .pairs
-            .get(&pair)
-            .or_else(|| tables.into.get(receiver))
-            .copied()
-            .unwrap_or(DEFAULT_LINK)
+        let learned = tables.pairs.get(&pair).or_else(|| tables.into.get(receiver));
+        learned.map_or(DEFAULT_LINK, |l| l.link)
     }
 
     /// The link into `receiver` as its input downloads measured it, else the default.
     pub fn link_into(&self, receiver: &str) -> Link {
-        self.tables().into.get(receiver).copied().unwrap_or(DEFAULT_LINK)
+        self.tables().into.get(receiver).map_or(DEFAULT_LINK, |l| l.link)
     }
 
     pub fn speed(&self, host: &str) -> HostSpeed {
-        self.tables().speeds.get(host).copied().unwrap_or(DEFAULT_SPEED)
+        self.tables().speeds.get(host).map_or(DEFAULT_SPEED, |(speed, _)| *speed)
+    }
+
+    /// Whether `receiver` fetched the plugin `digest` for an earlier replay.
+    pub fn has_fetched(&self, receiver: &str, digest: &str) -> bool {
+        self.tables().fetched.contains(&(receiver.to_owned(), digest.to_owned()))
     }
 
     /// A download of `bytes` in `ms` by `receiver`, from `producer` (a host) or from
     /// wherever the input lies (`None`).
     pub fn downloaded(&self, producer: Option<&str>, receiver: &str, bytes: u64, ms: f64) {
         let mut tables = self.tables();
-        let start = tables.into.get(receiver).copied().unwrap_or(DEFAULT_LINK);
-        let link = match producer {
-            Some(p) => tables.pairs.entry((p.to_owned(), receiver.to_owned())).or_insert(start),
-            None => tables.into.entry(receiver.to_owned()).or_insert(start),
+        // A pair starts from what the receiver's input downloads taught.
+        let start = tables.into.get(receiver).map_or(DEFAULT_LINK, |l| l.link);
+        let fresh = || Learned::starting_from(start);
+        let learned = match producer {
+            Some(p) => {
+                tables.pairs.entry((p.to_owned(), receiver.to_owned())).or_insert_with(fresh)
+            }
+            None => tables.into.entry(receiver.to_owned()).or_insert_with(fresh),
         };
-        link.learn(bytes, ms);
+        learned.learn(bytes, ms);
     }
 
-    pub fn applied(&self, host: &str, applied: &Applied) {
+    /// How `host` applied an update of a step made with plugin `digest`.
+    pub fn applied(&self, host: &str, digest: &str, applied: &Applied) {
         use meshflow_api::host::Transfer;
         let mut tables = self.tables();
-        let speed = tables.speeds.entry(host.to_owned()).or_insert(DEFAULT_SPEED);
+        if applied.via == Transfer::Replay {
+            tables.fetched.insert((host.to_owned(), digest.to_owned()));
+        }
+        let (speed, samples) =
+            tables.speeds.entry(host.to_owned()).or_insert((DEFAULT_SPEED, [0; 3]));
         let ms = applied.apply_ms;
         match applied.via {
             Transfer::Correction if applied.edits > 0 => {
-                speed.apply_ms_per_edit =
-                    smooth(speed.apply_ms_per_edit, ms / applied.edits as f64);
+                let sample = ms / applied.edits as f64;
+                speed.apply_ms_per_edit = learned(speed.apply_ms_per_edit, sample, &mut samples[0]);
             }
             Transfer::Full if applied.vertices > 0 => {
+                let sample = ms / applied.vertices as f64;
                 speed.unpack_ms_per_vertex =
-                    smooth(speed.unpack_ms_per_vertex, ms / applied.vertices as f64);
+                    learned(speed.unpack_ms_per_vertex, sample, &mut samples[1]);
             }
             Transfer::Replay if applied.producer_compute_ms > 0.0 => {
-                speed.replay_ratio = smooth(speed.replay_ratio, ms / applied.producer_compute_ms);
+                let sample = ms / applied.producer_compute_ms;
+                speed.replay_ratio = learned(speed.replay_ratio, sample, &mut samples[2]);
             }
             _ => {}
         }
     }
 }
 
-fn smooth(old: f64, sample: f64) -> f64 {
-    if sample.is_finite() && sample > 0.0 { old + SMOOTHING * (sample - old) } else { old }
+/// A figure after a new sample: the sample itself if it is the first, else the moving
+/// average. Samples that are not positive numbers are ignored.
+fn learned(old: f64, sample: f64, samples: &mut u32) -> f64 {
+    if !(sample.is_finite() && sample > 0.0) {
+        return old;
+    }
+    *samples += 1;
+    if *samples == 1 { sample } else { old + SMOOTHING * (sample - old) }
 }
 
 #[cfg(test)]
@@ -149,12 +187,11 @@ mod tests {
     fn a_pair_is_measured_from_its_transfers_and_defaults_to_the_link_into_the_receiver() {
         let measured = Measured::default();
         assert_eq!(measured.link("a", "b"), DEFAULT_LINK);
-        // The receiver downloaded its 5 MB input at 5 Mbit/s (625 B/ms): 8 s.
-        for _ in 0..20 {
-            measured.downloaded(None, "b", 5_000_000, 8_000.0);
-        }
+        // The receiver downloaded its 5 MB input at 5 Mbit/s (625 B/ms): 8 s. The first
+        // sample replaces the default at once.
+        measured.downloaded(None, "b", 5_000_000, 8_000.0);
         let into_b = measured.link("a", "b");
-        assert!((into_b.bytes_per_ms - 625.0).abs() < 10.0, "{into_b:?}");
+        assert!((into_b.bytes_per_ms - 625.0).abs() < 1.0, "{into_b:?}");
         // Then a 1 MB correction from a at 50 Mbit/s, many times.
         for _ in 0..30 {
             measured.downloaded(Some("a"), "b", 1_000_000, 160.0);
@@ -183,11 +220,13 @@ mod tests {
             vertices: 500_000,
             producer_compute_ms: 100.0,
         };
+        assert!(!measured.has_fetched("h", "p"));
         for _ in 0..30 {
-            measured.applied("h", &applied(Transfer::Replay, 150.0));
-            measured.applied("h", &applied(Transfer::Correction, 200.0));
-            measured.applied("h", &applied(Transfer::Full, f64::NAN));
+            measured.applied("h", "p", &applied(Transfer::Replay, 150.0));
+            measured.applied("h", "p", &applied(Transfer::Correction, 200.0));
+            measured.applied("h", "p", &applied(Transfer::Full, f64::NAN));
         }
+        assert!(measured.has_fetched("h", "p") && !measured.has_fetched("g", "p"));
         let speed = measured.speed("h");
         assert!((speed.replay_ratio - 1.5).abs() < 0.01, "{speed:?}");
         assert!((speed.apply_ms_per_edit - 0.000_2).abs() < 1e-5, "{speed:?}");

@@ -14,9 +14,10 @@ use meshflow_api::host::Transfer as Use;
 use crate::measured::{HostSpeed, Link};
 use crate::workflow::Transfer;
 
-/// What a receiver that lacks the plugin downloads first, until sizes are known: the
-/// built-in plugins are 0.3-2 MB.
-pub const PLUGIN_BYTES_GUESS: u64 = 2 << 20;
+/// What a receiver that lacks the plugin downloads first (the built-in plugins are
+/// 0.1-0.2 MB), and what compiling it there costs.
+pub const PLUGIN_BYTES_GUESS: u64 = 256 << 10;
+pub const PLUGIN_COMPILE_MS_GUESS: f64 = 100.0;
 
 /// One filter step's result, as the producer reported it.
 #[derive(Clone, Copy, Debug)]
@@ -42,7 +43,10 @@ pub struct Receiver {
 pub fn estimate(step: &StepOutput, receiver: &Receiver) -> TransferEstimates {
     let Receiver { link, speed, has_plugin: receiver_has_plugin, load } = *receiver;
     let compute_ms = speed.replay_ratio * step.compute_ms;
-    let plugin_ms = if receiver_has_plugin { 0.0 } else { link.transfer_ms(PLUGIN_BYTES_GUESS) };
+    let plugin_ms = match receiver_has_plugin {
+        true => 0.0,
+        false => link.transfer_ms(PLUGIN_BYTES_GUESS) + PLUGIN_COMPILE_MS_GUESS,
+    };
     TransferEstimates {
         correction_ms: link.transfer_ms(step.correction_bytes)
             + speed.apply_ms_per_edit * step.edits as f64,
@@ -115,7 +119,7 @@ mod tests {
     fn a_global_step_is_replayed_over_a_slow_link_and_shipped_over_a_fast_one() {
         let slow = estimate(&GLOBAL, &receiver(MBIT_5, true, 0));
         assert_eq!(choose(Transfer::Auto, &slow), Use::Replay, "{slow:?}");
-        // A receiver without the plugin first fetches ~2 MB: still far less than 5 MB.
+        // A receiver without the plugin first fetches and compiles it: still far quicker.
         let without = estimate(&GLOBAL, &receiver(MBIT_5, false, 0));
         assert_eq!(choose(Transfer::Auto, &without), Use::Replay);
         // On a LAN the edit log (40 ms to fetch, 200 ms to apply) beats 360 ms of compute.

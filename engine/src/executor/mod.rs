@@ -459,7 +459,8 @@ impl Executor {
                 &cost::Receiver {
                     link: measured.link(&host.url, &receiver.url),
                     speed: measured.speed(&receiver.url),
-                    has_plugin: receiver.has_plugin(&filter.plugin),
+                    has_plugin: receiver.has_plugin(&filter.plugin)
+                        || measured.has_fetched(&receiver.url, &filter.plugin),
                     load: receiver.load(),
                 },
             );
@@ -471,6 +472,7 @@ impl Executor {
             };
             let forwarded = replica::Forwarded {
                 update,
+                plugin: filter.plugin.clone(),
                 estimates: (self.transfer == Transfer::Auto).then_some(estimates),
                 output,
                 last_full: last_full.clone(),

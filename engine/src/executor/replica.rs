@@ -21,6 +21,8 @@ use crate::run::Run;
 /// what the outcome teaches it.
 pub struct Forwarded {
     pub update: Update,
+    /// The digest of the plugin that made the step.
+    pub plugin: String,
     /// Recorded when the model chose (`transfer: auto`).
     pub estimates: Option<TransferEstimates>,
     pub output: StepOutput,
@@ -142,7 +144,7 @@ fn learn(forwarded: &Forwarded, updated: &Updated, producer: &str, receiver: &st
         vertices: output.vertices,
         producer_compute_ms: output.compute_ms,
     };
-    measured.applied(receiver, &applied);
+    measured.applied(receiver, &forwarded.plugin, &applied);
     if updated.via == meshflow_api::host::Transfer::Full && updated.fallback.is_none() {
         forwarded.last_full.seen(updated.bytes, output.vertices);
     }
