@@ -225,6 +225,7 @@ mod tests {
             compute_ms: 1.5,
             queue_ms: 0.0,
             report: String::new(),
+            resolved_params: Default::default(),
             correction: BlobRef { url: format!("{HOST}/blobs/{}.mfc", hash('c')), bytes: 120 },
             full: FullRef { url: format!("{HOST}/blobs/{}.mfm", hash('b')), hash: hash('b') },
         }
@@ -304,6 +305,7 @@ mod tests {
             compute_ms: 0.1,
             queue_ms: 0.0,
             report: String::new(),
+            resolved_params: Default::default(),
         };
         let asked = asked(&input);
         assert_eq!(asked.check(&answer(json!(true)), ValueType::Boolean), Ok(()));
