@@ -536,6 +536,11 @@ impl Executor {
             RunResult::Filter(filter) => asked.filter(filter)?,
             RunResult::Check(check) => asked.check(check, declared_type(host, &task.service)?)?,
         }
+        let ran = match &result {
+            RunResult::Filter(filter) => &filter.plugin,
+            RunResult::Check(check) => &check.plugin,
+        };
+        verify::ran_pinned(ran, task.plugin.as_deref())?;
         let mut record = StepRecord {
             index: 0,
             path: task.path.clone(),

@@ -27,6 +27,18 @@ pub enum FalseClaim {
     Inconsistent(String),
 }
 
+/// A pinned task must have run the pinned plugin: a host naming another digest did not
+/// run what it was asked to.
+pub fn ran_pinned(plugin: &str, pin: Option<&str>) -> Result<(), FalseClaim> {
+    match pin {
+        Some(pin) if !plugin.starts_with(pin) => Err(FalseClaim::Inconsistent(format!(
+            "ran plugin {} where plugin {pin} was asked for",
+            shown(plugin)
+        ))),
+        _ => Ok(()),
+    }
+}
+
 /// A host's text as an error may repeat it: quoted, escaped and cut short.
 fn shown(text: &str) -> String {
     let kept: String = text.chars().take(SHOWN_CHARS).collect();
@@ -293,6 +305,13 @@ mod tests {
         // A host's text is cut short and quoted in the error.
         let long = refused(|a| a.output_hash = "<script>".repeat(1000));
         assert!(long.len() < 200 && long.contains('…'), "{long}");
+    }
+
+    #[test]
+    fn a_pinned_task_must_name_the_pinned_plugin() {
+        assert_eq!(ran_pinned(&hash('e'), None), Ok(()));
+        assert_eq!(ran_pinned(&hash('e'), Some("eeeeeeeeeeee")), Ok(()));
+        assert!(ran_pinned(&hash('e'), Some(&hash('f'))).is_err());
     }
 
     #[test]
