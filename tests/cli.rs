@@ -95,13 +95,20 @@ fn a_malformed_mesh_is_a_clear_error_and_leaves_no_output() {
 #[test]
 fn unknown_services_and_wrong_kinds_say_what_to_do() {
     let stderr = failure(&["check", "vertex-cuont", &bunny()]);
-    assert!(stderr.contains("unknown service `vertex-cuont`"), "{stderr}");
+    assert!(
+        stderr.contains("unknown service `vertex-cuont`; did you mean \"vertex-count\"?"),
+        "{stderr}"
+    );
     assert!(stderr.contains("vertex-count") && stderr.contains("laplacian-smoothing"), "{stderr}");
     let stderr = failure(&["apply", "vertex-count", &bunny(), "-o", "/tmp/never.ply"]);
     assert!(stderr.contains("is a check, not a filter"), "{stderr}");
     let stderr =
         failure(&["apply", "laplacian-smoothing", &bunny(), "-o", "x.ply", "--param", "x"]);
     assert!(stderr.contains("expected NAME=VALUE"), "{stderr}");
+    let misspelt =
+        ["apply", "laplacian-smoothing", &bunny(), "-o", "x.ply", "--param", "iteratons=2"];
+    let stderr = failure(&misspelt);
+    assert!(stderr.contains("did you mean \"iterations\"?"), "{stderr}");
 }
 
 #[test]
