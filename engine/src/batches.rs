@@ -60,30 +60,39 @@ impl Engine {
         else {
             return Ok(None);
         };
-        let mut rows = Vec::with_capacity(batch.entries.len());
+        let files: Vec<String> =
+            batch.entries.iter().map(|e| file_of(&e.input).to_owned()).collect();
+        let lookup = files.clone();
+        let names = self.store.call(move |c| store::input_names(c, &lookup)).await?;
         let mut finished = true;
-        for entry in &batch.entries {
-            rows.push(self.row(entry, &mut finished).await);
-        }
+        let rows = batch
+            .entries
+            .iter()
+            .zip(&files)
+            .map(|(entry, file)| {
+                let name = names.get(file).unwrap_or(file);
+                self.row(name, entry, &mut finished)
+            })
+            .collect();
         let status = if finished { "completed" } else { "running" };
         Ok(Some(BatchStatus { id: batch.id, status: status.into(), entries: batch.entries, rows }))
     }
 
-    async fn row(&self, entry: &BatchEntry, finished: &mut bool) -> SummaryRow {
-        let name = self.input_name_of(&entry.input).await;
+    /// An input's row: its run's, or why it has none.
+    fn row(&self, name: &str, entry: &BatchEntry, finished: &mut bool) -> SummaryRow {
         if let Some(error) = &entry.error {
-            return summary::failed_row(&name, error.clone());
+            return summary::failed_row(name, error.clone());
         }
         let Some(run) = entry.run.as_ref().and_then(|id| self.run(id)) else {
             *finished &= entry.run.is_some();
-            let mut row = summary::failed_row(&name, String::new());
+            let mut row = summary::failed_row(name, String::new());
             row.status = if entry.run.is_some() { "forgotten" } else { "waiting" }.into();
             row.error = entry.run.as_ref().map(|id| format!("run {id} is no longer kept"));
             return row;
         };
         let record = run.record();
         *finished &= record.status.is_final();
-        summary::row(&name, &record)
+        summary::row(name, &record)
     }
 
     /// Goes on with every stored batch that has inputs not yet started.
@@ -137,6 +146,11 @@ async fn drive(engine: Arc<Engine>, batch: StoredBatch) {
 fn going(engine: &Engine, entries: &[BatchEntry]) -> usize {
     let unfinished = |id: &String| engine.run(id).is_some_and(|run| !run.is_finished());
     entries.iter().filter_map(|e| e.run.as_ref()).filter(|id| unfinished(id)).count()
+}
+
+/// The last segment of an input URL: the stored file of an uploaded input.
+fn file_of(url: &str) -> &str {
+    url.rsplit('/').next().unwrap_or(url)
 }
 
 fn new_batch_id() -> String {

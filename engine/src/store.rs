@@ -309,6 +309,23 @@ pub fn input_name(connection: &mut Connection, file: &str) -> Result<Option<Stri
     Ok(statement.query_row([file], |row| row.get(0)).optional()?)
 }
 
+/// The names the given files were uploaded under, for those that were (one transaction for
+/// a whole batch's table).
+pub fn input_names(
+    connection: &mut Connection,
+    files: &[String],
+) -> Result<std::collections::HashMap<String, String>, StoreError> {
+    let mut statement =
+        connection.prepare_cached("SELECT name FROM input_names WHERE file = ?1")?;
+    let mut names = std::collections::HashMap::new();
+    for file in files {
+        if let Some(name) = statement.query_row([file], |row| row.get(0)).optional()? {
+            names.insert(file.clone(), name);
+        }
+    }
+    Ok(names)
+}
+
 /// Inputs stored before `before` that no kept run names (by their file name in its input
 /// URL); they are removed from the table and returned for deletion from disk.
 pub fn take_unused_inputs(
