@@ -89,6 +89,7 @@ pub fn run(args: RerunArgs) -> anyhow::Result<()> {
                 client
             }
         };
+        // The workflow is built from the record (run_to_end takes it), not read from a file.
         let submission = Submission {
             engine,
             workflow: args.record.clone(),
