@@ -64,6 +64,82 @@ fn apply_smooths_the_bunny_and_reports_hashes_that_match_the_files() {
     assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&again).unwrap());
 }
 
+/// A step written as a replay is a few hundred bytes, says what it is, and re-running it
+/// gives the same mesh bit for bit; a plugin that is not built in must be given.
+#[test]
+fn a_replay_correction_names_the_step_and_reruns_to_the_same_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).display().to_string();
+    let noisy = path("noisy.ply");
+    let (edits, replay) = (path("step.mfc"), path("step.mfr"));
+    for (file, kind) in [(&edits, "edits"), (&replay, "replay")] {
+        let summary = json(&ok(&[
+            "apply",
+            "add-noise",
+            &bunny(),
+            "-o",
+            &noisy,
+            "--param",
+            "seed=7",
+            "--correction",
+            file,
+            "--correction-kind",
+            kind,
+            "--json",
+        ]));
+        assert_eq!(summary["correction_bytes"], std::fs::metadata(file).unwrap().len());
+    }
+    let (edits_bytes, replay_bytes) =
+        (std::fs::metadata(&edits).unwrap().len(), std::fs::metadata(&replay).unwrap().len());
+    assert!(
+        replay_bytes <= 300 && 20 * replay_bytes < edits_bytes,
+        "{replay_bytes} vs {edits_bytes}"
+    );
+
+    let inspected = json(&ok(&["correction", "inspect", &replay, "--json"]));
+    assert_eq!(
+        (&inspected["kind"], &inspected["service"]),
+        (&"replay".into(), &"add-noise".into())
+    );
+    assert_eq!(inspected["params"]["seed"], 7);
+    assert!(inspected["params"]["amount"].is_number(), "defaults are named: {inspected}");
+    assert_eq!(json(&ok(&["correction", "inspect", &edits, "--json"]))["kind"], "edits");
+
+    let rerun = path("rerun.ply");
+    ok(&["correction", "apply", &bunny(), &replay, "-o", &rerun]);
+    assert_eq!(ok(&["hash", &rerun]), ok(&["hash", &noisy]));
+    // Not the base it names: refused, nothing written.
+    let wrong = path("wrong.ply");
+    let error = failure(&["correction", "apply", &noisy, &replay, "-o", &wrong]);
+    assert!(error.contains("the replay is for mesh"), "{error}");
+    assert!(!Path::new(&wrong).exists());
+
+    // A plugin that is not built in: the replay names it, and needs it given.
+    let plugin = path("hostile.wasm");
+    std::fs::write(&plugin, meshflow_builtin_plugins::fixture("hostile")).unwrap();
+    let flipped = path("flipped.ply");
+    let own = path("own.mfr");
+    ok(&[
+        "apply",
+        "ignore-bad-edits",
+        &bunny(),
+        "-o",
+        &flipped,
+        "--plugin",
+        &plugin,
+        "--correction",
+        &own,
+        "--correction-kind",
+        "auto",
+    ]);
+    assert_eq!(json(&ok(&["correction", "inspect", &own, "--json"]))["kind"], "replay");
+    let error = failure(&["correction", "apply", &bunny(), &own, "-o", &path("x.ply")]);
+    assert!(error.contains("--plugin") && error.contains("ignore-bad-edits"), "{error}");
+    let again = path("again.ply");
+    ok(&["correction", "apply", &bunny(), &own, "-o", &again, "--plugin", &plugin]);
+    assert_eq!(ok(&["hash", &again]), ok(&["hash", &flipped]));
+}
+
 #[test]
 fn check_and_info_report_the_bunny() {
     assert_eq!(ok(&["check", "vertex-count", &bunny()]).trim(), "1839");

@@ -160,8 +160,12 @@ async fn filters_and_checks_run_and_other_hosts_follow_by_correction_or_full_mes
     assert_eq!(check.value, 1839);
 
     // B replays the correction; C takes the full mesh, packed on first request.
-    let update =
-        |use_| Update { correction: Some(step.correction.clone()), full: step.full.clone(), use_ };
+    let update = |use_| Update {
+        correction: Some(step.correction.clone()),
+        replay: None,
+        full: step.full.clone(),
+        use_,
+    };
     let by_correction = b.update(&on_b, &update(Transfer::Correction)).await.unwrap();
     assert_eq!(by_correction.via, Transfer::Correction);
     assert_eq!(by_correction.fallback, None);
@@ -184,6 +188,74 @@ async fn filters_and_checks_run_and_other_hosts_follow_by_correction_or_full_mes
         filter(&a, &on_a, "add-noise", serde_json::json!({"amount": 0.5, "seed": 7})).await;
     assert_eq!(next_on_a.output_hash, next_on_b.output_hash);
     assert_ne!(next_on_a.output_hash, step.output_hash);
+}
+
+/// DESIGN §4: a receiver re-runs the named step in its own sandbox, fetching the plugin it
+/// lacks from the producer; a replay that reaches another mesh falls back to the edit log;
+/// a restart re-runs it again from the stored plugin.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_replayed_step_reaches_the_same_mesh_and_a_diverging_one_falls_back() {
+    let dirs = [(); 2].map(|()| tempfile::tempdir().unwrap());
+    let (_a, a) = start_host(config(dirs[0].path())).await;
+    // B has no plugins at all: it must fetch the one the step names.
+    let bare = HostConfig { builtins: Vec::new(), ..config(dirs[1].path()) };
+    let (b_handle, b) = start_host(bare.clone()).await;
+    let url = bunny_url().await;
+    let (on_a, on_b) = (ready_session(&a, &url).await, ready_session(&b, &url).await);
+    let params = serde_json::json!({"iterations": 2, "weights": "cotangent"});
+    let step = filter(&a, &on_a, "laplacian-smoothing", params).await;
+
+    // The replay names plugin, service and every parameter, defaults filled in.
+    let named =
+        meshflow_codec::replay::decode(&a.download(&step.replay.url).await.unwrap()).unwrap();
+    assert!(step.replay.bytes <= 300, "{} B", step.replay.bytes);
+    assert_eq!(
+        (named.plugin_hex(), named.service.as_str()),
+        (step.plugin.clone(), "laplacian-smoothing")
+    );
+    let resolved: serde_json::Value = serde_json::from_str(&named.params).unwrap();
+    assert_eq!(
+        (resolved["iterations"].clone(), resolved["weights"].clone()),
+        (2.into(), "cotangent".into())
+    );
+    assert!(resolved.as_object().unwrap().len() > 2, "defaults filled in: {resolved}");
+    assert!(step.correction.bytes > 20 * step.replay.bytes, "{} B edit log", step.correction.bytes);
+
+    let replay = Update {
+        correction: Some(step.correction.clone()),
+        replay: Some(step.replay.clone()),
+        full: step.full.clone(),
+        use_: Transfer::Replay,
+    };
+    let updated = b.update(&on_b, &replay).await.unwrap();
+    assert_eq!((updated.via, updated.fallback.as_deref()), (Transfer::Replay, None));
+    assert_eq!(updated.hash, step.output_hash);
+    assert_eq!(updated.bytes, step.replay.bytes);
+    let fetched = dirs[1].path().join("replay-plugins").join(format!("{}.wasm", step.plugin));
+    assert!(fetched.exists(), "the plugin was fetched and kept");
+    assert!(b.services().await.unwrap().is_empty(), "a fetched plugin is not offered");
+
+    // A replay naming other parameters reaches another mesh: the edit log is used instead.
+    let mut forged = named.clone();
+    forged.params = forged.params.replace("\"iterations\":2", "\"iterations\":3");
+    assert_ne!(forged.params, named.params);
+    let files = serve_files(vec![("forged.mfr", meshflow_codec::replay::encode(&forged))]).await;
+    let on_b2 = ready_session(&b, &url).await;
+    let mut diverging = replay.clone();
+    diverging.replay.as_mut().unwrap().url = format!("{files}/forged.mfr");
+    let updated = b.update(&on_b2, &diverging).await.unwrap();
+    assert_eq!(
+        (updated.via, updated.hash.as_str()),
+        (Transfer::Correction, step.output_hash.as_str())
+    );
+    let reason = updated.fallback.unwrap();
+    assert!(reason.contains("replay") && reason.contains("reached mesh"), "{reason}");
+
+    // After a restart, B rebuilds its session by re-running the step with the kept plugin.
+    b_handle.shutdown().await.unwrap();
+    let (_b, b) = start_host(bare).await;
+    let status = b.wait_ready(&on_b).await.unwrap();
+    assert_eq!(status.hash.as_deref(), Some(step.output_hash.as_str()), "{:?}", status.error);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -240,6 +312,7 @@ async fn a_correction_that_does_not_apply_falls_back_to_the_full_mesh_and_says_w
     // The second step's correction applies to the first step's result, not to the input.
     let update = Update {
         correction: Some(second.correction.clone()),
+        replay: None,
         full: second.full.clone(),
         use_: Transfer::Correction,
     };

@@ -35,8 +35,18 @@ fn locally(workflow: &Json, input: &Input) -> Trace {
 /// Runs `workflow` with `transfer` auto and then full: both give the local result, step by
 /// step, and move data between hosts as the mode says.
 async fn run_both_ways(cluster: &Cluster, workflow: &Json, input: &Input, expected: &Trace) {
+    run_in_modes(cluster, workflow, input, expected, &["auto", "full"]).await;
+}
+
+async fn run_in_modes(
+    cluster: &Cluster,
+    workflow: &Json,
+    input: &Input,
+    expected: &Trace,
+    modes: &[&str],
+) {
     let url = cluster.upload(input).await;
-    for mode in ["auto", "full"] {
+    for &mode in modes {
         let mut workflow = workflow.clone();
         workflow["transfer"] = mode.into();
         let id = cluster.submit(&workflow, &url).await;
@@ -45,14 +55,15 @@ async fn run_both_ways(cluster: &Cluster, workflow: &Json, input: &Input, expect
         assert_eq!(executed(&record), expected.steps, "{mode}: steps and their outcomes");
         assert_eq!(text(&record["result"]["hash"]), expected.hash(), "{mode}");
         assert_eq!(cluster.result(&id).await.content_hash().to_hex(), expected.hash(), "{mode}");
-        assert_transfers(&record, if mode == "auto" { "correction" } else { "full" });
+        assert_transfers(&record, mode);
     }
 }
 
-/// The input reached every host of the plan once; afterwards each filter's result went, by
-/// `via` (`correction` or `full` mesh), to every other host that ran a later step, and to
-/// no host outside the plan.
-fn assert_transfers(record: &Json, via: &str) {
+/// The input reached every host of the plan once; afterwards each filter's result went, as
+/// `mode` says (`full` mesh, `replay`, or in `auto` the way the cost model chose, whose
+/// estimates are recorded), to every other host that ran a later step, and to no host
+/// outside the plan.
+fn assert_transfers(record: &Json, mode: &str) {
     let loads: Vec<&str> =
         record["broadcast"]["hosts"].as_array().unwrap().iter().map(|h| text(&h["host"])).collect();
     let plan: BTreeSet<&str> = loads.iter().copied().collect();
@@ -77,21 +88,49 @@ fn assert_transfers(record: &Json, via: &str) {
         );
         assert!(receivers.is_subset(&plan) && !receivers.contains(producer), "{receivers:?}");
         for transfer in transfers {
-            assert_eq!(transfer["via"], via, "{}: {transfer}", step["path"]);
+            let asked = text(&transfer["asked"]);
+            if mode == "auto" {
+                assert!(transfer["estimates"]["replay_ms"].as_f64().unwrap() > 0.0, "{transfer}");
+            } else {
+                assert_eq!(asked, mode, "{}: {transfer}", step["path"]);
+            }
+            assert_eq!(transfer["via"], asked, "{}: {transfer}", step["path"]);
             assert_eq!((&transfer["error"], &transfer["fallback"]), (&Json::Null, &Json::Null));
         }
-        if via == "full" && !transfers.is_empty() {
+        if mode == "full" && !transfers.is_empty() {
             assert!(step["full_bytes"].as_u64().unwrap() > 0, "{step}");
         }
     }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn repair_gives_the_local_result_by_corrections_or_full_meshes() {
+async fn repair_gives_the_local_result_by_corrections_replays_or_full_meshes() {
     let cluster = Cluster::start(SPREAD).await;
     let (workflow, input) = (example("repair"), Input::bunny());
     let expected = locally(&workflow, &input);
-    run_both_ways(&cluster, &workflow, &input, &expected).await;
+    // Replays run each step again on hosts that lack its plugin: they fetch it.
+    run_in_modes(&cluster, &workflow, &input, &expected, &["auto", "replay", "full"]).await;
+}
+
+/// `"quantize": 12` keeps the run on a grid over the input's bounding box: the hosts snap
+/// the input and every step's result, replays included, exactly as the local chain does.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_quantised_workflow_keeps_every_step_on_the_grid_as_locally() {
+    let cluster = Cluster::start(SPREAD).await;
+    let (mut workflow, input) = (example("repair"), Input::bunny());
+    workflow["quantize"] = 12.into();
+    let expected = locally(&workflow, &input);
+    let grid = expected.grid.expect("the local chain keeps a grid");
+    assert!(grid.holds(&expected.mesh.positions));
+    assert_ne!(expected.hash(), locally(&example("repair"), &input).hash());
+    run_in_modes(&cluster, &workflow, &input, &expected, &["auto", "replay"]).await;
+
+    workflow["quantize"] = 25.into();
+    let url = cluster.upload(&input).await;
+    let body = json!({"workflow": workflow, "input": url}).to_string();
+    let (status, answer) = cluster.post_run(body).await;
+    assert_eq!(status, 400, "{answer}");
+    assert!(answer["error"]["message"].as_str().unwrap().contains("quantize"), "{answer}");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -404,6 +443,7 @@ fn claimed_filter(
         "input_hash": input_hash, "output_hash": output_hash, "vertices": 1839,
         "triangles": 3674, "edits": 1839, "compute_ms": 1.0, "queue_ms": 0.0, "report": "",
         "correction": {"url": correction_url, "bytes": 100},
+        "replay": {"url": correction_url.replace(".mfc", ".mfr"), "bytes": 150},
         "full": {"url": full_url, "hash": output_hash}
     })
 }

@@ -11,10 +11,14 @@ use meshflow_params::ServiceInfo;
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Transfer {
-    /// The smaller of the correction and the full mesh.
+    /// Per receiving host, whichever of the edit log, the replay and the full mesh the
+    /// cost model expects to be quickest.
     #[default]
     Auto,
+    /// The edit log (`.mfc`).
     Correction,
+    /// The step re-run on the receiver (`.mfr`), the edit log as fallback.
+    Replay,
     Full,
 }
 
@@ -23,6 +27,7 @@ impl Transfer {
         match text {
             "auto" => Some(Self::Auto),
             "correction" => Some(Self::Correction),
+            "replay" => Some(Self::Replay),
             "full" => Some(Self::Full),
             _ => None,
         }
@@ -226,9 +231,13 @@ pub struct RunRecord {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct InputRecord {
     pub url: String,
+    /// The hash of the mesh as the run holds it: on its grid, for a quantised run.
     pub hash: String,
     pub vertices: u64,
     pub triangles: u64,
+    /// The step exponents of a quantised run's grid.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grid: Option<[i32; 3]>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -282,6 +291,9 @@ pub struct StepRecord {
     pub triangles: Option<u64>,
     pub edits: Option<u64>,
     pub correction_bytes: Option<u64>,
+    /// The size of the step's replay correction (`.mfr`).
+    #[serde(default)]
+    pub replay_bytes: Option<u64>,
     /// Known when some host downloaded the full mesh (always with `transfer: full`).
     pub full_bytes: Option<u64>,
     /// A check's value and, for conditions, whether the comparison held.
@@ -297,8 +309,14 @@ pub struct StepRecord {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TransferRecord {
     pub host: String,
-    /// `correction` or `full`; the one actually used.
+    /// `correction`, `replay` or `full`: what the engine asked for.
+    #[serde(default)]
+    pub asked: String,
+    /// `correction`, `replay` or `full`: the one actually used.
     pub via: String,
+    /// What the cost model expected each way to take, when it chose (`transfer: auto`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub estimates: Option<TransferEstimates>,
     pub bytes: u64,
     pub download_ms: f64,
     pub apply_ms: f64,
@@ -308,6 +326,15 @@ pub struct TransferRecord {
     /// Why a correction was not used although asked for, or why the update failed.
     pub fallback: Option<String>,
     pub error: Option<String>,
+}
+
+/// Expected milliseconds for one receiver to take one step's result each way: transfer over
+/// the measured link plus applying, re-running or unpacking there.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TransferEstimates {
+    pub correction_ms: f64,
+    pub replay_ms: f64,
+    pub full_ms: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -369,6 +396,7 @@ mod tests {
             triangles: Some(3674),
             edits: Some(1839),
             correction_bytes: Some(152),
+            replay_bytes: Some(180),
             full_bytes: None,
             value: None,
             condition: None,

@@ -67,6 +67,19 @@ pub struct Vouched<T> {
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct CreateSession {
     pub input: InputRef,
+    /// Keep the session's mesh on a coordinate grid (a workflow's `quantize`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grid: Option<GridSpec>,
+}
+
+/// A session's coordinate grid: made over the input's bounding box with at most `2^bits`
+/// cells per axis, or given by its step exponents (what a session made that way reports,
+/// for a host that joins the run later from a mesh already on the grid).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum GridSpec {
+    Bits(u32),
+    Exponents([i32; 3]),
 }
 
 /// Where a session's input mesh is, and optionally the content hash it must have.
@@ -107,6 +120,9 @@ pub struct SessionStatus {
     pub download_ms: Option<f64>,
     pub load_ms: Option<f64>,
     pub input_bytes: Option<u64>,
+    /// The step exponents of the session's grid, when it keeps one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grid: Option<[i32; 3]>,
 }
 
 /// A blob another host produced: a correction.
@@ -123,18 +139,33 @@ pub struct FullRef {
     pub hash: String,
 }
 
-/// Which of the two transfers a receiving host should use.
+/// How a receiving host should bring itself up to date: replay the edit log
+/// (`correction`), re-run the step (`replay`), or take the full mesh.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum Transfer {
     Correction,
+    Replay,
     Full,
+}
+
+impl Transfer {
+    pub fn name(self) -> &'static str {
+        match self {
+            Transfer::Correction => "correction",
+            Transfer::Replay => "replay",
+            Transfer::Full => "full",
+        }
+    }
 }
 
 /// `POST /sessions/{id}/update`.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Update {
     pub correction: Option<BlobRef>,
+    /// The step named (`.mfr`), to re-run here; the edit log is the fallback.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub replay: Option<BlobRef>,
     pub full: FullRef,
     #[serde(rename = "use")]
     pub use_: Transfer,
@@ -149,7 +180,7 @@ pub struct Updated {
     pub bytes: u64,
     pub download_ms: f64,
     pub apply_ms: f64,
-    /// Why the correction was not used, when the host fell back to the full mesh.
+    /// Why the transfer asked for was not used, when the host fell back to another.
     pub fallback: Option<String>,
 }
 
@@ -191,6 +222,8 @@ pub struct FilterResult {
     #[serde(default)]
     pub resolved_params: serde_json::Map<String, serde_json::Value>,
     pub correction: BlobRef,
+    /// The step named: plugin digest, service, resolved parameters, hashes (`.mfr`).
+    pub replay: BlobRef,
     pub full: FullRef,
 }
 

@@ -122,12 +122,16 @@ impl HostClient {
         url: &str,
         expected_hash: Option<&str>,
     ) -> Result<SessionCreated, ClientError> {
-        let body = Vouched {
-            body: CreateSession {
-                input: InputRef { url: url.to_owned(), hash: expected_hash.map(str::to_owned) },
-            },
-            peers: self.access.peers(),
-        };
+        let input = InputRef { url: url.to_owned(), hash: expected_hash.map(str::to_owned) };
+        self.create_session_with(CreateSession { input, grid: None }).await
+    }
+
+    /// `POST /sessions` with every option.
+    pub async fn create_session_with(
+        &self,
+        request: CreateSession,
+    ) -> Result<SessionCreated, ClientError> {
+        let body = Vouched { body: request, peers: self.access.peers() };
         self.endpoint
             .json(Method::POST, "/sessions", |r| r.timeout(QUERY_TIMEOUT).json(&body))
             .await

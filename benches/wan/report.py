@@ -12,13 +12,18 @@ import os
 import platform
 from pathlib import Path
 
-WORKFLOWS = {"repair": "RSC → LS(1) → HF → RDT", "while": "WHILE normal-instability > t DO LS(1)"}
+WORKFLOWS = {
+    "repair": "RSC → LS(1) → HF → RDT",
+    "while": "WHILE normal-instability > t DO LS(1)",
+    "global": "AN → LS(cot) → WHILE normal-instability > t DO LS(cot)",
+}
 ABBREVIATIONS = {
     "remove-smallest-components": "RSC",
     "laplacian-smoothing": "LS(1)",
     "fill-holes": "HF",
     "remove-degenerate-triangles": "RDT",
     "normal-instability": "NI",
+    "add-noise": "AN",
 }
 
 
@@ -37,6 +42,25 @@ def timing(step):
         "update_ms": round(slowest(step["transfers"], "apply_ms"), 1),
         "via": sorted({t["via"] for t in step["transfers"]}),
     }
+
+
+def receivers(step):
+    """What each receiving host was asked to take (auto: the cost model's choice), what it
+    used, what the model expected each way, and what it took."""
+    rows = []
+    for t in step["transfers"]:
+        estimates = t.get("estimates") or {}
+        rows.append({
+            "host": t["host"].removeprefix("http://").rsplit(":", 1)[0],
+            "asked": t.get("asked", t["via"]),
+            "via": t["via"],
+            "estimates_ms": {k.removesuffix("_ms"): round(v, 1) for k, v in estimates.items()},
+            "actual_ms": round(t["finished_ms"] - t["started_ms"], 1),
+            "bytes": t["bytes"],
+            "fallback": t["fallback"],
+            "error": t["error"],
+        })
+    return rows
 
 
 def broadcast(record):
@@ -63,6 +87,8 @@ def pair(mesh, workflow, auto, full):
             "host": a["host"].removeprefix("http://").rsplit(":", 1)[0],
             "value": a["value"],
             "correction_kb": kb(a["correction_bytes"] if a["correction_bytes"] is not None else f["correction_bytes"]),
+            "replay_bytes": a.get("replay_bytes"),
+            "receivers": receivers(a),
             "full_kb": kb(f["full_bytes"] if f["full_bytes"] is not None else a["full_bytes"]),
             "auto": timing(a),
             "full": timing(f),
@@ -83,6 +109,32 @@ def pair(mesh, workflow, auto, full):
     }
 
 
+def load_placements(directory):
+    """The same workload placed by link and by load: totals side by side."""
+    records = {}
+    for path in sorted(Path(directory).glob("*.json")):
+        mesh, workflow, placement = path.name[: -len(".json")].rsplit(".", 2)
+        record = json.loads(path.read_text())
+        if record["status"] != "completed":
+            raise SystemExit(f"{path}: run {record['status']}: {record['error']}")
+        records.setdefault((mesh, workflow), {})[placement] = record
+    rows = []
+    for (mesh, workflow), runs in records.items():
+        link, load = runs["link"], runs["load"]
+        hosts = lambda r: sorted({s["host"].removeprefix("http://").rsplit(":", 1)[0] for s in r["steps"]})
+        rows.append({
+            "mesh": mesh,
+            "workflow": workflow,
+            "link_total_s": round(link["total_ms"] / 1e3, 3),
+            "load_total_s": round(load["total_ms"] / 1e3, 3),
+            "link_over_load": round(link["total_ms"] / load["total_ms"], 3),
+            "link_hosts": hosts(link),
+            "load_hosts": hosts(load),
+            "same_result": link["result"]["hash"] == load["result"]["hash"],
+        })
+    return rows
+
+
 def load_runs(directory):
     records = {}
     for path in sorted(Path(directory).glob("*.json")):
@@ -94,12 +146,12 @@ def load_runs(directory):
     return [pair(mesh, wf, modes["auto"], modes["full"]) for (mesh, wf), modes in records.items()]
 
 
-def link_check(path, rate):
+def link_check(path, rates):
     rows = []
-    for line in Path(path).read_text().splitlines():
+    for line, rate in zip(Path(path).read_text().splitlines(), rates):
         address, size, seconds = line.split("\t")
         mbit = int(size) * 8 / float(seconds) / 1e6
-        rows.append({"host": address, "bytes": int(size), "seconds": float(seconds),
+        rows.append({"host": address, "bytes": int(size), "seconds": float(seconds), "link_mbit": rate,
                      "mbit_s": round(mbit, 3), "of_link": round(mbit / rate, 3)})
     return rows
 
@@ -121,20 +173,22 @@ def cell(value, digits=0):
 
 
 def markdown(report):
-    rate = report["link_mbit"]
+    rates = report["link_mbit"]
+    rate = min(rates)
     lines = [
         f"# WAN benchmark — {report['date']}",
         "",
-        f"Machine: {report['machine']}. Every host behind its own {rate} Mbit/s link "
+        f"Machine: {report['machine']}. Every host behind its own link of "
+        f"{', '.join(f'{r:g}' for r in rates)} Mbit/s "
         f"({report['delay_ms']} ms one-way delay), shaped with tc in a private network namespace.",
         "",
         "## Link check (2 MB download into each host address)",
         "",
-        "| host | seconds | Mbit/s | of link |",
-        "|---|---:|---:|---:|",
+        "| host | link Mbit/s | seconds | Mbit/s | of link |",
+        "|---|---:|---:|---:|---:|",
     ]
     for row in report["link_check"]:
-        lines.append(f"| {row['host']} | {row['seconds']:.2f} | {row['mbit_s']:.2f} | {row['of_link']:.0%} |")
+        lines.append(f"| {row['host']} | {row['link_mbit']:g} | {row['seconds']:.2f} | {row['mbit_s']:.2f} | {row['of_link']:.0%} |")
     lines += [
         "",
         "## Totals",
@@ -151,6 +205,20 @@ def markdown(report):
             f"| {run['auto_total_s']:.1f} | {run['full_total_s']:.1f} | {run['full_over_auto']:.2f} "
             f"| {'yes' if run['auto_total_s'] <= 0.5 * run['full_total_s'] else 'no'} |"
         )
+    if report["placements"]:
+        lines += [
+            "",
+            "## Host selection: by link and load (`placement: link`) against by load alone",
+            "",
+            "| mesh | workflow | link s | load s | link / load | hosts (link) | hosts (load) | same mesh |",
+            "|---|---|---:|---:|---:|---|---|:---:|",
+        ]
+        for row in report["placements"]:
+            lines.append(
+                f"| {row['mesh']} | {row['workflow']} | {row['link_total_s']:.2f} | {row['load_total_s']:.2f} "
+                f"| {row['link_over_load']:.2f} | {', '.join(row['link_hosts'])} | {', '.join(row['load_hosts'])} "
+                f"| {'yes' if row['same_result'] else 'NO'} |"
+            )
     for run in report["runs"]:
         lines += [
             "",
@@ -183,6 +251,21 @@ def markdown(report):
                      f"{'yes' if run['same_result'] else 'NO'}.")
         for warning in run["warnings"]:
             lines.append(f"Warning: {warning}")
+        lines += [
+            "",
+            "What each receiver got in `auto`, and why (the cost model's estimates in ms, then the time it took):",
+            "",
+            "| step | receiver | asked | used | edits est. | replay est. | full est. | took ms | bytes | fallback |",
+            "|---|---|---|---|---:|---:|---:|---:|---:|---|",
+        ]
+        for step in run["steps"]:
+            for r in step["receivers"]:
+                est = r["estimates_ms"]
+                lines.append(
+                    f"| {step['index']} | {r['host']} | {r['asked']} | {r['via']} | {cell(est.get('correction'), 1)} "
+                    f"| {cell(est.get('replay'), 1)} | {cell(est.get('full'), 1)} | {cell(r['actual_ms'], 1)} "
+                    f"| {r['bytes']:,} | {r['fallback'] or r['error'] or ''} |"
+                )
     return "\n".join(lines) + "\n"
 
 
@@ -190,17 +273,19 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--runs", required=True)
     parser.add_argument("--link-check", required=True)
-    parser.add_argument("--rate", type=float, required=True)
+    parser.add_argument("--placement-runs", required=True)
+    parser.add_argument("--rates", required=True, help="Mbit/s of each host's link, comma-separated")
     parser.add_argument("--delay", type=int, required=True)
     parser.add_argument("--out", required=True)
     args = parser.parse_args()
     report = {
         "date": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "machine": machine(),
-        "link_mbit": args.rate,
+        "link_mbit": [float(r) for r in args.rates.split(",")],
         "delay_ms": args.delay,
-        "link_check": link_check(args.link_check, args.rate),
+        "link_check": link_check(args.link_check, [float(r) for r in args.rates.split(",")]),
         "runs": load_runs(args.runs),
+        "placements": load_placements(args.placement_runs),
     }
     out = Path(args.out)
     (out / "report.json").write_text(json.dumps(report, indent=2, ensure_ascii=False) + "\n")

@@ -15,6 +15,7 @@ pub mod downloads;
 mod executor;
 mod inputs;
 pub mod limits;
+pub mod measured;
 pub mod mlx;
 pub mod plan;
 pub mod record;

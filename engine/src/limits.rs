@@ -51,6 +51,8 @@ pub const MAX_VERTICES: u64 = 100_000_000;
 pub const MAX_TRIANGLES: u64 = 200_000_000;
 /// The largest correction a host may announce: what a host downloads at most by default.
 pub const MAX_CORRECTION_BYTES: u64 = 2 << 30;
+/// A replay correction names a step: hashes, a service and its parameters.
+pub const MAX_REPLAY_BYTES: u64 = 64 << 10;
 /// How long a host that gave an answer which cannot be true is left out of plans. Answering
 /// polls well proves nothing (a fake host does that too), so only time clears it, and each
 /// new false answer starts it again.

@@ -12,6 +12,7 @@ use meshflow_api::{CONNECT_TIMEOUT, ClusterAccess, HostClient};
 use serde::Serialize;
 
 use crate::limits::{MAX_HOSTS, SUSPECT_FOR};
+use crate::measured::Measured;
 use crate::store::{self, Store};
 
 /// How often the engine asks every host for its health and services.
@@ -65,6 +66,12 @@ impl HostEntry {
     }
 
     /// Whether the host is up, not suspect and offers `service`.
+    /// Whether the host has the plugin with this digest loaded (a replay there needs no
+    /// plugin download).
+    pub fn has_plugin(&self, digest: &str) -> bool {
+        self.state.lock().unwrap().services.iter().any(|s| s.plugin == digest)
+    }
+
     pub fn offers(&self, service: &str) -> bool {
         let state = self.state.lock().unwrap();
         state.up && state.services.iter().any(|s| s.info.name == service) && !self.is_suspect()
@@ -158,6 +165,8 @@ pub struct Registry {
     access: ClusterAccess,
     /// One pool for all hosts; names resolve only to addresses that may be fetched.
     http: reqwest::Client,
+    /// Links and speeds measured across runs, for the cost model.
+    pub measured: Measured,
 }
 
 pub use meshflow_api::engine::ServiceOffer as Offer;
@@ -215,7 +224,8 @@ impl Registry {
         let access = ClusterAccess::new(cluster_token);
         access.set_peers(vec![own_origin.clone()]);
         let http = guarded_client().connect_timeout(CONNECT_TIMEOUT).build()?;
-        Ok(Self { hosts: Mutex::default(), store, own_origin, access, http })
+        let measured = Measured::default();
+        Ok(Self { hosts: Mutex::default(), store, own_origin, access, http, measured })
     }
 
     /// A client for the host at `url`, with the cluster's token.
@@ -384,6 +394,29 @@ pub(crate) fn test_registry(dir: &std::path::Path) -> (Registry, Store) {
     let registry =
         Registry::new("http://127.0.0.1:7000", Some("secret".into()), store.clone()).unwrap();
     (registry, store)
+}
+
+#[cfg(test)]
+impl HostEntry {
+    /// Makes the host up and offering `services` (as filters of plugin `d…d`), as a poll
+    /// would.
+    pub(crate) fn pretend_offering(&self, services: &[&str]) {
+        let entry = |name: &&str| ServiceEntry {
+            plugin: "d".repeat(64),
+            builtin: true,
+            info: ServiceInfo {
+                name: (*name).to_owned(),
+                kind: meshflow_api::params::ServiceKind::Filter,
+                doc: String::new(),
+                params: Vec::new(),
+                result_type: None,
+            },
+            pinned_only: false,
+        };
+        let mut state = self.state.lock().unwrap();
+        state.up = true;
+        state.services = services.iter().map(entry).collect();
+    }
 }
 
 #[cfg(test)]

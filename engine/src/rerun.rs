@@ -196,8 +196,13 @@ mod tests {
             {"while": {"check": "holes", "op": ">", "value": 0}, "do": [{"run": "fill"}]},
             {"if": {"check": "ok", "op": "==", "value": true}, "then": [{"run": "never"}]}
         ]});
-        record.input =
-            Some(InputRecord { url: "u".into(), hash: "in".into(), vertices: 3, triangles: 1 });
+        record.input = Some(InputRecord {
+            url: "u".into(),
+            hash: "in".into(),
+            vertices: 3,
+            triangles: 1,
+            grid: None,
+        });
         record.steps = outputs
             .iter()
             .enumerate()

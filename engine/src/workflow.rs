@@ -17,7 +17,25 @@ pub struct Workflow {
     /// The input mesh URL, when the workflow carries it.
     pub input: Option<String>,
     pub transfer: Transfer,
+    /// Keep the mesh on a grid of at most `2^bits` cells per axis over the input's
+    /// bounding box: the input is snapped at ingest, every step's result after it.
+    pub quantize: Option<u32>,
+    pub placement: Placement,
 }
+
+/// How hosts are chosen among those offering a service (a workflow's `"placement"`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Placement {
+    /// The expected time to get the mesh there over the measured link plus the queue.
+    #[default]
+    Link,
+    /// The least loaded (what the engine did before links were measured; for comparison).
+    Load,
+}
+
+/// The grids a workflow may ask for, as `meshflow apply --quantize` takes them.
+pub const QUANTIZE_BITS: std::ops::RangeInclusive<u64> = 1..=24;
 
 #[derive(Debug, Clone, Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -121,7 +139,8 @@ impl Workflow {
         let (steps, object) = match json {
             Json::Array(steps) => (steps, None),
             Json::Object(object) => {
-                known_keys(object, "workflow", &["steps", "input", "transfer"])?;
+                let known = ["steps", "input", "transfer", "quantize", "placement"];
+                known_keys(object, "workflow", &known)?;
                 let steps = object
                     .get("steps")
                     .and_then(Json::as_array)
@@ -141,13 +160,37 @@ impl Workflow {
         let transfer = match field("transfer") {
             None => Transfer::default(),
             Some(value) => value.as_str().and_then(Transfer::parse).ok_or_else(|| {
-                WorkflowError::new("transfer", "must be \"auto\", \"correction\" or \"full\"")
+                WorkflowError::new(
+                    "transfer",
+                    "must be \"auto\", \"correction\", \"replay\" or \"full\"",
+                )
             })?,
+        };
+        let quantize = match field("quantize") {
+            None | Some(Json::Null) => None,
+            Some(value) => match value.as_u64().filter(|bits| QUANTIZE_BITS.contains(bits)) {
+                Some(bits) => Some(bits as u32),
+                None => {
+                    return Err(WorkflowError::new(
+                        "quantize",
+                        "must be a number of bits per axis from 1 to 24",
+                    ));
+                }
+            },
         };
         if steps.is_empty() {
             return Err(WorkflowError::new("steps", "a workflow needs at least one step"));
         }
-        let workflow = Self { steps: parse_steps(steps, "steps", 0)?, input, transfer };
+        let placement = match field("placement").map(|v| v.as_str()) {
+            None => Placement::default(),
+            Some(Some("link")) => Placement::Link,
+            Some(Some("load")) => Placement::Load,
+            Some(_) => {
+                return Err(WorkflowError::new("placement", "must be \"link\" or \"load\""));
+            }
+        };
+        let steps = parse_steps(steps, "steps", 0)?;
+        let workflow = Self { steps, input, transfer, quantize, placement };
         let tasks = workflow.tasks().len();
         if tasks > MAX_WORKFLOW_TASKS {
             return Err(WorkflowError::new(
@@ -382,7 +425,7 @@ mod tests {
         );
         assert_eq!(
             error(json!({"steps": [], "transfer": "fast"})),
-            "transfer: must be \"auto\", \"correction\" or \"full\""
+            "transfer: must be \"auto\", \"correction\", \"replay\" or \"full\""
         );
         assert_eq!(
             error(json!([{"run": "a", "param": {}}])),
@@ -438,6 +481,30 @@ mod tests {
                 "{bad}"
             );
         }
+    }
+
+    #[test]
+    fn transfer_quantize_and_placement_are_read_and_checked() {
+        let workflow = Workflow::from_json(&json!({
+            "steps": [{"run": "s"}], "transfer": "replay", "quantize": 16, "placement": "load"
+        }))
+        .unwrap();
+        assert_eq!(
+            (workflow.transfer, workflow.quantize, workflow.placement),
+            (Transfer::Replay, Some(16), Placement::Load)
+        );
+        let defaults = Workflow::from_json(&json!([{"run": "s"}])).unwrap();
+        assert_eq!((defaults.quantize, defaults.placement), (None, Placement::Link));
+        let error = |extra: (&str, Json)| {
+            let mut workflow = json!({"steps": [{"run": "s"}]});
+            workflow[extra.0] = extra.1;
+            Workflow::from_json(&workflow).unwrap_err().to_string()
+        };
+        for bad in [json!(0), json!(25), json!(-3), json!(12.5), json!("16")] {
+            assert!(error(("quantize", bad.clone())).starts_with("quantize: "), "{bad}");
+        }
+        assert!(error(("placement", json!("fastest"))).starts_with("placement: "));
+        assert!(error(("transfer", json!("teleport"))).contains("\"replay\""));
     }
 
     #[test]

@@ -4,8 +4,8 @@
 //! The engine must not link this crate: it runs plugins (wasmtime). Domain modules know
 //! no HTTP and return typed errors: `config` (settings and limits), `state` (what handlers
 //! share), `plugins` (the plugin set), `sessions` (table and records), `rebuild` (loading
-//! and replaying a session), `meshes` (formats and blob names), `blobs` (storage),
-//! `eviction`. Only `routes/` speaks HTTP: one file per resource, and `routes/error.rs`
+//! and replaying a session), `replay` (naming a step, re-running a named one), `meshes`
+//! (formats and blob names), `blobs` (storage), `eviction`. Only `routes/` speaks HTTP: one file per resource, and `routes/error.rs`
 //! maps every domain error to a status and code.
 
 mod blobs;
@@ -14,6 +14,7 @@ mod eviction;
 mod meshes;
 mod plugins;
 mod rebuild;
+pub mod replay;
 mod routes;
 mod sessions;
 mod state;

@@ -9,6 +9,8 @@ const PACKED_MAGIC: &[u8] = b"MFM\x1a";
 /// Extension of packed full meshes and of corrections.
 pub const PACKED: &str = "mfm";
 pub const CORRECTION: &str = "mfc";
+/// Extension of replay corrections (a step named, DESIGN §4).
+pub const REPLAY: &str = "mfr";
 
 /// How a mesh's bytes are encoded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -97,13 +99,19 @@ pub fn correction_name(bytes: &[u8]) -> String {
     format!("{}.{CORRECTION}", blake3::hash(bytes).to_hex())
 }
 
+pub fn replay_name(bytes: &[u8]) -> String {
+    format!("{}.{REPLAY}", blake3::hash(bytes).to_hex())
+}
+
 /// A name this host could have given a blob: 64 hex digits and a known extension. Anything
 /// else (a path, a temporary file) is not a blob.
 pub fn is_blob_name(name: &str) -> bool {
     name.split_once('.').is_some_and(|(hash, extension)| {
         hash.len() == 64
             && hash.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
-            && (extension == CORRECTION || MeshEncoding::from_extension(extension).is_some())
+            && (extension == CORRECTION
+                || extension == REPLAY
+                || MeshEncoding::from_extension(extension).is_some())
             && extension.bytes().all(|b| b.is_ascii_lowercase())
     })
 }

@@ -43,6 +43,8 @@ pub struct Uploaded {
 pub struct PluginSet {
     dir: PathBuf,
     inner: RwLock<Loaded>,
+    /// The built-ins' bytes, for hosts that replay their steps and lack them.
+    builtin_bytes: Vec<(String, &'static [u8])>,
 }
 
 struct Loaded {
@@ -68,12 +70,18 @@ impl Loaded {
 impl PluginSet {
     /// Loads the built-ins and every stored upload (oldest first). A stored plugin that no
     /// longer loads is skipped with a warning rather than keeping the host down.
-    pub fn load(runtime: &Runtime, dir: PathBuf, builtins: &[&[u8]]) -> anyhow::Result<Self> {
-        let builtins = builtins
+    pub fn load(
+        runtime: &Runtime,
+        dir: PathBuf,
+        builtin_bytes: &[&'static [u8]],
+    ) -> anyhow::Result<Self> {
+        let builtins = builtin_bytes
             .iter()
             .map(|bytes| runtime.load(bytes))
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| anyhow::anyhow!("loading a built-in plugin: {e}"))?;
+        let builtin_bytes =
+            builtins.iter().map(|p| p.digest.clone()).zip(builtin_bytes.iter().copied()).collect();
         let mut stored: Vec<_> = std::fs::read_dir(&dir)?
             .flatten()
             .filter(|e| e.path().extension().is_some_and(|x| x == "wasm"))
@@ -91,7 +99,7 @@ impl PluginSet {
                 Err(e) => tracing::warn!("skipping stored plugin {}: {e}", path.display()),
             }
         }
-        Ok(Self { dir, inner: RwLock::new(Loaded::new(uploaded, builtins)) })
+        Ok(Self { dir, inner: RwLock::new(Loaded::new(uploaded, builtins)), builtin_bytes })
     }
 
     fn read(&self) -> std::sync::RwLockReadGuard<'_, Loaded> {
@@ -154,6 +162,20 @@ impl PluginSet {
                 services: p.services.iter().map(|s| s.name.clone()).collect(),
             })
             .collect()
+    }
+
+    /// The loaded plugin with this digest, whatever services it offers.
+    pub fn by_digest(&self, digest: &str) -> Option<Plugin> {
+        self.read().catalog.plugins().iter().find(|p| p.digest == digest).cloned()
+    }
+
+    /// The component bytes of a loaded plugin (for another host replaying its steps).
+    pub fn bytes(&self, digest: &str) -> Option<Vec<u8>> {
+        self.by_digest(digest)?;
+        if let Some((_, bytes)) = self.builtin_bytes.iter().find(|(d, _)| d == digest) {
+            return Some(bytes.to_vec());
+        }
+        std::fs::read(self.dir.join(format!("{digest}.wasm"))).ok()
     }
 
     pub fn known(&self, digest: &str) -> Option<Vec<ServiceInfo>> {

@@ -5,26 +5,29 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::blobs::Stored;
-use super::meshes::{self, CORRECTION, MeshEncoding};
+use super::meshes::{self, CORRECTION, MeshEncoding, REPLAY};
 use super::sessions::{CurrentMesh, LoadTimes, SessionRecord};
 use super::state::Host;
+use meshflow_api::host::GridSpec;
 use meshflow_api::host::millis;
-use meshflow_codec::correction;
+use meshflow_codec::quantize::{self, Grid};
+use meshflow_codec::{correction, replay};
 use meshflow_mesh::MeshData;
 
 /// Loads session `id` from its record; on failure the session is failed with the reason.
 pub async fn load(host: Arc<Host>, id: String, record: SessionRecord) {
     match build(&host, &record).await {
         // The new input blob stays safe from eviction until the session record names it.
-        Ok((input, current, times, _stored)) => host.sessions.loaded(&id, input, current, times),
+        Ok((input, current, grid, times, _stored)) => {
+            host.sessions.loaded(&id, input, current, grid, times)
+        }
         Err(error) => host.sessions.fail(&id, error),
     }
 }
 
-async fn build<'a>(
-    host: &'a Host,
-    record: &SessionRecord,
-) -> Result<(String, CurrentMesh, LoadTimes, Option<Stored<'a>>), String> {
+type Built<'a> = (String, CurrentMesh, Option<Grid>, LoadTimes, Option<Stored<'a>>);
+
+async fn build<'a>(host: &'a Host, record: &SessionRecord) -> Result<Built<'a>, String> {
     let (input, mut current, times, stored) = match &record.input {
         Some(name) => {
             let mesh = read_mesh_blob(host, name).await?;
@@ -36,11 +39,51 @@ async fn build<'a>(
             (name, current, times, Some(stored))
         }
     };
+    let grid = match record.grid {
+        None => None,
+        Some(spec) => {
+            let (mesh, grid) = on_grid(Arc::unwrap_or_clone(current.mesh), spec).await?;
+            current = hashed(mesh).await.map_err(|e| e.to_string())?;
+            expect_hash(record, &current.hash)?;
+            Some(grid)
+        }
+    };
     for step in &record.steps {
-        let mesh = apply_blob(host, Arc::unwrap_or_clone(current.mesh), step).await?;
+        let mesh = apply_blob(host, Arc::unwrap_or_clone(current.mesh), step, grid).await?;
         current = hashed(mesh).await.map_err(|e| e.to_string())?;
     }
-    Ok((input, current, times, stored))
+    Ok((input, current, grid, times, stored))
+}
+
+/// The loaded input must be the mesh the engine named, when it named one.
+fn expect_hash(record: &SessionRecord, hash: &str) -> Result<(), String> {
+    match &record.input_hash {
+        Some(expected) if !expected.eq_ignore_ascii_case(hash) => Err(format!(
+            "{}: the mesh has content hash {hash}, not the expected {expected}",
+            record.input_url
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// The input snapped onto the session's grid (DESIGN §4: a workflow's `quantize`).
+async fn on_grid(mut mesh: MeshData, spec: GridSpec) -> Result<(MeshData, Grid), String> {
+    tokio::task::spawn_blocking(move || {
+        let grid = match spec {
+            GridSpec::Bits(bits) => {
+                quantize::quantize(&mut mesh, bits).map_err(|e| e.to_string())?
+            }
+            GridSpec::Exponents(exponents) => {
+                let grid = Grid::from_exponents(exponents)
+                    .ok_or_else(|| format!("grid exponents {exponents:?} are out of range"))?;
+                grid.snap_all(&mut mesh.positions);
+                grid
+            }
+        };
+        Ok((mesh, grid))
+    })
+    .await
+    .map_err(|e| e.to_string())?
 }
 
 async fn download_input<'a>(
@@ -63,13 +106,9 @@ async fn download_input<'a>(
     .await
     .map_err(|e| e.to_string())??;
     let hash = &current.hash;
-    if let Some(expected) = &record.input_hash
-        && !expected.eq_ignore_ascii_case(hash)
-    {
-        return Err(format!(
-            "{}: the mesh has content hash {hash}, not the expected {expected}",
-            record.input_url
-        ));
+    // On a grid, the expected hash is the snapped mesh's: checked once it is snapped.
+    if record.grid.is_none() {
+        expect_hash(record, hash)?;
     }
     let load_ms = millis(started.elapsed());
     let name = meshes::blob_name(&bytes, encoding, hash);
@@ -92,8 +131,17 @@ async fn read_mesh_blob(host: &Host, name: &str) -> Result<MeshData, String> {
         .map_err(|e| e.to_string())?
 }
 
-/// One replayed step: a correction applied to `mesh`, or a full mesh replacing it.
-async fn apply_blob(host: &Host, mesh: MeshData, name: &str) -> Result<MeshData, String> {
+/// One replayed step: a correction applied to `mesh`, a named step run again, or a full
+/// mesh replacing it.
+async fn apply_blob(
+    host: &Host,
+    mesh: MeshData,
+    name: &str,
+    grid: Option<Grid>,
+) -> Result<MeshData, String> {
+    if name.ends_with(&format!(".{REPLAY}")) {
+        return rerun_blob(host, mesh, name, grid).await;
+    }
     if !name.ends_with(&format!(".{CORRECTION}")) {
         return read_mesh_blob(host, name).await;
     }
@@ -104,6 +152,25 @@ async fn apply_blob(host: &Host, mesh: MeshData, name: &str) -> Result<MeshData,
     })
     .await
     .map_err(|e| e.to_string())?
+}
+
+/// A step this host re-ran from a replay correction: run again with the same plugin (one it
+/// offers or fetched for that replay; nothing is fetched now).
+async fn rerun_blob(
+    host: &Host,
+    mesh: MeshData,
+    name: &str,
+    grid: Option<Grid>,
+) -> Result<MeshData, String> {
+    let bytes = host.blobs.read(name).await?;
+    let step = replay::decode(&bytes).map_err(|e| format!("{name}: {e}"))?;
+    let scope = host.scope(&[])?;
+    let plugin = crate::replay::plugin_for(host, &scope, None, &step.plugin_hex())
+        .await
+        .map_err(|e| format!("replaying {name}: {e}"))?;
+    crate::replay::rerun_off_thread(host.runtime.clone(), plugin, step, Arc::new(mesh), grid)
+        .await
+        .map_err(|e| format!("replaying {name}: {e}"))
 }
 
 fn encoding_of(name: &str) -> Result<MeshEncoding, String> {

@@ -9,7 +9,8 @@ use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
 
-use meshflow_api::host::{SessionState, SessionStatus};
+use meshflow_api::host::{GridSpec, SessionState, SessionStatus};
+use meshflow_codec::quantize::{Grid, Spacing};
 use meshflow_mesh::MeshData;
 use meshflow_meshio as io;
 
@@ -40,6 +41,9 @@ pub struct SessionRecord {
     /// The cluster's origins the engine named with the input (see `Host::scope`).
     #[serde(default)]
     pub peers: Vec<String>,
+    /// The grid the session keeps its mesh on, as asked.
+    #[serde(default)]
+    pub grid: Option<GridSpec>,
 }
 
 /// A session's mesh once loaded, with its content hash (computed once).
@@ -60,6 +64,8 @@ pub struct LoadTimes {
 struct Session {
     state: SessionState,
     current: Option<CurrentMesh>,
+    /// Every step's result is snapped back onto it.
+    grid: Option<Grid>,
     error: Option<String>,
     times: LoadTimes,
     record: SessionRecord,
@@ -92,6 +98,7 @@ impl Sessions {
         let session = Session {
             state: SessionState::Loading,
             current: None,
+            grid: None,
             error: None,
             times: LoadTimes::default(),
             record,
@@ -125,9 +132,17 @@ impl Sessions {
     }
 
     /// The session's input is loaded and its steps replayed: it is ready.
-    pub fn loaded(&self, id: &str, input: String, current: CurrentMesh, times: LoadTimes) {
+    pub fn loaded(
+        &self,
+        id: &str,
+        input: String,
+        current: CurrentMesh,
+        grid: Option<Grid>,
+        times: LoadTimes,
+    ) {
         let mut table = self.table();
         let Some(session) = table.get_mut(id) else { return };
+        session.grid = grid;
         session.record.input = Some(input);
         if let Err(e) = self.save(id, &session.record) {
             tracing::warn!("session {id}: {e}");
@@ -166,6 +181,10 @@ impl Sessions {
             download_ms: session.times.download_ms,
             load_ms: session.times.load_ms,
             input_bytes: session.times.input_bytes,
+            grid: session.grid.and_then(|g| match g.spacing() {
+                Spacing::Binary(exponents) => Some(exponents),
+                Spacing::Decimal(_) => None,
+            }),
         })
     }
 
@@ -203,7 +222,8 @@ impl Sessions {
         session.state = SessionState::Busy;
         session.last_used = Instant::now();
         let current = session.current.clone().expect("a ready session has a mesh");
-        Ok(BusyGuard { sessions: self, id: id.to_owned(), current, done: false })
+        let grid = session.grid;
+        Ok(BusyGuard { sessions: self, id: id.to_owned(), current, grid, done: false })
     }
 
     pub fn remove(&self, id: &str) -> bool {
@@ -259,6 +279,7 @@ pub struct BusyGuard<'a> {
     sessions: &'a Sessions,
     id: String,
     pub current: CurrentMesh,
+    pub grid: Option<Grid>,
     done: bool,
 }
 

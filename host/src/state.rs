@@ -9,6 +9,7 @@ use super::config::{
     DOWNLOAD_CONNECT_TIMEOUT, DOWNLOAD_READ_TIMEOUT, DOWNLOAD_TIMEOUT, HostConfig,
 };
 use super::plugins::PluginSet;
+use super::replay::ReplayPlugins;
 use super::sessions::Sessions;
 use meshflow_api::ClientError;
 use meshflow_api::fetch_rules::{FetchScope, Origins, guarded_client, origin, parse_origin};
@@ -22,6 +23,8 @@ pub struct Host {
     pub plugins: PluginSet,
     pub sessions: Sessions,
     pub blobs: BlobStore,
+    /// Plugins fetched from other hosts to replay their steps.
+    pub replay_plugins: ReplayPlugins,
     /// For downloads: inputs, corrections and full meshes of other hosts.
     pub http: reqwest::Client,
     /// What every download may reach before a request names its peers (see [`Host::scope`]).
@@ -33,6 +36,7 @@ pub struct Host {
 pub struct DataDirs {
     pub blobs: PathBuf,
     pub plugins: PathBuf,
+    pub replay_plugins: PathBuf,
     pub sessions: PathBuf,
     pub cache: PathBuf,
 }
@@ -43,10 +47,11 @@ impl DataDirs {
         let dirs = Self {
             blobs: data.join("blobs"),
             plugins: data.join("plugins"),
+            replay_plugins: data.join("replay-plugins"),
             sessions: data.join("sessions"),
             cache: config.artefact_cache.clone().unwrap_or_else(|| data.join("cache")),
         };
-        for dir in [&dirs.blobs, &dirs.plugins, &dirs.sessions, &dirs.cache] {
+        for dir in [&dirs.blobs, &dirs.plugins, &dirs.replay_plugins, &dirs.sessions, &dirs.cache] {
             std::fs::create_dir_all(dir)?;
         }
         Ok(dirs)
@@ -73,6 +78,7 @@ impl Host {
                 config.blob_budget_bytes,
                 config.recent_outputs,
             ),
+            replay_plugins: ReplayPlugins::new(dirs.replay_plugins.clone()),
             config,
             public_url,
             runtime,

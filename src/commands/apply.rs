@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use meshflow_codec::{correction, quantize};
+use meshflow_codec::{correction, quantize, replay};
 use meshflow_meshio as io;
 use meshflow_runtime::ServiceKind;
 
@@ -24,9 +24,14 @@ pub struct ApplyArgs {
     /// A parameter, NAME=VALUE; repeatable.
     #[arg(long = "param", value_name = "NAME=VALUE")]
     params: Vec<String>,
-    /// Also write the step's correction (.mfc), atomically.
-    #[arg(long, value_name = "OUT.mfc")]
+    /// Also write the step's correction, atomically: its edit log (.mfc) or the step
+    /// named for a re-run (.mfr), as `--correction-kind` says.
+    #[arg(long, value_name = "OUT")]
     correction: Option<PathBuf>,
+    /// `edits`: the edit log; `replay`: plugin digest, service, resolved parameters and
+    /// hashes (a few hundred bytes; applied by re-running the plugin); `auto`: the smaller.
+    #[arg(long, value_enum, default_value_t = CorrectionKind::Edits)]
+    correction_kind: CorrectionKind,
     /// Snap the input to a grid of at most 2^BITS cells per axis over its bounding box
     /// (1-24), and the result back onto that grid after the filter.
     #[arg(long, value_name = "BITS")]
@@ -38,7 +43,19 @@ pub struct ApplyArgs {
     json: bool,
 }
 
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CorrectionKind {
+    Edits,
+    Replay,
+    Auto,
+}
+
 pub fn run(args: &ApplyArgs) -> anyhow::Result<()> {
+    if args.quantize.is_some() && args.correction_kind != CorrectionKind::Edits {
+        bail!(
+            "--quantize snaps the plugin's result, which a re-run would not: use --correction-kind edits"
+        );
+    }
     let params = parse_params(&args.params)?;
     let (runtime, catalog) = crate::plugins::load(&args.plugins)?;
     let (plugin, info) = catalog.find(&args.service)?;
@@ -68,7 +85,21 @@ pub fn run(args: &ApplyArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     let correction_bytes = match &args.correction {
         Some(path) => {
-            let bytes = correction::encode(&mesh, &log, result)?;
+            let edits = || correction::encode(&mesh, &log, result);
+            let named = || {
+                let (base, hash) = (mesh.content_hash(), result.content_hash());
+                meshflow_host::replay::name(plugin, info, &params, base, result, hash)
+                    .map(|step| replay::encode(&step))
+                    .map_err(anyhow::Error::msg)
+            };
+            let bytes = match args.correction_kind {
+                CorrectionKind::Edits => edits()?,
+                CorrectionKind::Replay => named()?,
+                CorrectionKind::Auto => {
+                    let (edits, named) = (edits()?, named()?);
+                    if named.len() < edits.len() { named } else { edits }
+                }
+            };
             super::pack::write_atomically(path, &bytes)?;
             Some(bytes.len())
         }

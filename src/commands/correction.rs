@@ -1,20 +1,26 @@
-//! `meshflow correction apply|inspect`: replay a step's correction, or describe one.
+//! `meshflow correction apply|inspect`: replay a step's correction (an edit log, `.mfc`, or
+//! a named step re-run in the sandbox, `.mfr`), or describe one.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::Context;
+use anyhow::{Context, bail};
 use clap::Subcommand;
 use meshflow_codec::correction::{self, SECTIONS};
+use meshflow_codec::replay;
+use meshflow_mesh::MeshData;
 use meshflow_mesh::store::OpKind;
 
 use super::millis;
 use super::pack::{load_mesh, save_mesh};
+use crate::PluginArgs;
 
 #[derive(Subcommand)]
 pub enum CorrectionCommand {
-    /// Apply a correction (.mfc) to the mesh it was made for; the hashes are verified.
+    /// Apply a correction to the mesh it was made for; the hashes are verified. An edit
+    /// log (.mfc) is replayed; a replay (.mfr) re-runs the plugin it names, built in or
+    /// given with --plugin.
     Apply {
         /// The base mesh (OBJ, PLY, OFF, STL or packed .mfm).
         base: PathBuf,
@@ -23,10 +29,13 @@ pub enum CorrectionCommand {
         /// The result mesh (by extension; .mfm packs it); written atomically.
         #[arg(short, long)]
         output: PathBuf,
+        #[command(flatten)]
+        plugins: PluginArgs,
         #[arg(long)]
         json: bool,
     },
-    /// Describe a correction: hashes, operations by kind, bytes by section.
+    /// Describe a correction: its kind, hashes, and operations by kind and bytes by section
+    /// (an edit log) or plugin, service and parameters (a replay).
     Inspect {
         correction: PathBuf,
         #[arg(long)]
@@ -36,8 +45,8 @@ pub enum CorrectionCommand {
 
 pub fn run(command: &CorrectionCommand) -> anyhow::Result<()> {
     match command {
-        CorrectionCommand::Apply { base, correction, output, json } => {
-            apply(base, correction, output, *json)
+        CorrectionCommand::Apply { base, correction, output, plugins, json } => {
+            apply(base, correction, output, plugins, *json)
         }
         CorrectionCommand::Inspect { correction, json } => inspect(correction, *json),
     }
@@ -47,12 +56,22 @@ fn read(path: &Path) -> anyhow::Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("reading {}", path.display()))
 }
 
-fn apply(base: &Path, correction: &Path, output: &Path, json: bool) -> anyhow::Result<()> {
+fn apply(
+    base: &Path,
+    correction: &Path,
+    output: &Path,
+    plugins: &PluginArgs,
+    json: bool,
+) -> anyhow::Result<()> {
     let mesh = Arc::new(load_mesh(base)?);
     let bytes = read(correction)?;
     let started = Instant::now();
-    let result = correction::apply(Arc::clone(&mesh), &bytes)
-        .with_context(|| format!("applying {}", correction.display()))?;
+    let result = if replay::is_replay(&bytes) {
+        rerun(&mesh, &bytes, plugins)
+    } else {
+        correction::apply(Arc::clone(&mesh), &bytes).map_err(anyhow::Error::from)
+    }
+    .with_context(|| format!("applying {}", correction.display()))?;
     let apply_time = started.elapsed();
     save_mesh(output, &result)?;
     if json {
@@ -77,8 +96,29 @@ fn apply(base: &Path, correction: &Path, output: &Path, json: bool) -> anyhow::R
     Ok(())
 }
 
+/// Re-runs the step a replay names on `mesh`, which must be the step's base.
+fn rerun(mesh: &Arc<MeshData>, bytes: &[u8], plugins: &PluginArgs) -> anyhow::Result<MeshData> {
+    let step = replay::decode(bytes)?;
+    let found = mesh.content_hash();
+    if found != step.base {
+        bail!("the replay is for mesh {}, not this one ({found})", step.base);
+    }
+    let (runtime, catalog) = crate::plugins::load(plugins)?;
+    let digest = step.plugin_hex();
+    let Some(plugin) = catalog.plugins().iter().find(|p| p.digest == digest) else {
+        bail!(
+            "the replay names plugin {digest} ({}), which is not built in: give it with --plugin",
+            step.service
+        );
+    };
+    Ok(meshflow_host::replay::rerun(&runtime, plugin, &step, Arc::clone(mesh), None)?)
+}
+
 fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
     let bytes = read(path)?;
+    if replay::is_replay(&bytes) {
+        return inspect_replay(path, &bytes, json);
+    }
     let c = correction::decode(&bytes).with_context(|| format!("reading {}", path.display()))?;
     let kinds: Vec<(OpKind, correction::KindCount)> =
         OpKind::ALL.iter().map(|&k| (k, c.count(k))).filter(|(_, n)| n.ops > 0).collect();
@@ -95,6 +135,7 @@ fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
             sections.insert((*name).into(), size.into());
         }
         let summary = serde_json::json!({
+            "kind": "edits",
             "version": c.version,
             "base_hash": c.base.to_hex(),
             "result_hash": c.result.to_hex(),
@@ -107,7 +148,7 @@ fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
         println!("{summary}");
         return Ok(());
     }
-    println!("correction v{}, {} bytes", c.version, c.total_bytes());
+    println!("edit log (correction v{}), {} bytes", c.version, c.total_bytes());
     println!("base:   {} ({} vertices, {} triangles)", c.base, c.base_counts[0], c.base_counts[1]);
     println!(
         "result: {} ({} vertices, {} triangles)",
@@ -120,5 +161,39 @@ fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
     for (name, size) in SECTIONS.iter().zip(c.section_bytes) {
         println!("  {name:<20} {size:>8} bytes");
     }
+    Ok(())
+}
+
+fn inspect_replay(path: &Path, bytes: &[u8], json: bool) -> anyhow::Result<()> {
+    let step = replay::decode(bytes).with_context(|| format!("reading {}", path.display()))?;
+    let params: serde_json::Value = serde_json::from_str(&step.params)
+        .unwrap_or(serde_json::Value::String(step.params.clone()));
+    if json {
+        let summary = serde_json::json!({
+            "kind": "replay",
+            "version": replay::VERSION,
+            "plugin": step.plugin_hex(),
+            "service": step.service,
+            "params": params,
+            "base_hash": step.base.to_hex(),
+            "result_hash": step.result.to_hex(),
+            "result": { "vertices": step.result_counts[0], "triangles": step.result_counts[1] },
+            "total_bytes": bytes.len(),
+        });
+        println!("{summary}");
+        return Ok(());
+    }
+    println!(
+        "replay (v{}), {} bytes: re-runs the step on the base mesh",
+        replay::VERSION,
+        bytes.len()
+    );
+    println!("plugin: {}", step.plugin_hex());
+    println!("step:   {} {params}", step.service);
+    println!("base:   {}", step.base);
+    println!(
+        "result: {} ({} vertices, {} triangles)",
+        step.result, step.result_counts[0], step.result_counts[1]
+    );
     Ok(())
 }

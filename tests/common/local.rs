@@ -5,6 +5,7 @@
 use std::cmp::Ordering;
 use std::path::Path;
 
+use meshflow_codec::quantize::{self, Grid};
 use meshflow_engine::workflow::{Condition, Step, Task, Workflow};
 use meshflow_mesh::MeshData;
 use meshflow_params::{from_json as params_from_json, value_json};
@@ -18,6 +19,8 @@ pub struct Trace {
     pub mesh: MeshData,
     pub steps: Vec<(String, Json)>,
     pub capped_whiles: usize,
+    /// A quantised workflow's grid.
+    pub grid: Option<Grid>,
 }
 
 impl Trace {
@@ -47,8 +50,10 @@ impl Local {
         Self { runtime, catalog }
     }
 
-    pub fn run(&self, workflow: &Workflow, input: MeshData) -> Trace {
-        let mut trace = Trace { mesh: input, steps: Vec::new(), capped_whiles: 0 };
+    pub fn run(&self, workflow: &Workflow, mut input: MeshData) -> Trace {
+        // A quantised workflow: the input on its grid, every step's result snapped back.
+        let grid = workflow.quantize.map(|bits| quantize::quantize(&mut input, bits).unwrap());
+        let mut trace = Trace { mesh: input, steps: Vec::new(), capped_whiles: 0, grid };
         self.steps(&workflow.steps, &mut trace);
         trace
     }
@@ -69,7 +74,15 @@ impl Local {
             match step {
                 Step::Run(task) => {
                     let output = self.service(task, &trace.mesh);
-                    trace.mesh = output.mesh.expect("a filter returns a mesh");
+                    let result = output.mesh.expect("a filter returns a mesh");
+                    trace.mesh = match &trace.grid {
+                        Some(grid) => {
+                            quantize::snap_step(grid, &trace.mesh, result, output.log)
+                                .expect("the step snaps onto the grid")
+                                .0
+                        }
+                        None => result,
+                    };
                     trace.steps.push((task.path.clone(), Json::from(trace.hash())));
                 }
                 Step::If { condition, then, otherwise, .. } => {

@@ -6,6 +6,7 @@
 //! a busy host is asked again, then left for another (`busy`).
 
 mod busy;
+mod cost;
 mod replica;
 mod verify;
 
@@ -17,13 +18,14 @@ pub(crate) use verify::full_mesh_url;
 
 use meshflow_api::ClientError;
 use meshflow_api::host::{
-    FilterResult, FullRef, RunRequest, RunResult, SessionState, Transfer as Use, Update,
+    CreateSession, FilterResult, FullRef, GridSpec, InputRef, RunRequest, RunResult, SessionState,
+    Transfer as Use, Update,
 };
 use meshflow_api::params::ValueType;
 use serde_json::{Value as Json, json};
 
 use crate::limits::MAX_STEPS_PER_RUN;
-use crate::plan::{Plan, offering_pinned, pick};
+use crate::plan::{Plan, offering_pinned, pick, placed_by_link};
 use crate::record::{BroadcastRecord, HostLoad, InputRecord, ResultRecord, Status, StepRecord};
 use crate::registry::{HostEntry, Registry};
 use crate::run::Run;
@@ -100,10 +102,40 @@ struct Current {
     correction: Option<meshflow_api::host::BlobRef>,
     vertices: u64,
     triangles: u64,
-    /// The size of the last full mesh seen, to choose the smaller transfer in `auto`.
-    full_bytes_estimate: u64,
+    /// The size of the last full mesh seen and its vertex count, from which the cost model
+    /// estimates the current one's; shared with the forwarded updates, which see it first.
+    last_full: LastFull,
     /// The host whose filter made this mesh (none for the input).
     producer: Option<String>,
+    /// A quantised run's grid (step exponents), for hosts that join from this mesh.
+    grid: Option<[i32; 3]>,
+}
+
+/// The last full mesh size seen in the run, with the vertex count it had; shared by the
+/// executor and its forwarded updates.
+#[derive(Clone)]
+pub(crate) struct LastFull(Arc<std::sync::Mutex<Option<(u64, u64)>>>);
+
+impl LastFull {
+    fn new(bytes: Option<u64>, vertices: u64) -> Self {
+        Self(Arc::new(std::sync::Mutex::new(bytes.map(|b| (b, vertices)))))
+    }
+
+    pub(crate) fn seen(&self, bytes: u64, vertices: u64) {
+        *self.0.lock().expect("last full lock") = Some((bytes, vertices));
+    }
+
+    /// The full size of a mesh of `vertices`, scaled from the last one seen (unknown: so
+    /// large that a full transfer is never expected to be quickest).
+    fn estimate(&self, vertices: u64) -> u64 {
+        match *self.0.lock().expect("last full lock") {
+            Some((bytes, seen)) if seen > 0 => {
+                (bytes as f64 * vertices as f64 / seen as f64).round() as u64
+            }
+            Some((bytes, _)) => bytes,
+            None => u64::MAX / 4,
+        }
+    }
 }
 
 /// Why a task could not run on its host.
@@ -164,6 +196,8 @@ struct Executor {
     registry: Arc<Registry>,
     plan: Plan,
     transfer: Transfer,
+    /// The workflow's `quantize`: bits per axis of the grid every session keeps.
+    quantize: Option<u32>,
     replicas: Vec<Replica>,
     current: Option<Current>,
     /// The input's URL and every filter run since, with its output hash: a host that must
@@ -192,6 +226,7 @@ impl Executor {
             registry,
             plan,
             transfer: workflow.transfer,
+            quantize: workflow.quantize,
             replicas: Vec::new(),
             current: None,
             input: String::new(),
@@ -266,19 +301,25 @@ impl Executor {
         let mut excluded = Vec::new();
         while !hosts.is_empty() {
             let run = &self.run;
-            let attempts = hosts.iter().map(|host| load_input(run, host.clone(), input, None));
+            let grid = self.quantize.map(GridSpec::Bits);
+            let attempts =
+                hosts.iter().map(|host| load_input(run, host.clone(), input, None, grid));
             let outcomes = futures_util::future::join_all(attempts).await;
             let mut retry = Vec::new();
             for (host, outcome) in hosts.iter().zip(outcomes) {
                 match outcome {
                     Ok((session, status)) => {
                         let hash = status.hash.clone().unwrap_or_default();
-                        loads.push(HostLoad {
+                        let load = HostLoad {
                             host: host.url.clone(),
                             bytes: status.input_bytes.unwrap_or(0),
                             download_ms: status.download_ms.unwrap_or(0.0),
                             load_ms: status.load_ms.unwrap_or(0.0),
-                        });
+                        };
+                        // What the link into this host is worth, until pairs are measured.
+                        let measured = &self.registry.measured;
+                        measured.downloaded(None, &host.url, load.bytes, load.download_ms);
+                        loads.push(load);
                         self.set_input(input, &status);
                         self.replicas.push(Replica::new(host.clone(), session, hash));
                     }
@@ -322,11 +363,13 @@ impl Executor {
             correction: None,
             vertices,
             triangles,
-            full_bytes_estimate: status.input_bytes.unwrap_or(u64::MAX),
+            last_full: LastFull::new(status.input_bytes, vertices),
             producer: None,
+            grid: status.grid,
         });
         self.run.update("input", |r| {
-            let record = InputRecord { url: url.to_owned(), hash, vertices, triangles };
+            let grid = status.grid;
+            let record = InputRecord { url: url.to_owned(), hash, vertices, triangles, grid };
             let json = json!(record);
             r.input = Some(record);
             json
@@ -345,9 +388,14 @@ impl Executor {
             let service = self.plan.service(&path).to_owned();
             let pin = self.plan.pin(&path);
             let candidates = offering_pinned(&self.registry.hosts(), &service, pin);
-            let replacement = pick(&candidates, &before, &service, excluded).ok_or_else(|| {
-                format!("{path}: host {} failed and no other host offers \"{service}\"", host.url)
-            })?;
+            let measured = placed_by_link(self.plan.placement(), &self.registry);
+            let replacement =
+                pick(&candidates, &before, &service, excluded, measured).ok_or_else(|| {
+                    format!(
+                        "{path}: host {} failed and no other host offers \"{service}\"",
+                        host.url
+                    )
+                })?;
             self.plan.assign(&path, replacement);
         }
         let after = self.plan.hosts();
@@ -357,7 +405,13 @@ impl Executor {
     /// The hosts of every task still on the active list, bodies of IF and WHILE included.
     fn hosts_of(&self, active: &VecDeque<Active>) -> Vec<Arc<HostEntry>> {
         let steps: Vec<Step> = active.iter().map(|a| a.step.clone()).collect();
-        let workflow = Workflow { steps, input: None, transfer: self.transfer };
+        let workflow = Workflow {
+            steps,
+            input: None,
+            transfer: self.transfer,
+            quantize: None,
+            placement: self.plan.placement(),
+        };
         let mut hosts: Vec<Arc<HostEntry>> = Vec::new();
         for task in workflow.tasks() {
             let host = self.plan.host(&task.path);
@@ -386,28 +440,48 @@ impl Executor {
         self.advance(&filter, &host);
         self.history.push((task.clone(), filter.output_hash.clone()));
         let current = self.current.as_ref().expect("the input is loaded");
-        let update = Update {
-            correction: Some(filter.correction.clone()),
-            full: filter.full.clone(),
-            use_: self.choose_transfer(filter.correction.bytes, current.full_bytes_estimate),
+        let output = cost::StepOutput {
+            correction_bytes: filter.correction.bytes,
+            replay_bytes: filter.replay.bytes,
+            full_bytes: current.last_full.estimate(filter.vertices as u64),
+            edits: filter.edits as u64,
+            vertices: filter.vertices as u64,
+            compute_ms: filter.compute_ms,
         };
         let hash = current.hash.clone();
+        let last_full = current.last_full.clone();
+        let measured = &self.registry.measured;
         for replica in &mut self.replicas {
             let wanted = receivers.iter().any(|h| Arc::ptr_eq(h, &replica.host));
-            if wanted && !Arc::ptr_eq(&replica.host, &host) {
-                replica.forward(&self.run, index, update.clone(), &hash, &host);
+            if !wanted || Arc::ptr_eq(&replica.host, &host) {
+                continue;
             }
+            let receiver = &replica.host;
+            let estimates = cost::estimate(
+                &output,
+                &cost::Receiver {
+                    link: measured.link(&host.url, &receiver.url),
+                    speed: measured.speed(&receiver.url),
+                    has_plugin: receiver.has_plugin(&filter.plugin),
+                    load: receiver.load(),
+                },
+            );
+            let update = Update {
+                correction: Some(filter.correction.clone()),
+                replay: Some(filter.replay.clone()),
+                full: filter.full.clone(),
+                use_: cost::choose(self.transfer, &estimates),
+            };
+            let forwarded = replica::Forwarded {
+                update,
+                estimates: (self.transfer == Transfer::Auto).then_some(estimates),
+                output,
+                last_full: last_full.clone(),
+                registry: self.registry.clone(),
+            };
+            replica.forward(&self.run, index, forwarded, &hash, &host);
         }
         Ok(())
-    }
-
-    fn choose_transfer(&self, correction_bytes: u64, full_bytes: u64) -> Use {
-        match self.transfer {
-            Transfer::Full => Use::Full,
-            Transfer::Correction => Use::Correction,
-            Transfer::Auto if correction_bytes < full_bytes => Use::Correction,
-            Transfer::Auto => Use::Full,
-        }
     }
 
     /// The filter's output becomes the current mesh; the producer already holds it.
@@ -471,15 +545,21 @@ impl Executor {
             if failed.iter().any(|h| Arc::ptr_eq(h, &host)) {
                 let candidates =
                     offering_pinned(&self.registry.hosts(), &task.service, task.plugin.as_deref());
-                let replacement = pick(&candidates, &self.plan.hosts(), &task.service, &failed)
-                    .ok_or_else(|| {
-                        format!(
-                            "{}: no host left for \"{}\" (failed: {})",
-                            task.path,
-                            task.service,
-                            reasons.join("; ")
-                        )
-                    })?;
+                let replacement = pick(
+                    &candidates,
+                    &self.plan.hosts(),
+                    &task.service,
+                    &failed,
+                    placed_by_link(self.plan.placement(), &self.registry),
+                )
+                .ok_or_else(|| {
+                    format!(
+                        "{}: no host left for \"{}\" (failed: {})",
+                        task.path,
+                        task.service,
+                        reasons.join("; ")
+                    )
+                })?;
                 self.plan.assign(&task.path, replacement);
                 continue;
             }
@@ -562,6 +642,7 @@ impl Executor {
             triangles: None,
             edits: None,
             correction_bytes: None,
+            replay_bytes: None,
             full_bytes: None,
             value: None,
             condition: None,
@@ -581,6 +662,7 @@ impl Executor {
                 record.triangles = Some(f.triangles as u64);
                 record.edits = Some(f.edits as u64);
                 record.correction_bytes = Some(f.correction.bytes);
+                record.replay_bytes = Some(f.replay.bytes);
             }
             RunResult::Check(c) => {
                 record.plugin = c.plugin.clone();
@@ -610,7 +692,7 @@ impl Executor {
             }
             for url in &sources {
                 let full = FullRef { url: url.clone(), hash: hash.clone() };
-                let update = Update { correction: None, full, use_: Use::Full };
+                let update = Update { correction: None, replay: None, full, use_: Use::Full };
                 match host.client.update(&replica.session, &update).await {
                     Ok(updated) => {
                         verify::updated(&updated, &hash)?;
@@ -623,8 +705,9 @@ impl Executor {
             }
             self.replicas.remove(index);
         }
+        let grid = self.current.as_ref().and_then(|c| c.grid).map(GridSpec::Exponents);
         for url in &sources {
-            match load_input(&self.run, host.clone(), url, Some(hash.clone())).await {
+            match load_input(&self.run, host.clone(), url, Some(hash.clone()), grid).await {
                 Ok((session, _)) => {
                     self.replicas.push(Replica::new(host.clone(), session.clone(), hash));
                     return Ok(session);
@@ -659,7 +742,9 @@ impl Executor {
     /// each output hash against the record.
     async fn replay_from_input(&mut self, host: &Arc<HostEntry>) -> Result<String, Failure> {
         let input_hash = self.run.record().input.map(|i| i.hash);
-        let (session, _) = load_input(&self.run, host.clone(), &self.input, input_hash).await?;
+        let grid = self.quantize.map(GridSpec::Bits);
+        let (session, _) =
+            load_input(&self.run, host.clone(), &self.input, input_hash, grid).await?;
         for (task, expected) in &self.history {
             let request = RunRequest {
                 service: task.service.clone(),
@@ -728,8 +813,9 @@ impl Executor {
             correction: None,
             vertices: input.vertices,
             triangles: input.triangles,
-            full_bytes_estimate: u64::MAX,
+            last_full: LastFull::new(None, input.vertices),
             producer: None,
+            grid: input.grid,
         });
         Ok(())
     }
@@ -750,8 +836,8 @@ impl Executor {
         current.correction = None;
         current.vertices = step.vertices.unwrap_or(0);
         current.triangles = step.triangles.unwrap_or(0);
-        if let Some(bytes) = step.full_bytes {
-            current.full_bytes_estimate = bytes;
+        if let (Some(bytes), Some(vertices)) = (step.full_bytes, step.vertices) {
+            current.last_full.seen(bytes, vertices);
         }
         Ok(())
     }
@@ -788,8 +874,10 @@ async fn load_input(
     host: Arc<HostEntry>,
     url: &str,
     hash: Option<String>,
+    grid: Option<GridSpec>,
 ) -> Result<(String, meshflow_api::host::SessionStatus), Failure> {
-    let created = host.client.create_session(url, hash.as_deref()).await?;
+    let input = InputRef { url: url.to_owned(), hash: hash.clone() };
+    let created = host.client.create_session_with(CreateSession { input, grid }).await?;
     run.session_opened(&host.url, &created.id);
     let status = host.client.wait_ready(&created.id).await?;
     match status.state {

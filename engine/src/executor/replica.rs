@@ -6,12 +6,27 @@
 use std::sync::Arc;
 
 use meshflow_api::ClientError;
-use meshflow_api::host::{Transfer as Use, Update, Updated};
+use meshflow_api::engine::TransferEstimates;
+use meshflow_api::host::{Update, Updated};
 use tokio::task::JoinHandle;
 
+use super::LastFull;
+use super::cost::StepOutput;
+use crate::measured::Applied;
 use crate::record::TransferRecord;
-use crate::registry::HostEntry;
+use crate::registry::{HostEntry, Registry};
 use crate::run::Run;
+
+/// One step's result on its way to one receiver, with what the cost model expected and
+/// what the outcome teaches it.
+pub struct Forwarded {
+    pub update: Update,
+    /// Recorded when the model chose (`transfer: auto`).
+    pub estimates: Option<TransferEstimates>,
+    pub output: StepOutput,
+    pub last_full: LastFull,
+    pub registry: Arc<Registry>,
+}
 
 pub struct Replica {
     pub host: Arc<HostEntry>,
@@ -27,13 +42,13 @@ impl Replica {
         Self { host, session, hash, pending: None }
     }
 
-    /// Queues `update` (from `producer`, announcing mesh `hash`) after the updates already
-    /// forwarded; the transfer is recorded under step `step` of `run`.
+    /// Queues an update (from `producer`, announcing mesh `hash`) after the updates already
+    /// forwarded; the transfer is recorded under step `step` of `run`, and measured.
     pub fn forward(
         &mut self,
         run: &Arc<Run>,
         step: usize,
-        update: Update,
+        forwarded: Forwarded,
         hash: &str,
         producer: &Arc<HostEntry>,
     ) {
@@ -47,10 +62,15 @@ impl Replica {
                 let _ = previous.await;
             }
             let started_ms = run.elapsed_ms();
-            let outcome = receiver.client.update(&session, &update).await;
+            let outcome = receiver.client.update(&session, &forwarded.update).await;
             let outcome = judge(outcome, &announced, &receiver, &producer);
+            if let Ok(updated) = &outcome {
+                learn(&forwarded, updated, &producer.url, &receiver.url);
+            }
             let url = receiver.url.clone();
-            let record = transfer_record(url, started_ms, run.elapsed_ms(), &update, &outcome);
+            let mut record =
+                transfer_record(url, started_ms, run.elapsed_ms(), &forwarded.update, &outcome);
+            record.estimates = forwarded.estimates;
             run.update_step("transfer", step, |s| {
                 let json = serde_json::json!({"step": step, "transfer": record});
                 // A full-mesh download tells the step's full-mesh size.
@@ -108,6 +128,26 @@ fn judge(
     }
 }
 
+/// What an update's answer tells the cost model: the link's speed (a full mesh or a large
+/// correction measures bandwidth, small ones latency), the receiver's speed at the way it
+/// used, and a full mesh's size.
+fn learn(forwarded: &Forwarded, updated: &Updated, producer: &str, receiver: &str) {
+    let measured = &forwarded.registry.measured;
+    measured.downloaded(Some(producer), receiver, updated.bytes, updated.download_ms);
+    let output = &forwarded.output;
+    let applied = Applied {
+        via: updated.via,
+        apply_ms: updated.apply_ms,
+        edits: output.edits,
+        vertices: output.vertices,
+        producer_compute_ms: output.compute_ms,
+    };
+    measured.applied(receiver, &applied);
+    if updated.via == meshflow_api::host::Transfer::Full && updated.fallback.is_none() {
+        forwarded.last_full.seen(updated.bytes, output.vertices);
+    }
+}
+
 fn transfer_record(
     host: String,
     started_ms: f64,
@@ -115,11 +155,13 @@ fn transfer_record(
     update: &Update,
     outcome: &Result<Updated, ClientError>,
 ) -> TransferRecord {
-    let via = |u: Use| if u == Use::Correction { "correction" } else { "full" }.to_owned();
+    let asked = update.use_.name().to_owned();
     match outcome {
         Ok(updated) => TransferRecord {
             host,
-            via: via(updated.via),
+            asked,
+            via: updated.via.name().to_owned(),
+            estimates: None,
             bytes: updated.bytes,
             download_ms: updated.download_ms,
             apply_ms: updated.apply_ms,
@@ -130,7 +172,9 @@ fn transfer_record(
         },
         Err(error) => TransferRecord {
             host,
-            via: via(update.use_),
+            via: asked.clone(),
+            asked,
+            estimates: None,
             bytes: 0,
             download_ms: 0.0,
             apply_ms: 0.0,

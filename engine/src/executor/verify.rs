@@ -8,7 +8,7 @@
 use meshflow_api::host::{CheckResult, FilterResult, SessionStatus, Updated};
 use meshflow_api::params::ValueType;
 
-use crate::limits::{MAX_CORRECTION_BYTES, MAX_TRIANGLES, MAX_VERTICES};
+use crate::limits::{MAX_CORRECTION_BYTES, MAX_REPLAY_BYTES, MAX_TRIANGLES, MAX_VERTICES};
 use crate::validate::{json_fits, json_type_name, value_type_name};
 
 /// Characters of a host's text repeated in an error.
@@ -135,8 +135,10 @@ impl Asked<'_> {
                 expected: full,
             });
         }
-        self.correction_url(&answer.correction.url)?;
+        self.blob_url("correction.url", &answer.correction.url, "mfc")?;
         at_most("correction.bytes", answer.correction.bytes, MAX_CORRECTION_BYTES)?;
+        self.blob_url("replay.url", &answer.replay.url, "mfr")?;
+        at_most("replay.bytes", answer.replay.bytes, MAX_REPLAY_BYTES)?;
         let (vertices, triangles) = (answer.vertices as u64, answer.triangles as u64);
         counts(vertices, triangles)?;
         // The same mesh has the same counts; no edit leaves the same mesh.
@@ -155,16 +157,20 @@ impl Asked<'_> {
         Ok(())
     }
 
-    /// `<host>/blobs/<blake3 of its bytes>.mfc`: the bytes cannot be checked here, the name
-    /// can (and a receiver checks the bytes against the announced result).
-    fn correction_url(&self, url: &str) -> Result<(), FalseClaim> {
+    /// `<host>/blobs/<blake3 of its bytes>.<extension>` (a correction or a replay): the
+    /// bytes cannot be checked here, the name can (and a receiver checks the bytes against
+    /// the announced result).
+    fn blob_url(&self, field: &'static str, url: &str, extension: &str) -> Result<(), FalseClaim> {
         let name = url.strip_prefix(self.host).and_then(|rest| rest.strip_prefix("/blobs/"));
-        match name.and_then(|name| name.strip_suffix(".mfc")) {
+        let digest = name
+            .and_then(|name| name.strip_suffix(extension))
+            .and_then(|name| name.strip_suffix('.'));
+        match digest {
             Some(digest) if is_content_hash(digest) => Ok(()),
             _ => Err(FalseClaim::WrongUrl {
-                field: "correction.url",
+                field,
                 url: shown(url),
-                expected: format!("{}/blobs/<blake3>.mfc", self.host),
+                expected: format!("{}/blobs/<blake3>.{extension}", self.host),
             }),
         }
     }
@@ -239,6 +245,7 @@ mod tests {
             report: String::new(),
             resolved_params: Default::default(),
             correction: BlobRef { url: format!("{HOST}/blobs/{}.mfc", hash('c')), bytes: 120 },
+            replay: BlobRef { url: format!("{HOST}/blobs/{}.mfr", hash('f')), bytes: 190 },
             full: FullRef { url: format!("{HOST}/blobs/{}.mfm", hash('b')), hash: hash('b') },
         }
     }
@@ -289,6 +296,10 @@ mod tests {
                 "{url}"
             );
         }
+        let replay_elsewhere =
+            refused(|a| a.replay.url = format!("http://evil.example/blobs/{}.mfr", hash('f')));
+        assert!(replay_elsewhere.contains("replay.url"), "{replay_elsewhere}");
+        assert!(refused(|a| a.replay.bytes = u64::MAX).contains("replay.bytes"));
         assert!(refused(|a| a.vertices = 123_456_789).contains("vertices = 123456789"));
         assert!(refused(|a| a.triangles = usize::MAX).contains("triangles"));
         assert!(refused(|a| a.correction.bytes = u64::MAX).contains("correction.bytes"));
@@ -344,6 +355,7 @@ mod tests {
     #[test]
     fn loaded_sessions_and_updates_must_name_the_right_mesh() {
         let status = |hash: &str, vertices| SessionStatus {
+            grid: None,
             id: "s".into(),
             state: SessionState::Ready,
             hash: Some(hash.into()),

@@ -104,6 +104,127 @@ fn removing_150_components_costs_under_a_kilobyte() {
     assert!(per_component < 1024 && bulk < 300, "{per_component} B per component, {bulk} B bulk");
 }
 
+/// A grid and 20 spurious patches of 5x5 vertices, with vertices and triangles in a random
+/// order, as a range scanner interleaves them: the patches' ids are scattered.
+fn interleaved_scan(rng: &mut Rng) -> MeshData {
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    let mut patch = |w: u32, offset: [f32; 3], rng: &mut Rng| {
+        let first = (positions.len() / 3) as u32;
+        for y in 0..w {
+            for x in 0..w {
+                let bump = 0.01 * rng.unit();
+                positions.extend([
+                    offset[0] + x as f32 * 0.1,
+                    offset[1] + y as f32 * 0.1,
+                    offset[2] + bump,
+                ]);
+            }
+        }
+        for y in 0..w - 1 {
+            for x in 0..w - 1 {
+                let v = first + y * w + x;
+                triangles.extend([v, v + 1, v + w + 1, v, v + w + 1, v + w]);
+            }
+        }
+    };
+    patch(60, [0.0; 3], rng);
+    for i in 0..20 {
+        patch(5, [10.0 + i as f32, 0.0, 1.0], rng);
+    }
+    let vertices = positions.len() / 3;
+    let mut order: Vec<u32> = (0..vertices as u32).collect();
+    for i in (1..order.len()).rev() {
+        order.swap(i, rng.below(i as u32 + 1) as usize);
+    }
+    // order[new] = old; where[old] = new.
+    let mut moved = vec![0.0; positions.len()];
+    let mut new_id = vec![0u32; vertices];
+    for (new, &old) in order.iter().enumerate() {
+        moved[3 * new..3 * new + 3]
+            .copy_from_slice(&positions[3 * old as usize..3 * old as usize + 3]);
+        new_id[old as usize] = new as u32;
+    }
+    let mut faces: Vec<[u32; 3]> =
+        triangles.chunks_exact(3).map(|t| [t[0], t[1], t[2]].map(|v| new_id[v as usize])).collect();
+    for i in (1..faces.len()).rev() {
+        faces.swap(i, rng.below(i as u32 + 1) as usize);
+    }
+    MeshData::new(moved, faces.concat())
+}
+
+/// Removing whole components costs bytes per component however their ids lie: the removed
+/// triangles as one seed each, the vertices they left unused as one symbol.
+#[test]
+fn removing_interleaved_components_costs_bytes_per_component() {
+    let base = interleaved_scan(&mut Rng(11));
+    let mut store = MeshStore::new(base.clone());
+    // As `remove-smallest-components` does it: triangles, then the vertices left unused.
+    let big_patch_triangles = 2 * 59 * 59;
+    let corners_of_small: Vec<u32> = {
+        let mut size = std::collections::HashMap::new();
+        let labels = component_labels(&base);
+        labels.iter().for_each(|&l| *size.entry(l).or_insert(0) += 1);
+        let small: Vec<u32> = (0..base.triangle_count() as u32)
+            .filter(|&t| size[&labels[t as usize]] < big_patch_triangles)
+            .collect();
+        assert_eq!(small.len(), 20 * 32);
+        store.apply(Op::RemoveTriangles { ids: small.clone() }).unwrap();
+        let mut corners: Vec<u32> = small
+            .iter()
+            .flat_map(|&t| base.triangles[3 * t as usize..3 * t as usize + 3].to_vec())
+            .collect();
+        corners.sort_unstable();
+        corners.dedup();
+        corners
+    };
+    store.apply(Op::RemoveVertices { ids: corners_of_small.clone() }).unwrap();
+    let (result, log) = store.finish();
+    let bytes = assert_round_trip(&base, &result, &log).len();
+    assert!(bytes <= 300, "{bytes} B for 20 interleaved components");
+
+    // The same pieces removed through their vertices alone: one seed each too.
+    let mut store = MeshStore::new(base.clone());
+    store.apply(Op::RemoveVertices { ids: corners_of_small }).unwrap();
+    let (result, log) = store.finish();
+    let by_vertices = assert_round_trip(&base, &result, &log).len();
+    assert!(by_vertices <= 300, "{by_vertices} B through vertices");
+
+    // A removal that is not a union of components is listed, and still exact.
+    let mut store = MeshStore::new(base.clone());
+    store.apply(Op::RemoveTriangles { ids: vec![0, 5, 9] }).unwrap();
+    store.apply(Op::FlipTriangles { ids: (20..400).collect() }).unwrap();
+    let (result, log) = store.finish();
+    assert_round_trip(&base, &result, &log);
+}
+
+/// Edge-connected component label of each triangle (two shared corners), by union-find.
+fn component_labels(mesh: &MeshData) -> Vec<u32> {
+    let n = mesh.triangle_count();
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn root(parent: &mut [u32], mut t: u32) -> u32 {
+        while parent[t as usize] != t {
+            parent[t as usize] = parent[parent[t as usize] as usize];
+            t = parent[t as usize];
+        }
+        t
+    }
+    let mut by_edge = std::collections::HashMap::new();
+    for t in 0..n {
+        let c = &mesh.triangles[3 * t..3 * t + 3];
+        for k in 0..3 {
+            let (a, b) = (c[k].min(c[(k + 1) % 3]), c[k].max(c[(k + 1) % 3]));
+            if let Some(&other) = by_edge.get(&(a, b)) {
+                let (x, y) = (root(&mut parent, t as u32), root(&mut parent, other));
+                parent[x as usize] = y;
+            } else {
+                by_edge.insert((a, b), t as u32);
+            }
+        }
+    }
+    (0..n as u32).map(|t| root(&mut parent, t)).collect()
+}
+
 /// One step of plain neighbour averaging (what `laplacian-smoothing` computes) is predicted
 /// exactly, so it costs about the "moved" flags; a different factor costs a little more.
 /// 22,500 vertices: several chunks for each of the decoder's two predicting threads.

@@ -25,10 +25,13 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(128))]
 
     /// Arbitrary soups: degenerate, duplicate and non-manifold triangles, unreferenced
-    /// vertices, any float bits (NaN, infinities, -0.0, subnormals).
+    /// vertices, any finite float bits (-0.0, subnormals; non-finite ones are refused).
     #[test]
     fn any_mesh_round_trips_exactly(
-        positions in prop::collection::vec(any::<u32>().prop_map(f32::from_bits), 0..60),
+        positions in prop::collection::vec(
+            any::<u32>().prop_map(f32::from_bits).prop_filter("finite", |c| c.is_finite()),
+            0..60,
+        ),
         corners in prop::collection::vec(any::<u32>(), 0..90),
     ) {
         let n = positions.len() / 3;
@@ -68,6 +71,10 @@ fn invalid_meshes_are_refused() {
     assert!(matches!(pack::encode(&bad), Err(PackError::InvalidMesh(_))));
     let ragged = MeshData::new(vec![0.0; 8], vec![]);
     assert!(matches!(pack::encode(&ragged), Err(PackError::InvalidMesh(_))));
+    for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        let mesh = MeshData::new(vec![0.0, 0.0, 0.0, 1.0, bad, 0.0, 0.0, 1.0, 0.0], vec![0, 1, 2]);
+        assert!(matches!(pack::encode(&mesh), Err(PackError::InvalidMesh(_))), "{bad}");
+    }
 }
 
 #[test]

@@ -251,8 +251,10 @@ fn engine_config(limits: &Limits) -> Config {
     config.concurrency_support(false);
     config.epoch_interruption(true);
     config.consume_fuel(limits.fuel.is_some());
-    // The same plugin on the same mesh must give the same bits on every host.
-    config.cranelift_nan_canonicalization(true);
+    // Off (DESIGN §8): it cost 10-40 % on float-heavy services. Determinism is checked
+    // instead: the store refuses non-finite coordinates in every edit, and every correction
+    // and replay is verified against its result hash.
+    config.cranelift_nan_canonicalization(false);
     config.max_wasm_stack(MAX_WASM_STACK_BYTES);
     // A 4 GiB reservation with guard pages: no bounds checks in the compiled code, and the
     // memory never has to move, which lets cranelift keep its base pointer in a register.

@@ -107,6 +107,16 @@ fn refused_edits_leave_no_trace_in_the_mesh_or_the_log() {
 }
 
 #[test]
+fn non_finite_coordinates_are_refused_in_every_edit_from_the_sandbox() {
+    let runtime = runtime_with(quick_limits());
+    let hostile = runtime.load(fixture("hostile")).unwrap();
+    let out = runtime.run(&hostile, "non-finite-edits", octahedron(), &[]).expect("runs");
+    assert_eq!(out.report, "every non-finite coordinate was refused");
+    assert!(out.log.is_empty(), "{:?}", out.log);
+    assert_eq!(out.mesh.unwrap(), octahedron());
+}
+
+#[test]
 fn endless_edits_stop_at_the_edit_budget() {
     let runtime = runtime_with(Limits { deadline: Duration::from_secs(30), ..quick_limits() });
     let error = run_hostile(&runtime, "edit-forever");

@@ -30,6 +30,7 @@ pub fn router(host: Arc<Host>) -> Router {
             get(plugins::list).post(plugins::upload).layer(DefaultBodyLimit::max(MAX_PLUGIN_BYTES)),
         )
         .route("/plugins/{digest}", delete(plugins::delete))
+        .route("/plugins/{digest}/wasm", get(plugins::component))
         .route("/sessions", post(sessions::create))
         .route("/sessions/{id}", get(sessions::status).delete(sessions::delete))
         .route("/sessions/{id}/update", post(steps::update))

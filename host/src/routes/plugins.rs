@@ -56,6 +56,18 @@ pub async fn services(State(host): State<Arc<Host>>) -> Json<Vec<ServiceEntry>> 
     Json(host.plugins.services())
 }
 
+/// `GET /plugins/{digest}/wasm` (cluster token): a loaded plugin's component, for a host
+/// that replays a step of this one.
+pub async fn component(
+    State(host): State<Arc<Host>>,
+    Path(digest): Path<String>,
+) -> Result<impl axum::response::IntoResponse, ApiError> {
+    let bytes = host.plugins.bytes(&digest).ok_or_else(|| {
+        ApiError::new(StatusCode::NOT_FOUND, "no-plugin", format!("no plugin {digest} here"))
+    })?;
+    Ok(([(axum::http::header::CONTENT_TYPE, "application/wasm")], bytes))
+}
+
 /// `DELETE /plugins/{digest}`.
 pub async fn delete(
     State(host): State<Arc<Host>>,

@@ -27,6 +27,7 @@ pub async fn create(
         input: None,
         steps: Vec::new(),
         peers,
+        grid: request.grid,
     };
     host.sessions.insert(&id, record.clone())?;
     tokio::spawn(rebuild::load(host.clone(), id.clone(), record));

@@ -11,19 +11,22 @@ use super::error::{ApiError, ApiJson};
 use crate::blobs::Stored;
 use crate::meshes::{self, MeshEncoding};
 use crate::rebuild::hashed;
+use crate::replay;
 use crate::sessions::CurrentMesh;
 use crate::state::Host;
-use meshflow_api::fetch_rules::FetchScope;
+use meshflow_api::fetch_rules::{FetchScope, origin};
 use meshflow_api::host::{
     BlobRef, CheckResult, FilterResult, FullRef, RunRequest, RunResult, Transfer, Update, Updated,
     Vouched, millis,
 };
 use meshflow_codec::correction;
+use meshflow_codec::quantize::{Grid, snap_step};
 use meshflow_mesh::{ContentHash, MeshData};
 use meshflow_params::{from_json as params_from_json, resolve, value_json};
 use meshflow_runtime::{ServiceInfo, ServiceKind, Value};
 
-/// `POST /sessions/{id}/update`: replay the correction, or fall back to the full mesh.
+/// `POST /sessions/{id}/update`: re-run the step (`replay`) or replay its edit log
+/// (`correction`), as asked, falling back to the edit log and then to the full mesh.
 pub async fn update(
     State(host): State<Arc<Host>>,
     Path(id): Path<String>,
@@ -33,32 +36,42 @@ pub async fn update(
     let session = host.sessions.begin(&id)?;
     let mut downloaded = 0;
     let mut download_ms = 0.0;
-    let fallback = match (update.use_, &update.correction) {
-        (Transfer::Full, _) => None,
-        (Transfer::Correction, None) => Some("no correction was given".to_owned()),
-        (Transfer::Correction, Some(correction)) => {
-            let attempt =
-                replay_correction(&host, &scope, &session.current, correction, &update.full.hash)
-                    .await;
-            downloaded += attempt.bytes;
-            download_ms += attempt.download_ms;
-            match attempt.result {
-                Ok((next, name, _stored)) => {
-                    let updated = Updated {
-                        hash: next.hash.clone(),
-                        via: Transfer::Correction,
-                        bytes: downloaded,
-                        download_ms,
-                        apply_ms: attempt.apply_ms,
-                        fallback: None,
-                    };
-                    session.commit(next, name)?;
-                    return Ok(Json(updated));
-                }
-                Err(reason) => Some(reason),
-            }
-        }
+    let mut reasons = Vec::new();
+    let order: &[Transfer] = match update.use_ {
+        Transfer::Replay => &[Transfer::Replay, Transfer::Correction],
+        Transfer::Correction => &[Transfer::Correction],
+        Transfer::Full => &[],
     };
+    for &via in order {
+        let blob = match via {
+            Transfer::Replay => update.replay.as_ref(),
+            _ => update.correction.as_ref(),
+        };
+        let Some(blob) = blob else {
+            reasons.push(format!("no {} was given", via.name()));
+            continue;
+        };
+        let (base, grid) = (&session.current, session.grid);
+        let attempt = apply_step(&host, &scope, base, grid, blob, via, &update.full.hash).await;
+        downloaded += attempt.bytes;
+        download_ms += attempt.download_ms;
+        match attempt.result {
+            Ok((next, name, _stored)) => {
+                let updated = Updated {
+                    hash: next.hash.clone(),
+                    via,
+                    bytes: downloaded,
+                    download_ms,
+                    apply_ms: attempt.apply_ms,
+                    fallback: fallback(&reasons),
+                };
+                session.commit(next, name)?;
+                return Ok(Json(updated));
+            }
+            Err(reason) => reasons.push(format!("{}: {reason}", via.name())),
+        }
+    }
+    let fallback = fallback(&reasons);
     if let Some(reason) = &fallback {
         tracing::info!("session {id}: using the full mesh: {reason}");
     }
@@ -97,24 +110,32 @@ pub async fn update(
     Ok(Json(updated))
 }
 
+fn fallback(reasons: &[String]) -> Option<String> {
+    (!reasons.is_empty()).then(|| reasons.join("; "))
+}
+
 struct Attempt<'a> {
     bytes: u64,
     download_ms: f64,
     apply_ms: f64,
-    /// The new mesh, the stored correction's name and its hold against eviction, or why
-    /// the correction was not used.
+    /// The new mesh, the stored blob's name and its hold against eviction, or why the
+    /// blob was not used.
     result: Result<(CurrentMesh, String, Stored<'a>), String>,
 }
 
-async fn replay_correction<'a>(
+/// Downloads a correction or replay correction and applies it to `base`; the result must
+/// be `expected`. The blob is kept, so a restart can apply it again.
+async fn apply_step<'a>(
     host: &'a Host,
     scope: &FetchScope,
     base: &CurrentMesh,
-    correction: &BlobRef,
+    grid: Option<Grid>,
+    blob: &BlobRef,
+    via: Transfer,
     expected: &str,
 ) -> Attempt<'a> {
     let started = Instant::now();
-    let downloaded = host.download(&correction.url, scope).await;
+    let downloaded = host.download(&blob.url, scope).await;
     let download_ms = millis(started.elapsed());
     let bytes = match downloaded {
         Ok(bytes) => bytes,
@@ -125,33 +146,53 @@ async fn replay_correction<'a>(
     };
     let size = bytes.len() as u64;
     let started = Instant::now();
-    let url = correction.url.clone();
-    let expected = expected.to_owned();
-    let (mesh, base_hash) = (base.mesh.clone(), base.hash.clone());
-    let applied = tokio::task::spawn_blocking(move || {
-        let hash = |hex: &str| {
-            ContentHash::from_hex(hex).ok_or_else(|| format!("{hex:?} is not a content hash"))
-        };
-        // The session's hash is known: the base is not hashed again.
-        let mesh = correction::apply_known(mesh, hash(&base_hash)?, &bytes, hash(&expected)?)
-            .map_err(|e| format!("{url}: {e}"))?;
-        Ok((CurrentMesh { mesh: Arc::new(mesh), hash: expected.to_ascii_lowercase() }, bytes))
-    })
-    .await
-    .unwrap_or_else(|e| Err(e.to_string()));
+    let (applied, name) = match via {
+        Transfer::Replay => {
+            let producer = reqwest::Url::parse(&blob.url).ok().map(|url| origin(&url));
+            let producer = producer.as_deref();
+            let next = replay::apply(host, scope, producer, base, grid, &bytes, expected)
+                .await
+                .map_err(|e| e.to_string());
+            (next, meshes::replay_name(&bytes))
+        }
+        _ => (
+            apply_correction(base, &bytes, expected, &blob.url).await,
+            meshes::correction_name(&bytes),
+        ),
+    };
     let apply_ms = millis(started.elapsed());
     let result = match applied {
-        Ok((next, bytes)) => {
-            let name = meshes::correction_name(&bytes);
-            host.blobs
-                .put(&name, Arc::new(bytes))
-                .await
-                .map(|stored| (next, name, stored))
-                .map_err(|e| e.to_string())
-        }
+        Ok(next) => host
+            .blobs
+            .put(&name, Arc::new(bytes))
+            .await
+            .map(|stored| (next, name, stored))
+            .map_err(|e| e.to_string()),
         Err(reason) => Err(reason),
     };
     Attempt { bytes: size, download_ms, apply_ms, result }
+}
+
+/// Replays an edit log on a thread of its own. The session's hash is known: the base is
+/// not hashed again.
+async fn apply_correction(
+    base: &CurrentMesh,
+    bytes: &[u8],
+    expected: &str,
+    url: &str,
+) -> Result<CurrentMesh, String> {
+    let (mesh, base_hash) = (base.mesh.clone(), base.hash.clone());
+    let (bytes, expected, url) = (bytes.to_vec(), expected.to_owned(), url.to_owned());
+    tokio::task::spawn_blocking(move || {
+        let hash = |hex: &str| {
+            ContentHash::from_hex(hex).ok_or_else(|| format!("{hex:?} is not a content hash"))
+        };
+        let mesh = correction::apply_known(mesh, hash(&base_hash)?, &bytes, hash(&expected)?)
+            .map_err(|e| format!("{url}: {e}"))?;
+        Ok(CurrentMesh { mesh: Arc::new(mesh), hash: expected.to_ascii_lowercase() })
+    })
+    .await
+    .unwrap_or_else(|e| Err(e.to_string()))
 }
 
 async fn decode_off_thread(
@@ -175,6 +216,7 @@ pub async fn run(
     let params = params_from_json(&info, &request.params)
         .map_err(|e| ApiError::bad_request("bad-params", e.to_string()))?;
     let resolved_params = resolved_json(&info, &params)?;
+    let ran = (plugin.clone(), params.clone());
     let session = host.sessions.begin(&id)?;
     let input = session.current.clone();
     let _running = host.start_run();
@@ -194,18 +236,37 @@ pub async fn run(
         return Ok(Json(RunResult::Check(result)));
     }
 
-    let edits = output.log.iter().map(|op| op.edit_count()).sum();
     let result = output.mesh.expect("a filter returns a mesh");
     let base_hash = ContentHash::from_hex(&input.hash).ok_or_else(|| {
         ApiError::internal(format!("session hash `{}` is not a hash", input.hash))
     })?;
+    // A quantised run: the plugin computes freely, its result goes back onto the grid.
+    let (result, log) = match session.grid {
+        Some(grid) => {
+            let base = input.mesh.clone();
+            tokio::task::spawn_blocking(move || snap_step(&grid, &base, result, output.log))
+                .await?
+                .map_err(|e| ApiError::internal(format!("snapping to the grid: {e}")))?
+        }
+        None => (result, output.log),
+    };
+    let edits = log.iter().map(|op| op.edit_count()).sum();
     let (next, correction) = tokio::task::spawn_blocking(move || {
-        correction::encode_known(input.mesh, base_hash, &output.log, &result).map(
-            |(bytes, hash)| (CurrentMesh { mesh: Arc::new(result), hash: hash.to_hex() }, bytes),
-        )
+        correction::encode_known(input.mesh, base_hash, &log, &result).map(|(bytes, hash)| {
+            (CurrentMesh { mesh: Arc::new(result), hash: hash.to_hex() }, bytes)
+        })
     })
     .await?
     .map_err(|e| ApiError::internal(format!("encoding the correction: {e}")))?;
+    // The replay is stored first and not held: no session record names it, and a second
+    // hold taken while the correction's is held would queue behind a waiting eviction.
+    let result_hash = ContentHash::from_hex(&next.hash)
+        .ok_or_else(|| ApiError::internal("the result hash is not a hash".to_owned()))?;
+    let named = replay::name(&ran.0, &info, &ran.1, base_hash, &next.mesh, result_hash)
+        .map(|step| meshflow_codec::replay::encode(&step))
+        .map_err(|e| ApiError::internal(format!("naming the step: {e}")))?;
+    let (replay_name, replay_bytes) = (meshes::replay_name(&named), named.len() as u64);
+    drop(host.blobs.put(&replay_name, Arc::new(named)).await?);
     let correction_name = meshes::correction_name(&correction);
     let correction_bytes = correction.len() as u64;
     let stored = host.blobs.put(&correction_name, Arc::new(correction)).await?;
@@ -223,6 +284,7 @@ pub async fn run(
         report: output.report,
         resolved_params,
         correction: BlobRef { url: host.blob_url(&correction_name), bytes: correction_bytes },
+        replay: BlobRef { url: host.blob_url(&replay_name), bytes: replay_bytes },
         full: FullRef { url: host.blob_url(&full_name), hash: next.hash.clone() },
     };
     session.commit(next, correction_name)?;

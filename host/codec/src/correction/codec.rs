@@ -6,6 +6,7 @@ use super::coding::integer::{BUCKETS, int_model};
 use super::coding::model::AdaptiveModel;
 use super::coding::residual::{CLASSES, ResidualCoder};
 use super::lists::{ElementCoder, IdListCoder};
+use super::removals::Removals;
 use crate::quantize::Grid;
 use meshflow_mesh::store::OpKind;
 
@@ -34,6 +35,7 @@ pub(super) struct Models {
     pub(super) motion: [AdaptiveModel; motion::CONTEXTS],
     pub(super) elements: ElementCoder,
     pub(super) lists: IdListCoder,
+    pub(super) removals: Removals,
     pub(super) corners: CornerCoder,
     pub(super) new_points: ResidualCoder,
     pub(super) moves: ResidualCoder,
@@ -55,6 +57,7 @@ impl Models {
             motion: std::array::from_fn(|_| AdaptiveModel::new(motion::SYMBOLS)),
             elements: ElementCoder::new(),
             lists: IdListCoder::new(),
+            removals: Removals::new(),
             corners: CornerCoder::new(),
             new_points: ResidualCoder::new(grid),
             moves: ResidualCoder::new(grid),

@@ -12,6 +12,7 @@ use super::coding::residual::{ResidualCoder, Residuals};
 use super::coding::stream::{CorruptStream, SymbolReader};
 use super::header::{Correction, KindCount, kind_index};
 use super::predict::{self, NewVertexNeighbours, Smoothing};
+use super::removals::Removals;
 
 /// Decoded element counts may exceed the file size by at most this factor: the adaptive
 /// models never give a symbol a probability above `1 - 2^-16`, so no honest correction
@@ -107,9 +108,9 @@ impl Decoder {
                 Op::MoveVertices { ids, xyz }
             }
             OpKind::SetPositions => Op::SetPositions { xyz: self.set_positions()? },
-            OpKind::RemoveVertices => Op::RemoveVertices { ids: self.ids(kind)? },
-            OpKind::RemoveTriangles => Op::RemoveTriangles { ids: self.ids(kind)? },
-            OpKind::FlipTriangles => Op::FlipTriangles { ids: self.ids(kind)? },
+            OpKind::RemoveVertices => Op::RemoveVertices { ids: self.removal_ids(kind)? },
+            OpKind::RemoveTriangles => Op::RemoveTriangles { ids: self.removal_ids(kind)? },
+            OpKind::FlipTriangles => Op::FlipTriangles { ids: self.removal_ids(kind)? },
             OpKind::SplitTriangle => {
                 let triangle = m.elements.read_triangle(&mut input.ops)?;
                 let predicted = predict::centroid(&self.store, triangle);
@@ -166,11 +167,14 @@ impl Decoder {
 
     fn apply(&mut self, index: usize, op: Op) -> Result<(), CorrectionError> {
         let kind = op.kind();
-        self.store.apply(op).map(|_| ()).map_err(|source| CorrectionError::Replay {
+        let corners = Removals::before(&self.store, &op);
+        self.store.apply(op).map_err(|source| CorrectionError::Replay {
             op: index,
             kind,
             source,
-        })
+        })?;
+        self.models.removals.applied(&mut self.store, corners);
+        Ok(())
     }
 
     fn add_vertices(&mut self, index: usize) -> Result<usize, CorrectionError> {
@@ -216,6 +220,15 @@ impl Decoder {
     fn ids(&mut self, kind: OpKind) -> Result<Vec<u32>, CorruptStream> {
         let limit = self.remaining[kind_index(kind)].edits;
         let ids = self.models.lists.read(&mut self.input.ids, limit)?;
+        self.take(kind, ids.len() as u64)?;
+        Ok(ids)
+    }
+
+    /// The ids of a removal or flip, coded by [`Removals`].
+    fn removal_ids(&mut self, kind: OpKind) -> Result<Vec<u32>, CorruptStream> {
+        let limit = self.remaining[kind_index(kind)].edits;
+        let (m, input) = (&mut self.models, &mut self.input);
+        let ids = m.removals.read(&mut self.store, &mut m.lists, &mut input.ids, kind, limit)?;
         self.take(kind, ids.len() as u64)?;
         Ok(ids)
     }

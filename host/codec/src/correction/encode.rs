@@ -12,6 +12,7 @@ use super::codec::{END, Models, Sections, kind_symbol, motion};
 use super::coding::stream::SymbolWriter;
 use super::header::{self, Correction, KindCount, kind_index};
 use super::predict::{self, NewVertexNeighbours, Smoothing};
+use super::removals::Removals;
 use crate::quantize::Grid;
 
 /// Encodes the edit log `log` that turned `base` into `result` (as the store's
@@ -135,7 +136,9 @@ impl Encoder {
             Op::SetPositions { xyz } => self.set_positions(xyz),
             Op::RemoveVertices { ids }
             | Op::RemoveTriangles { ids }
-            | Op::FlipTriangles { ids } => m.lists.write(&mut out.ids, ids),
+            | Op::FlipTriangles { ids } => {
+                m.removals.write(&mut self.store, &mut m.lists, &mut out.ids, op.kind(), ids)
+            }
             Op::SplitTriangle { triangle, at } => {
                 m.elements.write_triangle(&mut out.ops, *triangle);
                 let predicted = predict::centroid(&self.store, *triangle);
@@ -205,11 +208,14 @@ impl Encoder {
     }
 
     fn apply(&mut self, index: usize, op: &Op) -> Result<(), CorrectionError> {
-        self.store.apply(op.clone()).map(|_| ()).map_err(|source| CorrectionError::Replay {
+        let corners = Removals::before(&self.store, op);
+        self.store.apply(op.clone()).map_err(|source| CorrectionError::Replay {
             op: index,
             kind: op.kind(),
             source,
-        })
+        })?;
+        self.models.removals.applied(&mut self.store, corners);
+        Ok(())
     }
 
     fn triangles(&mut self, abc: &[u32]) {

@@ -18,7 +18,7 @@ use super::CorrectionError;
 use super::coding::bytes::{ByteReader, put_grid, put_varint};
 
 pub(crate) const MAGIC: [u8; 4] = *b"MFC\x1a";
-pub const VERSION: u16 = 4;
+pub const VERSION: u16 = 5;
 const CHECKSUM_LEN: usize = 16;
 
 /// The entropy-coded streams of a correction, in file order.

@@ -5,7 +5,9 @@
 //! holds the ops of the step. Both [`encode`] and [`apply`] replay the ops through a
 //! [`MeshStore`](meshflow_mesh::store::MeshStore), so every prediction is made from the same state
 //! on both sides and only residuals are coded:
-//! - ids as deltas; ascending id lists as runs of consecutive ids;
+//! - ids as deltas; ascending id lists as runs of consecutive ids; removals of whole
+//!   components as one seed triangle each, and the vertices a triangle removal left unused
+//!   as one symbol (`removals.rs`);
 //! - new vertices as exact f32 residuals from the mean of their neighbours in the triangles
 //!   added with them, split points from the centroid or midpoint they replace;
 //! - moves as residuals from the old position; `set-positions` per vertex as "still",
@@ -35,6 +37,7 @@ mod error;
 mod header;
 mod lists;
 mod predict;
+mod removals;
 
 pub use encode::{encode, encode_known};
 pub use error::CorrectionError;

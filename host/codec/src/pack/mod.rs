@@ -145,6 +145,9 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, PackError> {
         positions[3 * v as usize..3 * v as usize + 3].copy_from_slice(&p);
         previous = Some(v);
     }
+    if let Some(i) = positions.iter().position(|c| !c.is_finite()) {
+        return Err(PackError::Malformed(format!("vertex {} has a non-finite coordinate", i / 3)));
+    }
     let mesh = MeshData::new(positions, triangles);
     let found = mesh.content_hash();
     if found != expected {
@@ -171,6 +174,9 @@ fn validate(mesh: &MeshData) -> Result<(), PackError> {
     let vertices = mesh.vertex_count();
     if u32::try_from(vertices).is_err() {
         return invalid(format!("{vertices} vertices do not fit u32 ids"));
+    }
+    if let Some(i) = mesh.positions.iter().position(|c| !c.is_finite()) {
+        return invalid(format!("vertex {} has a non-finite coordinate", i / 3));
     }
     match mesh.triangles.iter().find(|&&v| v as usize >= vertices) {
         Some(v) => invalid(format!("corner {v} is not one of the {vertices} vertices")),

@@ -305,7 +305,7 @@ impl MeshStore {
     }
 
     /// Live triangles around a vertex, ascending: the canonical order for edits that append.
-    fn triangles_around(&mut self, vertex: u32) -> Vec<u32> {
+    pub fn triangles_around(&mut self, vertex: u32) -> Vec<u32> {
         let mut around = self.incidence().around(vertex).to_vec();
         around.sort_unstable();
         around

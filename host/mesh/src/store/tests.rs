@@ -96,6 +96,32 @@ fn every_edit_kind_validates_its_arguments() {
     }
 }
 
+/// NaN canonicalisation is off in the sandbox (DESIGN §8), so a plugin can hand the store
+/// any NaN bit pattern: every op that carries a coordinate must refuse each of them.
+#[test]
+fn every_edit_that_carries_coordinates_refuses_non_finite_values() {
+    let payload_nan = f32::from_bits(0xffc0_1234);
+    for bad in [f32::NAN, payload_nan, f32::INFINITY, f32::NEG_INFINITY] {
+        let point = [0.5, bad, 0.5];
+        let mut matrix = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        matrix[3] = bad;
+        let mut all = store().positions().to_vec();
+        all[4] = bad;
+        let ops = [
+            Op::AddVertices { xyz: point.to_vec() },
+            Op::MoveVertices { ids: vec![2], xyz: point.to_vec() },
+            Op::SetPositions { xyz: all },
+            Op::SplitTriangle { triangle: 0, at: Some(point) },
+            Op::SplitEdge { edge: 1, at: Some(point) },
+            Op::TransformComponent { triangle: 3, matrix },
+            Op::Transform { matrix },
+        ];
+        for op in ops {
+            assert_refused(op, EditErrorKind::InvalidArgument);
+        }
+    }
+}
+
 #[test]
 fn removed_elements_refuse_further_edits() {
     let mut s = store();

@@ -53,6 +53,37 @@ fn ignore_bad_edits(mesh: &Mesh, _: &Params) -> Result<String> {
     }
 }
 
+/// Hands the host non-finite coordinates through every edit that carries one. The NaN has
+/// a payload and the sign bit set: with NaN canonicalisation off it reaches the host as is.
+fn non_finite_edits(mesh: &Mesh, _: &Params) -> Result<String> {
+    let bad = [f32::from_bits(0xffc0_1234), f32::INFINITY, f32::NEG_INFINITY];
+    let mut accepted = Vec::new();
+    for value in bad {
+        let p = [0.25, value, 0.25];
+        let mut all = mesh.positions();
+        all[1] = value;
+        let mut matrix = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        matrix[7] = value;
+        let attempts = [
+            ("add-vertex", mesh.add_vertex(p).is_ok()),
+            ("add-vertices", mesh.add_vertices(&p).is_ok()),
+            ("move-vertex", mesh.move_vertex(0, p).is_ok()),
+            ("move-vertices", mesh.move_vertices(&[0], &p).is_ok()),
+            ("set-positions", mesh.set_positions(&all).is_ok()),
+            ("split-triangle-at", mesh.split_triangle_at(0, p).is_ok()),
+            ("split-edge-at", mesh.split_edge_at(0, p).is_ok()),
+            ("transform-component", mesh.transform_component(0, &matrix).is_ok()),
+            ("transform", mesh.transform(&matrix).is_ok()),
+        ];
+        accepted.extend(attempts.iter().filter(|(_, ok)| *ok).map(|(name, _)| (*name, value)));
+    }
+    if accepted.is_empty() {
+        Ok("every non-finite coordinate was refused".into())
+    } else {
+        Err(format!("non-finite coordinates were accepted: {accepted:?}").into())
+    }
+}
+
 fn edit_forever(mesh: &Mesh, _: &Params) -> Result<String> {
     let chunk = vec![0.5f32; 3 << 16];
     loop {
@@ -90,6 +121,11 @@ fn services() -> Vec<Service> {
             "ignore-bad-edits",
             "Makes invalid edits, then a valid one.",
             ignore_bad_edits,
+        ),
+        Service::filter(
+            "non-finite-edits",
+            "Tries non-finite coordinates in every edit that takes one.",
+            non_finite_edits,
         ),
         Service::filter("edit-forever", "Adds vertices without end.", edit_forever),
         Service::filter("print-forever", "Prints without end.", print_forever),

@@ -1,0 +1,149 @@
+//! How one step's result reaches one receiving host (DESIGN §5): the expected time of each
+//! way over the measured link and at the receiver's measured speed, and the choice.
+//!
+//! - edit log: its bytes over the link, then replaying its edits;
+//! - replay: its few hundred bytes over the link (plus the plugin's, if the receiver lacks
+//!   it), then the producer's compute time at the receiver's speed, once more for every
+//!   task the receiver is busy with (a re-run waits for a run slot there);
+//! - full mesh: the last full size seen, scaled to the current vertex count, over the link,
+//!   then unpacking it.
+
+use meshflow_api::engine::TransferEstimates;
+use meshflow_api::host::Transfer as Use;
+
+use crate::measured::{HostSpeed, Link};
+use crate::workflow::Transfer;
+
+/// What a receiver that lacks the plugin downloads first, until sizes are known: the
+/// built-in plugins are 0.3-2 MB.
+pub const PLUGIN_BYTES_GUESS: u64 = 2 << 20;
+
+/// One filter step's result, as the producer reported it.
+#[derive(Clone, Copy, Debug)]
+pub struct StepOutput {
+    pub correction_bytes: u64,
+    pub replay_bytes: u64,
+    pub full_bytes: u64,
+    pub edits: u64,
+    pub vertices: u64,
+    pub compute_ms: f64,
+}
+
+/// The receiving host as the engine sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct Receiver {
+    pub link: Link,
+    pub speed: HostSpeed,
+    pub has_plugin: bool,
+    /// Tasks running or assigned there.
+    pub load: u32,
+}
+
+pub fn estimate(step: &StepOutput, receiver: &Receiver) -> TransferEstimates {
+    let Receiver { link, speed, has_plugin: receiver_has_plugin, load } = *receiver;
+    let compute_ms = speed.replay_ratio * step.compute_ms;
+    let plugin_ms = if receiver_has_plugin { 0.0 } else { link.transfer_ms(PLUGIN_BYTES_GUESS) };
+    TransferEstimates {
+        correction_ms: link.transfer_ms(step.correction_bytes)
+            + speed.apply_ms_per_edit * step.edits as f64,
+        replay_ms: link.transfer_ms(step.replay_bytes)
+            + plugin_ms
+            + compute_ms * f64::from(1 + load),
+        full_ms: link.transfer_ms(step.full_bytes)
+            + speed.unpack_ms_per_vertex * step.vertices as f64,
+    }
+}
+
+/// The way a workflow's `transfer` asks for; for `auto`, the least expected time (the edit
+/// log on a tie: it needs no plugin and no compute slot).
+pub fn choose(transfer: Transfer, estimates: &TransferEstimates) -> Use {
+    match transfer {
+        Transfer::Correction => Use::Correction,
+        Transfer::Replay => Use::Replay,
+        Transfer::Full => Use::Full,
+        Transfer::Auto => {
+            let ways = [
+                (estimates.correction_ms, Use::Correction),
+                (estimates.replay_ms, Use::Replay),
+                (estimates.full_ms, Use::Full),
+            ];
+            let mut best = ways[0];
+            for way in &ways[1..] {
+                if way.0 < best.0 {
+                    best = *way;
+                }
+            }
+            best.1
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MBIT_5: Link = Link { bytes_per_ms: 625.0, latency_ms: 20.0 };
+    const LAN: Link = Link { bytes_per_ms: 125_000.0, latency_ms: 0.2 };
+    const SPEED: HostSpeed =
+        HostSpeed { apply_ms_per_edit: 0.000_2, unpack_ms_per_vertex: 0.000_6, replay_ratio: 1.2 };
+
+    /// Cotangent smoothing of a 1M-vertex scan: a correction as large as the mesh, 300 ms
+    /// of compute.
+    const GLOBAL: StepOutput = StepOutput {
+        correction_bytes: 5_000_000,
+        replay_bytes: 200,
+        full_bytes: 5_500_000,
+        edits: 1_000_000,
+        vertices: 1_000_000,
+        compute_ms: 300.0,
+    };
+    /// Removing small components: a tiny correction, a little compute.
+    const LOCAL: StepOutput = StepOutput {
+        correction_bytes: 250,
+        replay_bytes: 200,
+        full_bytes: 5_500_000,
+        edits: 7_000,
+        vertices: 1_000_000,
+        compute_ms: 150.0,
+    };
+
+    fn receiver(link: Link, has_plugin: bool, load: u32) -> Receiver {
+        Receiver { link, speed: SPEED, has_plugin, load }
+    }
+
+    #[test]
+    fn a_global_step_is_replayed_over_a_slow_link_and_shipped_over_a_fast_one() {
+        let slow = estimate(&GLOBAL, &receiver(MBIT_5, true, 0));
+        assert_eq!(choose(Transfer::Auto, &slow), Use::Replay, "{slow:?}");
+        // A receiver without the plugin first fetches ~2 MB: still far less than 5 MB.
+        let without = estimate(&GLOBAL, &receiver(MBIT_5, false, 0));
+        assert_eq!(choose(Transfer::Auto, &without), Use::Replay);
+        // On a LAN the edit log (40 ms to fetch, 200 ms to apply) beats 360 ms of compute.
+        let fast = estimate(&GLOBAL, &receiver(LAN, true, 0));
+        assert_eq!(choose(Transfer::Auto, &fast), Use::Correction, "{fast:?}");
+    }
+
+    #[test]
+    fn a_busy_receiver_is_not_given_compute_it_would_queue_for() {
+        let idle = estimate(&GLOBAL, &receiver(MBIT_5, true, 0));
+        let busy = estimate(&GLOBAL, &receiver(MBIT_5, true, 30));
+        assert!(busy.replay_ms > 30.0 * idle.replay_ms / 2.0, "{busy:?}");
+        assert_eq!(busy.correction_ms, idle.correction_ms);
+        assert_eq!(choose(Transfer::Auto, &busy), Use::Correction, "{busy:?}");
+    }
+
+    #[test]
+    fn a_local_step_travels_as_its_edit_log() {
+        let slow = estimate(&LOCAL, &receiver(MBIT_5, true, 0));
+        assert_eq!(choose(Transfer::Auto, &slow), Use::Correction, "{slow:?}");
+    }
+
+    #[test]
+    fn a_forced_transfer_is_obeyed_whatever_the_estimates() {
+        let slow = estimate(&GLOBAL, &receiver(MBIT_5, true, 0));
+        assert_eq!(choose(Transfer::Full, &slow), Use::Full);
+        assert_eq!(choose(Transfer::Correction, &slow), Use::Correction);
+        let local = estimate(&LOCAL, &receiver(LAN, true, 0));
+        assert_eq!(choose(Transfer::Replay, &local), Use::Replay);
+    }
+}

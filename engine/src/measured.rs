@@ -1,0 +1,196 @@
+//! What the engine has measured of its hosts across runs, for the cost model (DESIGN §5):
+//! the link between each pair of hosts (bandwidth and latency, from the updates it
+//! forwarded), the link into each host (from its input downloads, until a pair is
+//! measured), and each host's speed at applying edits, unpacking meshes and re-running
+//! steps. Every figure is smoothed (an exponential moving average) and kept in memory: after
+//! a restart the defaults hold until the first transfers.
+
+use std::collections::HashMap;
+use std::sync::Mutex;
+
+/// Weight of a new sample in the moving averages.
+const SMOOTHING: f64 = 0.3;
+/// Only transfers at least this large tell the bandwidth; smaller ones tell the latency.
+pub const MIN_BANDWIDTH_SAMPLE_BYTES: u64 = 64 << 10;
+/// Until measured: a 100 Mbit/s link with 2 ms to the first byte.
+const DEFAULT_LINK: Link = Link { bytes_per_ms: 12_500.0, latency_ms: 2.0 };
+/// Until measured: what this machine kind does in release builds (2 cores).
+const DEFAULT_SPEED: HostSpeed =
+    HostSpeed { apply_ms_per_edit: 0.000_5, unpack_ms_per_vertex: 0.000_6, replay_ratio: 1.2 };
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Link {
+    pub bytes_per_ms: f64,
+    pub latency_ms: f64,
+}
+
+impl Link {
+    /// Expected milliseconds to move `bytes` over this link.
+    pub fn transfer_ms(&self, bytes: u64) -> f64 {
+        self.latency_ms + bytes as f64 / self.bytes_per_ms
+    }
+
+    fn learn(&mut self, bytes: u64, ms: f64) {
+        if !(ms.is_finite() && ms > 0.0) {
+            return;
+        }
+        if bytes >= MIN_BANDWIDTH_SAMPLE_BYTES {
+            let rate = bytes as f64 / (ms - self.latency_ms).max(ms / 2.0);
+            self.bytes_per_ms = smooth(self.bytes_per_ms, rate);
+        } else {
+            self.latency_ms = smooth(self.latency_ms, ms);
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HostSpeed {
+    /// Replaying one edit of an edit log.
+    pub apply_ms_per_edit: f64,
+    /// Unpacking and hashing one vertex of a full mesh.
+    pub unpack_ms_per_vertex: f64,
+    /// A re-run's time here over the producer's compute time for the same step.
+    pub replay_ratio: f64,
+}
+
+/// How a host applied one update, as its answer said.
+pub struct Applied {
+    pub via: meshflow_api::host::Transfer,
+    pub apply_ms: f64,
+    pub edits: u64,
+    pub vertices: u64,
+    pub producer_compute_ms: f64,
+}
+
+#[derive(Default)]
+pub struct Measured {
+    tables: Mutex<Tables>,
+}
+
+#[derive(Default)]
+struct Tables {
+    /// By (producer, receiver) host URL.
+    pairs: HashMap<(String, String), Link>,
+    /// By receiver: from its input downloads.
+    into: HashMap<String, Link>,
+    speeds: HashMap<String, HostSpeed>,
+}
+
+impl Measured {
+    fn tables(&self) -> std::sync::MutexGuard<'_, Tables> {
+        self.tables.lock().expect("measurements lock")
+    }
+
+    /// The link from `producer` to `receiver`: measured for the pair, else as measured
+    /// into the receiver, else the default.
+    pub fn link(&self, producer: &str, receiver: &str) -> Link {
+        let tables = self.tables();
+        let pair = (producer.to_owned(), receiver.to_owned());
+        tables
+            .pairs
+            .get(&pair)
+            .or_else(|| tables.into.get(receiver))
+            .copied()
+            .unwrap_or(DEFAULT_LINK)
+    }
+
+    /// The link into `receiver` as its input downloads measured it, else the default.
+    pub fn link_into(&self, receiver: &str) -> Link {
+        self.tables().into.get(receiver).copied().unwrap_or(DEFAULT_LINK)
+    }
+
+    pub fn speed(&self, host: &str) -> HostSpeed {
+        self.tables().speeds.get(host).copied().unwrap_or(DEFAULT_SPEED)
+    }
+
+    /// A download of `bytes` in `ms` by `receiver`, from `producer` (a host) or from
+    /// wherever the input lies (`None`).
+    pub fn downloaded(&self, producer: Option<&str>, receiver: &str, bytes: u64, ms: f64) {
+        let mut tables = self.tables();
+        let start = tables.into.get(receiver).copied().unwrap_or(DEFAULT_LINK);
+        let link = match producer {
+            Some(p) => tables.pairs.entry((p.to_owned(), receiver.to_owned())).or_insert(start),
+            None => tables.into.entry(receiver.to_owned()).or_insert(start),
+        };
+        link.learn(bytes, ms);
+    }
+
+    pub fn applied(&self, host: &str, applied: &Applied) {
+        use meshflow_api::host::Transfer;
+        let mut tables = self.tables();
+        let speed = tables.speeds.entry(host.to_owned()).or_insert(DEFAULT_SPEED);
+        let ms = applied.apply_ms;
+        match applied.via {
+            Transfer::Correction if applied.edits > 0 => {
+                speed.apply_ms_per_edit =
+                    smooth(speed.apply_ms_per_edit, ms / applied.edits as f64);
+            }
+            Transfer::Full if applied.vertices > 0 => {
+                speed.unpack_ms_per_vertex =
+                    smooth(speed.unpack_ms_per_vertex, ms / applied.vertices as f64);
+            }
+            Transfer::Replay if applied.producer_compute_ms > 0.0 => {
+                speed.replay_ratio = smooth(speed.replay_ratio, ms / applied.producer_compute_ms);
+            }
+            _ => {}
+        }
+    }
+}
+
+fn smooth(old: f64, sample: f64) -> f64 {
+    if sample.is_finite() && sample > 0.0 { old + SMOOTHING * (sample - old) } else { old }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_pair_is_measured_from_its_transfers_and_defaults_to_the_link_into_the_receiver() {
+        let measured = Measured::default();
+        assert_eq!(measured.link("a", "b"), DEFAULT_LINK);
+        // The receiver downloaded its 5 MB input at 5 Mbit/s (625 B/ms): 8 s.
+        for _ in 0..20 {
+            measured.downloaded(None, "b", 5_000_000, 8_000.0);
+        }
+        let into_b = measured.link("a", "b");
+        assert!((into_b.bytes_per_ms - 625.0).abs() < 10.0, "{into_b:?}");
+        // Then a 1 MB correction from a at 50 Mbit/s, many times.
+        for _ in 0..30 {
+            measured.downloaded(Some("a"), "b", 1_000_000, 160.0);
+        }
+        let pair = measured.link("a", "b");
+        assert!((pair.bytes_per_ms - 6_250.0).abs() < 200.0, "{pair:?}");
+        // Small transfers tell the latency, not the bandwidth.
+        for _ in 0..30 {
+            measured.downloaded(Some("a"), "b", 300, 40.0);
+        }
+        let pair = measured.link("a", "b");
+        assert!((pair.latency_ms - 40.0).abs() < 1.0 && pair.bytes_per_ms > 6_000.0, "{pair:?}");
+        assert!((pair.transfer_ms(6_250_000) - 1_040.0).abs() < 50.0);
+        // Another pair into b still starts from the link into b.
+        assert_eq!(measured.link("c", "b"), into_b);
+    }
+
+    #[test]
+    fn speeds_follow_what_hosts_report_and_ignore_nonsense() {
+        use meshflow_api::host::Transfer;
+        let measured = Measured::default();
+        let applied = |via, apply_ms| Applied {
+            via,
+            apply_ms,
+            edits: 1_000_000,
+            vertices: 500_000,
+            producer_compute_ms: 100.0,
+        };
+        for _ in 0..30 {
+            measured.applied("h", &applied(Transfer::Replay, 150.0));
+            measured.applied("h", &applied(Transfer::Correction, 200.0));
+            measured.applied("h", &applied(Transfer::Full, f64::NAN));
+        }
+        let speed = measured.speed("h");
+        assert!((speed.replay_ratio - 1.5).abs() < 0.01, "{speed:?}");
+        assert!((speed.apply_ms_per_edit - 0.000_2).abs() < 1e-5, "{speed:?}");
+        assert_eq!(speed.unpack_ms_per_vertex, DEFAULT_SPEED.unpack_ms_per_vertex);
+    }
+}
