@@ -85,6 +85,12 @@ enum Command {
     Run(commands::run::RunArgs),
     /// Submit a workflow to a running engine.
     Submit(commands::submit::SubmitArgs),
+    /// Run a recorded run again (pinned plugins, recorded parameters) and say whether the
+    /// result is bit-identical or where it diverged.
+    Rerun(commands::rerun::RerunArgs),
+    /// Convert MeshLab filter scripts (.mlx) to workflows and back.
+    #[command(subcommand)]
+    Workflow(commands::workflow::WorkflowCommand),
     /// Stop a run on a running engine.
     Cancel(commands::submit::CancelArgs),
 }
@@ -118,6 +124,8 @@ fn main() -> ExitCode {
         Command::Run(args) => commands::run::run(args),
         Command::Submit(args) => commands::submit::run(args),
         Command::Cancel(args) => commands::submit::cancel(args),
+        Command::Rerun(args) => commands::rerun::run(args),
+        Command::Workflow(command) => commands::workflow::run(command),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

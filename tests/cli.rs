@@ -171,13 +171,20 @@ fn a_malformed_mesh_is_a_clear_error_and_leaves_no_output() {
 #[test]
 fn unknown_services_and_wrong_kinds_say_what_to_do() {
     let stderr = failure(&["check", "vertex-cuont", &bunny()]);
-    assert!(stderr.contains("unknown service `vertex-cuont`"), "{stderr}");
+    assert!(
+        stderr.contains("unknown service `vertex-cuont`; did you mean \"vertex-count\"?"),
+        "{stderr}"
+    );
     assert!(stderr.contains("vertex-count") && stderr.contains("laplacian-smoothing"), "{stderr}");
     let stderr = failure(&["apply", "vertex-count", &bunny(), "-o", "/tmp/never.ply"]);
     assert!(stderr.contains("is a check, not a filter"), "{stderr}");
     let stderr =
         failure(&["apply", "laplacian-smoothing", &bunny(), "-o", "x.ply", "--param", "x"]);
     assert!(stderr.contains("expected NAME=VALUE"), "{stderr}");
+    let misspelt =
+        ["apply", "laplacian-smoothing", &bunny(), "-o", "x.ply", "--param", "iteratons=2"];
+    let stderr = failure(&misspelt);
+    assert!(stderr.contains("did you mean \"iterations\"?"), "{stderr}");
 }
 
 #[test]
@@ -330,4 +337,102 @@ fn up_prints_the_ui_address_with_its_token_and_submit_needs_that_token() {
     let done = submit(Some(&token));
     assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
     assert!(Path::new(&out).is_file());
+}
+
+#[test]
+fn run_over_several_meshes_writes_a_summary_row_each_and_a_broken_one_fails_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).display().to_string();
+    std::fs::write(
+        path("smooth.json"),
+        r#"[{"run": "laplacian-smoothing"}, {"if": {"check": "hole-count", "op": ">=", "value": 0}, "then": []}]"#,
+    )
+    .unwrap();
+    std::fs::copy(bunny(), path("bunny.obj")).unwrap();
+    std::fs::write(path("broken.ply"), "ply\nformat ascii 1.0\nnonsense\n").unwrap();
+    std::fs::write(path("list.txt"), "broken.ply\n").unwrap();
+    let stderr = failure(&[
+        "run",
+        &path("smooth.json"),
+        &bunny(),
+        &path("bunny.obj"),
+        "--inputs",
+        &path("list.txt"),
+        "--out-dir",
+        &path("out"),
+        "--hosts",
+        "2",
+        "--layout",
+        "all",
+    ]);
+    assert!(stderr.contains("1 of 3 inputs failed: broken.ply"), "{stderr}");
+    let rows = json(&std::fs::read_to_string(path("out/summary.json")).unwrap());
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 3);
+    assert_eq!(
+        (rows[0]["status"].as_str(), rows[1]["status"].as_str()),
+        (Some("completed"), Some("completed"))
+    );
+    assert_eq!(
+        rows[0]["result_hash"], rows[1]["result_hash"],
+        "the same mesh gives the same result"
+    );
+    assert_eq!(rows[2]["status"], "failed");
+    let csv = std::fs::read_to_string(path("out/summary.csv")).unwrap();
+    let header = csv.lines().next().unwrap();
+    assert!(header.starts_with("name,status,error,vertices_in,triangles_in"), "{header}");
+    assert!(header.ends_with("hole-count [steps[1].if]"), "{header}");
+    assert_eq!(csv.lines().count(), 4, "{csv}");
+    // The results, named after their inputs, are the recorded meshes; a record re-runs
+    // bit-identically from the file.
+    let result_hash = ok(&["hash", &path("out/bunny.ply")]);
+    assert!(result_hash.contains(rows[0]["result_hash"].as_str().unwrap()), "{result_hash}");
+    assert!(Path::new(&path("out/bunny-2.ply")).is_file());
+    let said = ok(&[
+        "rerun",
+        &path("out/records/bunny.json"),
+        "--input",
+        &bunny(),
+        "-o",
+        &path("again.ply"),
+        "--hosts",
+        "1",
+    ]);
+    assert!(said.contains("bit-identical"), "{said}");
+    let other = failure(&[
+        "rerun",
+        &path("out/records/bunny.json"),
+        "--input",
+        &path("broken.ply"),
+        "--hosts",
+        "1",
+    ]);
+    assert!(other.contains("diverged"), "{other}");
+}
+
+#[test]
+fn meshlab_scripts_convert_to_workflows_and_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).display().to_string();
+    // Saved as pymeshlab's MeshSet.save_filter_script writes scripts (pymeshlab is not
+    // needed to run this test).
+    let script =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("engine/tests/data/pymeshlab-repair.mlx");
+    let out =
+        meshflow(&["workflow", "from-mlx", &script.display().to_string(), "-o", &path("w.json")]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let notes = String::from_utf8_lossy(&out.stderr);
+    assert!(notes.contains("no built-in plugin offers \"quadric-decimation\""), "{notes}");
+    let workflow = json(&std::fs::read_to_string(path("w.json")).unwrap());
+    assert_eq!(workflow["steps"][1]["run"], "laplacian-smoothing");
+    ok(&["workflow", "to-mlx", &path("w.json"), "-o", &path("back.mlx"), "--mesh", &bunny()]);
+    let back = std::fs::read_to_string(path("back.mlx")).unwrap();
+    assert!(back.contains("<filter name=\"Laplacian Smooth\">"), "{back}");
+    std::fs::write(
+        path("poisson.mlx"),
+        "<FilterScript><filter name=\"Surface Reconstruction: Screened Poisson\"/></FilterScript>",
+    )
+    .unwrap();
+    let refused = failure(&["workflow", "from-mlx", &path("poisson.mlx"), "-o", &path("p.json")]);
+    assert!(refused.contains("Screened Poisson"), "{refused}");
 }

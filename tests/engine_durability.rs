@@ -274,3 +274,57 @@ async fn submit_wait_follows_its_run_across_an_engine_restart() {
     let written = meshflow_meshio::load(&output).unwrap();
     assert_eq!(written.content_hash().to_hex(), expected.hash());
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_batch_goes_on_after_the_engine_is_killed_and_every_input_gets_its_local_result() {
+    let data = tempfile::tempdir().unwrap();
+    let (_hosts, mut engine, api) = hosts_and_engine_process(data.path()).await;
+    let workflow = json!([
+        {"run": "remove-smallest-components"},
+        {"while": {"check": "vertex-count", "op": ">", "value": 0},
+         "do": [{"run": "laplacian-smoothing"}], "max-iterations": 8}
+    ]);
+    let local = Local::new(&components_cache());
+    let parsed = Workflow::from_json(&workflow).unwrap();
+    let mut urls = Vec::new();
+    let mut expected = Vec::new();
+    for seed in 0..4 {
+        let input = Input::scan(8_000, 40 + seed);
+        expected.push(local.run(&parsed, input.mesh.clone()).hash());
+        urls.push(api.upload(&input).await);
+    }
+    let body = json!({"workflow": workflow, "inputs": urls, "concurrency": 1});
+    let answer = api.http.post(api.url("/batches")).json(&body).send().await.unwrap();
+    assert_eq!(answer.status(), 202);
+    let id = text(&answer.json::<Json>().await.unwrap()["id"]).to_owned();
+    let batch = || {
+        let (api, id) = (&api, id.clone());
+        async move {
+            let answer = api.http.get(api.url(&format!("/batches/{id}"))).send().await.unwrap();
+            assert_eq!(answer.status(), 200);
+            answer.json::<Json>().await.unwrap()
+        }
+    };
+    // Killed while the first input runs, the others waiting their turn.
+    loop {
+        let now = batch().await;
+        if now["entries"][0]["run"].is_string() {
+            assert!(now["entries"][3]["run"].is_null(), "{now:#}");
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    engine.kill_and_restart().await;
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(240);
+    let done = loop {
+        let now = batch().await;
+        if now["status"] == "completed" {
+            break now;
+        }
+        assert!(tokio::time::Instant::now() < deadline, "{now:#}");
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    };
+    let hashes: Vec<&str> =
+        done["rows"].as_array().unwrap().iter().map(|r| text(&r["result_hash"])).collect();
+    assert_eq!(hashes, expected, "{done:#}");
+}

@@ -396,7 +396,8 @@ async fn plugins_upload_with_the_token_only_and_a_failing_plugin_leaves_the_sess
     let dirs = [(); 2].map(|()| tempfile::tempdir().unwrap());
     let hostile = meshflow_builtin_plugins::fixture("hostile").to_vec();
     let (_closed, closed) = start_host(config(dirs[0].path())).await;
-    let (status, _, message) = api_error(closed.upload_plugin(hostile.clone(), Some(TOKEN)).await);
+    let (status, _, message) =
+        api_error(closed.upload_plugin(hostile.clone(), Some(TOKEN), false).await);
     assert_eq!(status, 403);
     assert!(message.contains("--token"), "{message}");
 
@@ -406,14 +407,14 @@ async fn plugins_upload_with_the_token_only_and_a_failing_plugin_leaves_the_sess
         ..config(dirs[1].path())
     })
     .await;
-    assert_eq!(api_error(client.upload_plugin(hostile.clone(), None).await).0, 401);
-    assert_eq!(api_error(client.upload_plugin(hostile.clone(), Some("wrong")).await).0, 401);
+    assert_eq!(api_error(client.upload_plugin(hostile.clone(), None, false).await).0, 401);
+    assert_eq!(api_error(client.upload_plugin(hostile.clone(), Some("wrong"), false).await).0, 401);
     let (status, code, message) =
-        api_error(client.upload_plugin(b"\0asm but not really".to_vec(), Some(TOKEN)).await);
+        api_error(client.upload_plugin(b"\0asm but not really".to_vec(), Some(TOKEN), false).await);
     assert_eq!((status, code.as_str()), (422, "invalid-plugin"), "{message}");
-    let uploaded = client.upload_plugin(hostile.clone(), Some(TOKEN)).await.unwrap();
+    let uploaded = client.upload_plugin(hostile.clone(), Some(TOKEN), false).await.unwrap();
     assert!(uploaded.services.iter().any(|s| s.name == "ignore-bad-edits"));
-    let again = client.upload_plugin(hostile.clone(), Some(TOKEN)).await.unwrap();
+    let again = client.upload_plugin(hostile.clone(), Some(TOKEN), false).await.unwrap();
     assert_eq!(again.digest, uploaded.digest);
     let services = client.services().await.unwrap();
     let trap = services.iter().find(|s| s.info.name == "trap").unwrap();
@@ -473,7 +474,7 @@ async fn a_restarted_host_keeps_its_plugins_blobs_and_sessions() {
     let host_config = || HostConfig { token: Some(TOKEN.into()), ..config(dir.path()) };
     let (handle, client) = start_host(host_config()).await;
     let uploaded = client
-        .upload_plugin(meshflow_builtin_plugins::fixture("hostile").to_vec(), Some(TOKEN))
+        .upload_plugin(meshflow_builtin_plugins::fixture("hostile").to_vec(), Some(TOKEN), false)
         .await
         .unwrap();
     let id = ready_session(&client, &bunny_url().await).await;
@@ -710,4 +711,65 @@ async fn beyond_the_run_slots_and_queue_a_run_gets_429_and_queueing_is_not_compu
     assert!(
         client.run(&sessions[2], &request("vertex-count", serde_json::json!({}))).await.is_ok()
     );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_second_version_of_a_service_replaces_it_only_when_asked_and_the_first_stays_for_pinned_runs()
+ {
+    let dir = tempfile::tempdir().unwrap();
+    let host_config = || HostConfig { token: Some(TOKEN.into()), ..config(dir.path()) };
+    let (host, client) = start_host(host_config()).await;
+    let v2 = meshflow_builtin_plugins::fixture("smoothing-v2").to_vec();
+    let builtin = meshflow_runtime::digest(
+        meshflow_builtin_plugins::PLUGINS.iter().find(|p| p.name == "smoothing").unwrap().wasm,
+    );
+
+    let (status, code, message) =
+        api_error(client.upload_plugin(v2.clone(), Some(TOKEN), false).await);
+    assert_eq!((status, code.as_str()), (409, "services-taken"), "{message}");
+    assert!(message.contains(&format!("laplacian-smoothing (plugin {builtin})")), "{message}");
+    let uploaded = client.upload_plugin(v2.clone(), Some(TOKEN), true).await.unwrap();
+    assert_eq!(
+        (uploaded.replaced.as_slice(), uploaded.new.len()),
+        (&["laplacian-smoothing".to_owned()][..], 0)
+    );
+    let again = client.upload_plugin(v2.clone(), Some(TOKEN), false).await.unwrap();
+    assert_eq!(again.present, ["laplacian-smoothing"]);
+
+    let offers = |services: Vec<meshflow_api::host::ServiceEntry>| {
+        let mut offers: Vec<(String, bool)> = services
+            .into_iter()
+            .filter(|s| s.info.name == "laplacian-smoothing")
+            .map(|s| (s.plugin, s.pinned_only))
+            .collect();
+        offers.sort();
+        offers
+    };
+    let mut expected = vec![(builtin.clone(), true), (uploaded.digest.clone(), false)];
+    expected.sort();
+    assert_eq!(offers(client.services().await.unwrap()), expected);
+
+    let id = ready_session(&client, &bunny_url().await).await;
+    let unpinned = filter(&client, &id, "laplacian-smoothing", serde_json::json!({})).await;
+    assert_eq!(unpinned.plugin, uploaded.digest);
+    let mut pinned = request("laplacian-smoothing", serde_json::json!({}));
+    pinned.plugin = Some(builtin.clone());
+    let RunResult::Filter(old) = client.run(&id, &pinned).await.unwrap() else { panic!() };
+    assert_eq!(old.plugin, builtin);
+    assert_eq!(
+        old.resolved_params,
+        serde_json::json!({"iterations": 1, "keep-boundary": true, "weights": "uniform"})
+            .as_object()
+            .unwrap()
+            .clone()
+    );
+
+    // After a restart the newest upload still serves the name.
+    host.shutdown().await.unwrap();
+    let (_host, client) = start_host(host_config()).await;
+    assert_eq!(offers(client.services().await.unwrap()), expected);
+    let (status, code, _) = api_error(client.delete_plugin(&builtin, Some(TOKEN)).await);
+    assert_eq!((status, code.as_str()), (403, "builtin"));
+    client.delete_plugin(&uploaded.digest, Some(TOKEN)).await.unwrap();
+    assert_eq!(offers(client.services().await.unwrap()), [(builtin, false)]);
 }

@@ -175,7 +175,7 @@ async fn a_plugin_uploaded_to_a_host_joins_the_catalogue_and_runs_in_a_workflow(
 
     let uploader = &cluster.hosts[1].url;
     let uploaded = HostClient::new(uploader)
-        .upload_plugin(builtin("cleanup").to_vec(), Some(TOKEN))
+        .upload_plugin(builtin("cleanup").to_vec(), Some(TOKEN), false)
         .await
         .unwrap();
     assert!(uploaded.services.iter().any(|s| s.name == service));
@@ -367,7 +367,7 @@ async fn a_failing_plugin_fails_its_run_naming_the_step_and_other_runs_carry_on(
     let cluster = Cluster::start(SPREAD).await;
     let hostile = meshflow_builtin_plugins::fixture("hostile").to_vec();
     let host = &cluster.hosts[0].url;
-    HostClient::new(host).upload_plugin(hostile, Some(TOKEN)).await.unwrap();
+    HostClient::new(host).upload_plugin(hostile, Some(TOKEN), false).await.unwrap();
     cluster.register(host).await;
     let input = Input::bunny();
     let url = cluster.upload(&input).await;

@@ -42,6 +42,94 @@ pub struct SubmitRun {
     pub input: Option<String>,
 }
 
+/// `POST /runs/{id}/rerun`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct RerunRequest {
+    /// Another input than the recorded one (a URL the engine fetches from).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub input: Option<String>,
+    /// Run today's plugins for each service (the recorded parameters still), instead of
+    /// pinning every task to the digest that ran.
+    #[serde(default)]
+    pub unpinned: bool,
+}
+
+/// `GET /runs/{id}/comparison` and `meshflow rerun --json`: a re-run against its record.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Comparison {
+    /// Same input, every step's output or value, and the same result.
+    pub identical: bool,
+    pub recorded_run: String,
+    pub rerun: String,
+    /// Whether the re-run's input had the recorded input's content hash.
+    pub same_input: bool,
+    /// The first place the two runs differ; none when identical.
+    pub divergence: Option<Divergence>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Divergence {
+    /// The step's position in execution order; none for the input or the result.
+    pub index: Option<usize>,
+    /// The task's path (`steps[1]`), `input` or `result`.
+    pub path: String,
+    pub service: Option<String>,
+    /// What differs, in words.
+    pub message: String,
+}
+
+/// One input's row of a batch's summary: what a paper's results table needs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SummaryRow {
+    /// The input's file name (or URL).
+    pub name: String,
+    /// The run's status, or `failed` for an input that never became a run.
+    pub status: String,
+    pub error: Option<String>,
+    pub vertices_in: Option<u64>,
+    pub triangles_in: Option<u64>,
+    pub vertices_out: Option<u64>,
+    pub triangles_out: Option<u64>,
+    pub result_hash: Option<String>,
+    pub total_seconds: Option<f64>,
+    /// Input broadcast plus every transfer between hosts.
+    pub bytes_moved: u64,
+    /// The last value of each check the workflow computed, by `<service> [<task path>]`.
+    pub checks: std::collections::BTreeMap<String, Json>,
+}
+
+/// `POST /batches`: one workflow over many inputs (URLs; files are uploaded first with
+/// `POST /inputs`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SubmitBatch {
+    pub workflow: Json,
+    pub inputs: Vec<String>,
+    /// How many of its runs may go at once (default and most: the engine's
+    /// `MAX_BATCH_RUNS_AT_ONCE`, 4).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub concurrency: Option<usize>,
+}
+
+/// One input of a batch: its run once started, or why it never became one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BatchEntry {
+    pub input: String,
+    pub run: Option<String>,
+    pub error: Option<String>,
+}
+
+/// `GET /batches/{id}` (and the `POST /batches` answer, 202).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BatchStatus {
+    pub id: String,
+    /// `running` until every input's run has ended, then `completed` (whatever each run's
+    /// own status).
+    pub status: String,
+    pub entries: Vec<BatchEntry>,
+    /// The summary table: a row per input, in order.
+    pub rows: Vec<SummaryRow>,
+}
+
 /// `POST /runs` answer.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RunSubmitted {
@@ -132,6 +220,12 @@ pub struct RunRecord {
     pub steps: Vec<StepRecord>,
     pub result: Option<ResultRecord>,
     pub total_ms: Option<f64>,
+    /// The workflow as submitted, so a record alone is enough to run it again.
+    #[serde(default)]
+    pub workflow: Json,
+    /// The run this one re-runs (`POST /runs/{id}/rerun`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rerun_of: Option<String>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -171,8 +265,13 @@ pub struct StepRecord {
     pub kind: String,
     pub service: String,
     pub host: String,
+    /// The SHA-256 of the plugin that ran.
     pub plugin: String,
+    /// The parameters as the workflow gave them.
     pub params: Map<String, Json>,
+    /// Every parameter the plugin ran with, defaults filled in: a re-run sends these.
+    #[serde(default)]
+    pub resolved_params: Map<String, Json>,
     /// Milliseconds since the run started.
     pub started_ms: f64,
     pub finished_ms: f64,
@@ -261,6 +360,8 @@ impl RunRecord {
             steps: Vec::new(),
             result: None,
             total_ms: None,
+            workflow: Json::Null,
+            rerun_of: None,
         }
     }
 }
@@ -281,6 +382,8 @@ mod tests {
             host: "http://127.0.0.1:7101".into(),
             plugin: "ab".repeat(32),
             params: serde_json::from_str(r#"{"iterations": 2}"#).unwrap(),
+            resolved_params: serde_json::from_str(r#"{"iterations": 2, "weights": "uniform"}"#)
+                .unwrap(),
             started_ms: 1.5,
             finished_ms: 9.25,
             compute_ms: 7.0,

@@ -3,8 +3,8 @@
 use reqwest::Method;
 
 use crate::engine::{
-    HostInfo, InputUploaded, RegisterHost, RunRecord, RunSubmitted, RunSummary, ServiceOffer,
-    SubmitRun,
+    BatchStatus, Comparison, HostInfo, InputUploaded, RegisterHost, RerunRequest, RunRecord,
+    RunSubmitted, RunSummary, ServiceOffer, SubmitBatch, SubmitRun,
 };
 use crate::transport::{ClientError, Endpoint, read_capped, send};
 
@@ -55,6 +55,29 @@ impl EngineClient {
 
     pub async fn submit(&self, run: &SubmitRun) -> Result<RunSubmitted, ClientError> {
         self.endpoint.json(Method::POST, "/runs", |r| r.json(run)).await
+    }
+
+    /// Starts one workflow over many inputs.
+    pub async fn submit_batch(&self, batch: &SubmitBatch) -> Result<BatchStatus, ClientError> {
+        self.endpoint.json(Method::POST, "/batches", |r| r.json(batch)).await
+    }
+
+    pub async fn batch(&self, id: &str) -> Result<BatchStatus, ClientError> {
+        self.endpoint.json(Method::GET, &format!("/batches/{id}"), |r| r).await
+    }
+
+    /// Runs a kept run again, pinned to its recorded plugins and parameters.
+    pub async fn rerun(
+        &self,
+        id: &str,
+        request: &RerunRequest,
+    ) -> Result<RunSubmitted, ClientError> {
+        self.endpoint.json(Method::POST, &format!("/runs/{id}/rerun"), |r| r.json(request)).await
+    }
+
+    /// A finished re-run compared with the run it re-ran.
+    pub async fn comparison(&self, id: &str) -> Result<Comparison, ClientError> {
+        self.endpoint.json(Method::GET, &format!("/runs/{id}/comparison"), |r| r).await
     }
 
     pub async fn runs(&self) -> Result<Vec<RunSummary>, ClientError> {

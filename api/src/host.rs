@@ -21,13 +21,27 @@ pub struct ServiceEntry {
     pub plugin: String,
     pub builtin: bool,
     pub info: ServiceInfo,
+    /// Another plugin serves this name to unpinned runs (it replaced this one); this one
+    /// runs only when a request names its digest.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub pinned_only: bool,
 }
 
 /// `POST /plugins`.
-#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
 pub struct UploadedPlugin {
     pub digest: String,
     pub services: Vec<ServiceInfo>,
+    /// Services no plugin offered before.
+    #[serde(default)]
+    pub new: Vec<String>,
+    /// Services another plugin served to unpinned runs until this upload (`?replace=true`);
+    /// that plugin stays for runs pinned to it until it is deleted.
+    #[serde(default)]
+    pub replaced: Vec<String>,
+    /// Services of a plugin that was already loaded (the same bytes uploaded again).
+    #[serde(default)]
+    pub present: Vec<String>,
 }
 
 /// One entry of `GET /plugins`.
@@ -204,6 +218,9 @@ pub struct FilterResult {
     #[serde(default)]
     pub queue_ms: f64,
     pub report: String,
+    /// Every parameter the plugin ran with, defaults filled in: what a re-run must send.
+    #[serde(default)]
+    pub resolved_params: serde_json::Map<String, serde_json::Value>,
     pub correction: BlobRef,
     /// The step named: plugin digest, service, resolved parameters, hashes (`.mfr`).
     pub replay: BlobRef,
@@ -219,6 +236,9 @@ pub struct CheckResult {
     #[serde(default)]
     pub queue_ms: f64,
     pub report: String,
+    /// Every parameter the plugin ran with, defaults filled in.
+    #[serde(default)]
+    pub resolved_params: serde_json::Map<String, serde_json::Value>,
 }
 
 /// Every error body: `{"error": {"code", "message"}}`.

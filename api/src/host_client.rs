@@ -90,14 +90,17 @@ impl HostClient {
     }
 
     /// Uploads a component; `token` is the host's upload token (its `--token`), sent
-    /// instead of the cluster token.
+    /// instead of the cluster token. With `replace`, services another plugin offers are
+    /// served by this one from now on (else such an upload is refused, 409).
     pub async fn upload_plugin(
         &self,
         wasm: Vec<u8>,
         token: Option<&str>,
+        replace: bool,
     ) -> Result<UploadedPlugin, ClientError> {
         let uploads = self.upload_endpoint(token);
-        uploads.json(Method::POST, "/plugins", |r| r.timeout(WORK_TIMEOUT).body(wasm)).await
+        let path = if replace { "/plugins?replace=true" } else { "/plugins" };
+        uploads.json(Method::POST, path, |r| r.timeout(WORK_TIMEOUT).body(wasm)).await
     }
 
     pub async fn delete_plugin(

@@ -24,7 +24,8 @@ use crate::record::Status;
 use crate::registry::RegisterError;
 use crate::{Engine, SubmitError};
 use meshflow_api::engine::{
-    HostInfo, InputUploaded, RegisterHost, RunSubmitted, RunSummary, ServiceOffer,
+    BatchStatus, Comparison, HostInfo, InputUploaded, RegisterHost, RerunRequest, RunSubmitted,
+    RunSummary, ServiceOffer, SubmitBatch,
 };
 
 pub fn router(engine: Arc<Engine>) -> Router {
@@ -43,6 +44,10 @@ pub fn router(engine: Arc<Engine>) -> Router {
         .route("/runs", get(list_runs).post(submit).layer(DefaultBodyLimit::max(MAX_SUBMIT_BYTES)))
         .route("/runs/{id}", get(run_status))
         .route("/runs/{id}/cancel", post(cancel_run))
+        .route("/runs/{id}/rerun", post(rerun_run))
+        .route("/batches", post(submit_batch).layer(DefaultBodyLimit::max(MAX_SUBMIT_BYTES)))
+        .route("/batches/{id}", get(batch_status))
+        .route("/runs/{id}/comparison", get(run_comparison))
         .route("/runs/{id}/events", get(run_events))
         .route("/runs/{id}/workflow", get(run_workflow))
         .route("/runs/{id}/result", get(run_result))
@@ -218,7 +223,13 @@ async fn submit(
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult<(StatusCode, Json<RunSubmitted>)> {
     let (workflow, input) = read_submission(&body.map_err(body_refused)?)?;
-    let run = engine.submit(workflow, input, &client_of(&headers)).await.map_err(|e| match e {
+    let run = engine.submit(workflow, input, &client_of(&headers)).await.map_err(refusal)?;
+    Ok((StatusCode::ACCEPTED, Json(RunSubmitted { id: run.id.clone(), status: run.status() })))
+}
+
+/// Why a run was not started, as the API says it.
+fn refusal(e: SubmitError) -> ApiError {
+    match e {
         SubmitError::Invalid(error) => invalid(error),
         SubmitError::NoInput => ApiError(StatusCode::BAD_REQUEST, "no-input", e.to_string()),
         SubmitError::Busy(_) => {
@@ -228,8 +239,73 @@ async fn submit(
             ApiError(StatusCode::BAD_REQUEST, "input-not-allowed", e.to_string())
         }
         SubmitError::Store(error) => internal(error),
-    })?;
+        SubmitError::NotRerunnable(_) => {
+            ApiError(StatusCode::CONFLICT, "not-rerunnable", e.to_string())
+        }
+    }
+}
+
+/// `POST /batches`: `{"workflow", "inputs": [URL, …]}` → 202 with the batch as it starts.
+async fn submit_batch(
+    State(engine): State<Arc<Engine>>,
+    headers: HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+) -> ApiResult<(StatusCode, Json<BatchStatus>)> {
+    let body = body.map_err(body_refused)?;
+    let request: SubmitBatch = serde_json::from_slice(&body)
+        .map_err(|e| ApiError(StatusCode::BAD_REQUEST, "bad-json", e.to_string()))?;
+    let batch = engine.submit_batch(request, &client_of(&headers)).await.map_err(refusal)?;
+    Ok((StatusCode::ACCEPTED, Json(batch)))
+}
+
+/// `GET /batches/{id}`: each input's run and the summary rows so far.
+async fn batch_status(
+    State(engine): State<Arc<Engine>>,
+    Path(id): Path<String>,
+) -> ApiResult<Json<BatchStatus>> {
+    let batch = engine.batch(&id).await.map_err(refusal)?;
+    Ok(Json(batch.ok_or_else(|| not_found("batch", &id))?))
+}
+
+/// `POST /runs/{id}/rerun`: the run's workflow again, every task pinned to its recorded
+/// plugin digest and resolved parameters (`{"unpinned": true}`: today's plugins), on the
+/// recorded input or `{"input": URL}`. `GET /runs/{new}/comparison` says how it compares.
+async fn rerun_run(
+    State(engine): State<Arc<Engine>>,
+    Path(id): Path<String>,
+    headers: HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+) -> ApiResult<(StatusCode, Json<RunSubmitted>)> {
+    let body = body.map_err(body_refused)?;
+    let request: RerunRequest = if body.is_empty() {
+        RerunRequest::default()
+    } else {
+        serde_json::from_slice(&body)
+            .map_err(|e| ApiError(StatusCode::BAD_REQUEST, "bad-json", e.to_string()))?
+    };
+    let original = engine.run(&id).ok_or_else(|| not_found("run", &id))?;
+    let run = engine.rerun(&original, request, &client_of(&headers)).await.map_err(refusal)?;
     Ok((StatusCode::ACCEPTED, Json(RunSubmitted { id: run.id.clone(), status: run.status() })))
+}
+
+/// `GET /runs/{id}/comparison`: a finished re-run against the run it re-ran: identical, or
+/// the first step where they differ.
+async fn run_comparison(
+    State(engine): State<Arc<Engine>>,
+    Path(id): Path<String>,
+) -> ApiResult<Json<Comparison>> {
+    let run = engine.run(&id).ok_or_else(|| not_found("run", &id))?;
+    let record = run.record();
+    let Some(original_id) = record.rerun_of.clone() else {
+        let message = format!("run {id} is not a re-run");
+        return Err(ApiError(StatusCode::NOT_FOUND, "not-a-rerun", message));
+    };
+    if !record.status.is_final() {
+        let message = format!("run {id} has not finished");
+        return Err(ApiError(StatusCode::CONFLICT, "not-finished", message));
+    }
+    let original = engine.run(&original_id).ok_or_else(|| not_found("run", &original_id))?;
+    Ok(Json(crate::rerun::compare(&original.record(), &record)))
 }
 
 /// `POST /workflows/validate`: the checks of `POST /runs` without the run, so the workbench
@@ -408,6 +484,9 @@ fn download_error(error: DownloadError) -> ApiError {
 #[derive(Deserialize)]
 struct PluginQuery {
     host: Option<String>,
+    /// Passed on to the host: serve the plugin's services in place of another plugin's.
+    #[serde(default)]
+    replace: bool,
 }
 
 /// The header carrying a host's upload token through `POST /plugins` (the `Authorization`
@@ -434,8 +513,12 @@ async fn forward_plugin(
         ));
     }
     let token = headers.get(UPLOAD_TOKEN_HEADER).and_then(|v| v.to_str().ok());
-    let uploaded =
-        engine.registry.client(&host).upload_plugin(wasm.to_vec(), token).await.map_err(|e| {
+    let uploaded = engine
+        .registry
+        .client(&host)
+        .upload_plugin(wasm.to_vec(), token, query.replace)
+        .await
+        .map_err(|e| {
             match e {
                 // The host's 401 is 403 here: a 401 from the engine means its own API token.
                 meshflow_api::ClientError::Refused { status: 401, code, message, .. } => ApiError(

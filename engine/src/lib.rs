@@ -10,16 +10,20 @@
 mod admission;
 mod api;
 pub mod auth;
+mod batches;
 pub mod downloads;
 mod executor;
 mod inputs;
 pub mod limits;
 pub mod measured;
+pub mod mlx;
 pub mod plan;
 pub mod record;
 pub mod registry;
+pub mod rerun;
 pub mod run;
 mod store;
+pub mod summary;
 mod ui;
 pub mod validate;
 pub mod workflow;
@@ -34,6 +38,7 @@ use tokio::sync::Notify;
 pub use api::router;
 pub use auth::Access;
 use limits::{JANITOR_INTERVAL, KEPT_RUNS, PERSIST_INTERVAL, UNUSED_INPUT_TTL};
+use meshflow_api::engine::RerunRequest;
 use record::{RunRecord, Status};
 use registry::Registry;
 use run::{Run, RunParts};
@@ -81,6 +86,8 @@ pub enum SubmitError {
     Busy(#[from] admission::Busy),
     #[error(transparent)]
     Store(#[from] StoreError),
+    #[error("this run cannot be re-run: {0}")]
+    NotRerunnable(#[from] rerun::RerunError),
 }
 
 impl Engine {
@@ -139,17 +146,44 @@ impl Engine {
         input: Option<String>,
         client: &str,
     ) -> Result<Arc<Run>, SubmitError> {
+        self.submit_as(workflow_json, input, client, None).await
+    }
+
+    /// Runs a kept run's workflow again with every task pinned to the plugin digest and
+    /// the resolved parameters its record holds (or today's plugins, `unpinned`), on the
+    /// recorded input or `request.input`; the new record names the run it re-runs.
+    pub async fn rerun(
+        self: &Arc<Self>,
+        original: &Run,
+        request: RerunRequest,
+        client: &str,
+    ) -> Result<Arc<Run>, SubmitError> {
+        let record = original.record();
+        let workflow = rerun::rerun_workflow(&record, !request.unpinned)?;
+        let input = request.input.unwrap_or_else(|| original.input.clone());
+        self.submit_as(workflow, Some(input), client, Some(record.id)).await
+    }
+
+    async fn submit_as(
+        self: &Arc<Self>,
+        workflow_json: Json,
+        input: Option<String>,
+        client: &str,
+        rerun_of: Option<String>,
+    ) -> Result<Arc<Run>, SubmitError> {
         // The input's origin first: a URL the engine will not fetch is refused whatever the
         // workflow says.
-        let workflow = Workflow::from_json(&workflow_json)?;
+        let mut workflow = Workflow::from_json(&workflow_json)?;
         let input = input.or_else(|| workflow.input.clone()).ok_or(SubmitError::NoInput)?;
         let hosts = self.registry.hosts().into_iter().map(|host| host.url.clone());
         self.access.check_input(&input, &self.public_url, hosts)?;
-        validate::validate(&workflow, &|name| self.registry.service(name))?;
+        validate::validate(&mut workflow, &*self.registry)?;
         let ticket = self.admission.admit(client)?;
         let id = new_run_id();
+        let mut record = RunRecord::new(id.clone(), workflow.transfer);
+        record.rerun_of = rerun_of;
         let stored = StoredRun {
-            record: RunRecord::new(id.clone(), workflow.transfer),
+            record,
             id,
             owner: client.to_owned(),
             workflow: workflow_json,
@@ -225,8 +259,8 @@ impl Engine {
     /// Reads a workflow and checks it against the catalogue: what [`Engine::submit`] and
     /// `POST /workflows/validate` both do.
     pub fn check_workflow(&self, workflow_json: &Json) -> Result<Workflow, WorkflowError> {
-        let workflow = Workflow::from_json(workflow_json)?;
-        validate::validate(&workflow, &|name| self.registry.service(name))?;
+        let mut workflow = Workflow::from_json(workflow_json)?;
+        validate::validate(&mut workflow, &*self.registry)?;
         Ok(workflow)
     }
 
@@ -247,6 +281,11 @@ impl Engine {
     /// The name the run's input was uploaded under, else the last part of its URL.
     async fn input_name(&self, record: &RunRecord) -> String {
         let url = record.input.as_ref().map(|i| i.url.clone()).unwrap_or_default();
+        self.input_name_of(&url).await
+    }
+
+    /// The name an input URL's file was uploaded under, else the URL's last segment.
+    async fn input_name_of(&self, url: &str) -> String {
         let file = url.rsplit('/').next().unwrap_or_default().to_owned();
         let lookup = file.clone();
         match self.store.call(move |c| store::input_name(c, &lookup)).await {
@@ -399,6 +438,7 @@ pub async fn start(
         tracing::info!("resuming run {}", stored.id);
         engine.resume(stored);
     }
+    engine.resume_batches().await;
     let app = router(engine.clone());
     let server = tokio::spawn(meshflow_api::server::serve(listener, app, std::future::pending()));
     tracing::info!("engine listening on {address}, reached at {url}");

@@ -80,3 +80,11 @@ pub const DOWNLOAD_FETCH_TIMEOUT: Duration = Duration::from_secs(120);
 pub const MAX_CONCURRENT_CONVERSIONS: usize = 2;
 /// Largest `.wasm` the engine forwards to a host for `POST /plugins` (the host's own limit).
 pub const MAX_PLUGIN_FORWARD_BYTES: usize = 64 << 20;
+
+/// The most inputs one batch may name.
+pub const MAX_BATCH_INPUTS: usize = 1000;
+/// How many of a batch's runs go at once, at most and by default (the rest wait their
+/// turn, so a large batch leaves its client's other run slots free).
+pub const MAX_BATCH_RUNS_AT_ONCE: usize = 4;
+/// How often a batch looks whether it may start its next run.
+pub const BATCH_POLL: Duration = Duration::from_millis(250);

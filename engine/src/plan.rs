@@ -11,6 +11,8 @@ use crate::workflow::{Placement, Workflow, WorkflowError};
 /// Which host runs which task (and its service), by task path.
 pub struct Plan {
     by_task: HashMap<String, (String, Arc<HostEntry>)>,
+    /// The plugin digest (or prefix) each pinned task must run.
+    pins: HashMap<String, String>,
     placement: Placement,
 }
 
@@ -18,22 +20,33 @@ impl Plan {
     pub fn new(workflow: &Workflow, registry: &Registry) -> Result<Self, WorkflowError> {
         let mut chosen: Vec<Arc<HostEntry>> = Vec::new();
         let mut by_task = HashMap::new();
+        let mut pins = HashMap::new();
         for task in workflow.tasks() {
+            let pin = task.plugin.as_deref();
+            let candidates = offering_pinned(&registry.hosts(), &task.service, pin);
             let measured = placed_by_link(workflow.placement, registry);
-            let host = pick(&registry.hosts(), &chosen, &task.service, &[], measured).ok_or_else(
-                || {
+            let host =
+                pick(&candidates, &chosen, &task.service, &[], measured).ok_or_else(|| {
+                    let from = pin.map(|p| format!(" from plugin {p}")).unwrap_or_default();
                     WorkflowError::new(
                         &task.path,
-                        format!("no host that is up offers \"{}\"", task.service),
+                        format!("no host that is up offers \"{}\"{from}", task.service),
                     )
-                },
-            )?;
+                })?;
+            if let Some(pin) = pin {
+                pins.insert(task.path.clone(), pin.to_owned());
+            }
             if !chosen.iter().any(|h| Arc::ptr_eq(h, &host)) {
                 chosen.push(host.clone());
             }
             by_task.insert(task.path.clone(), (task.service.clone(), host));
         }
-        Ok(Self { by_task, placement: workflow.placement })
+        Ok(Self { by_task, pins, placement: workflow.placement })
+    }
+
+    /// The plugin a pinned task must run.
+    pub fn pin(&self, task_path: &str) -> Option<&str> {
+        self.pins.get(task_path).map(String::as_str)
     }
 
     pub fn host(&self, task_path: &str) -> &Arc<HostEntry> {
@@ -153,5 +166,18 @@ mod tests {
         let chosen = pick(&hosts, std::slice::from_ref(slow), "smooth", &[], measured).unwrap();
         assert_eq!(chosen.url, slow.url);
         assert!(pick(&hosts, &[], "other", &[], measured).is_none());
+    }
+}
+
+/// The hosts that may run a task: with a pin, only those offering the service from that
+/// plugin; without one, all (the planner then looks at who offers the service at all).
+pub fn offering_pinned(
+    hosts: &[Arc<HostEntry>],
+    service: &str,
+    pin: Option<&str>,
+) -> Vec<Arc<HostEntry>> {
+    match pin {
+        None => hosts.to_vec(),
+        Some(pin) => hosts.iter().filter(|h| h.offers_plugin(service, pin)).cloned().collect(),
     }
 }

@@ -4,6 +4,6 @@
 //! the same record the engine writes.
 
 pub use meshflow_api::engine::{
-    BroadcastRecord, HostLoad, InputRecord, ResultRecord, RunRecord, Status, StepRecord,
-    TransferRecord,
+    BatchEntry, BatchStatus, BroadcastRecord, Comparison, Divergence, HostLoad, InputRecord,
+    ResultRecord, RunRecord, Status, StepRecord, SubmitBatch, SummaryRow, Transfer, TransferRecord,
 };

@@ -77,6 +77,14 @@ impl HostEntry {
         state.up && state.services.iter().any(|s| s.info.name == service) && !self.is_suspect()
     }
 
+    /// Whether the host is up, not suspect and offers `service` from the plugin whose
+    /// digest starts with `pin` (a whole digest, or the prefix a workflow gave).
+    pub fn offers_plugin(&self, service: &str, pin: &str) -> bool {
+        let state = self.state.lock().unwrap();
+        let offered = |s: &ServiceEntry| s.info.name == service && s.plugin.starts_with(pin);
+        state.up && state.services.iter().any(offered) && !self.is_suspect()
+    }
+
     /// Takes the host out of plans for [`SUSPECT_FOR`], saying why.
     pub fn mark_suspect(&self, reason: String) {
         *self.suspect.lock().unwrap() = Some((Instant::now(), reason));
@@ -339,7 +347,10 @@ impl Registry {
                     hosts: Vec::new(),
                     plugins: Vec::new(),
                 });
-                offer.hosts.push(host.url.clone());
+                // A host lists a service once per plugin offering it (replaced ones too).
+                if !offer.hosts.contains(&host.url) {
+                    offer.hosts.push(host.url.clone());
+                }
                 if !offer.plugins.contains(&service.plugin) {
                     offer.plugins.push(service.plugin);
                 }
@@ -350,6 +361,28 @@ impl Registry {
 
     pub fn service(&self, name: &str) -> Option<ServiceInfo> {
         self.catalogue().remove(name).map(|offer| offer.info)
+    }
+}
+
+impl crate::validate::Catalogue for Registry {
+    fn describe(&self, service: &str, pin: Option<&str>) -> Option<ServiceInfo> {
+        let Some(pin) = pin else { return self.service(service) };
+        self.hosts().iter().filter(|h| h.offers_plugin(service, pin)).find_map(|host| {
+            let state = host.state();
+            let entry = state
+                .services
+                .into_iter()
+                .find(|s| s.info.name == service && s.plugin.starts_with(pin))?;
+            Some(entry.info)
+        })
+    }
+
+    fn digests(&self, service: &str) -> Vec<String> {
+        self.catalogue().remove(service).map(|offer| offer.plugins).unwrap_or_default()
+    }
+
+    fn names(&self) -> Vec<String> {
+        self.catalogue().into_keys().collect()
     }
 }
 
@@ -378,6 +411,7 @@ impl HostEntry {
                 params: Vec::new(),
                 result_type: None,
             },
+            pinned_only: false,
         };
         let mut state = self.state.lock().unwrap();
         state.up = true;

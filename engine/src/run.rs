@@ -69,8 +69,10 @@ pub struct RunParts {
 }
 
 impl Run {
-    pub fn new(parts: RunParts) -> Self {
+    pub fn new(mut parts: RunParts) -> Self {
         let (events, _) = broadcast::channel(EVENT_BUFFER);
+        // The store keeps the workflow in a column of its own, not in every record write.
+        parts.record.workflow = parts.workflow.clone();
         let earlier_ms = parts
             .record
             .total_ms
@@ -214,6 +216,8 @@ impl Run {
             steps: Vec::new(),
             result: record.result.clone(),
             total_ms: record.total_ms,
+            workflow: serde_json::Value::Null,
+            rerun_of: record.rerun_of.clone(),
         };
         let sessions = self.sessions.lock().unwrap().clone();
         Some(Changes { head, steps, step_count: record.steps.len(), sessions })

@@ -11,7 +11,7 @@ use std::sync::{Arc, Mutex};
 
 use rusqlite::{Connection, OptionalExtension, params};
 
-use crate::record::{RunRecord, Status};
+use crate::record::{BatchEntry, RunRecord, Status};
 use crate::run::Changes;
 
 /// Bumped when the schema changes; an older file is migrated, a newer one refused.
@@ -49,6 +49,21 @@ CREATE TABLE IF NOT EXISTS inputs (
     file TEXT PRIMARY KEY,
     bytes INTEGER NOT NULL,
     stored_unix INTEGER NOT NULL
+);
+CREATE TABLE IF NOT EXISTS batches (
+    id TEXT PRIMARY KEY,
+    seq INTEGER NOT NULL,
+    owner TEXT NOT NULL,
+    workflow TEXT NOT NULL,
+    concurrency INTEGER NOT NULL
+);
+CREATE TABLE IF NOT EXISTS batch_entries (
+    batch_id TEXT NOT NULL,
+    idx INTEGER NOT NULL,
+    input TEXT NOT NULL,
+    run_id TEXT,
+    error TEXT,
+    PRIMARY KEY (batch_id, idx)
 );
 CREATE TABLE IF NOT EXISTS input_names (
     file TEXT PRIMARY KEY,
@@ -294,6 +309,23 @@ pub fn input_name(connection: &mut Connection, file: &str) -> Result<Option<Stri
     Ok(statement.query_row([file], |row| row.get(0)).optional()?)
 }
 
+/// The names the given files were uploaded under, for those that were (one transaction for
+/// a whole batch's table).
+pub fn input_names(
+    connection: &mut Connection,
+    files: &[String],
+) -> Result<std::collections::HashMap<String, String>, StoreError> {
+    let mut statement =
+        connection.prepare_cached("SELECT name FROM input_names WHERE file = ?1")?;
+    let mut names = std::collections::HashMap::new();
+    for file in files {
+        if let Some(name) = statement.query_row([file], |row| row.get(0)).optional()? {
+            names.insert(file.clone(), name);
+        }
+    }
+    Ok(names)
+}
+
 /// Inputs stored before `before` that no kept run names (by their file name in its input
 /// URL); they are removed from the table and returned for deletion from disk.
 pub fn take_unused_inputs(
@@ -304,7 +336,10 @@ pub fn take_unused_inputs(
     let files: Vec<String> = {
         let mut statement = transaction.prepare(
             "SELECT file FROM inputs WHERE stored_unix < ?1 AND NOT EXISTS
-             (SELECT 1 FROM runs WHERE runs.input LIKE '%/inputs/' || inputs.file)",
+             (SELECT 1 FROM runs WHERE runs.input LIKE '%/inputs/' || inputs.file)
+             AND NOT EXISTS (SELECT 1 FROM batch_entries WHERE batch_entries.run_id IS NULL
+               AND batch_entries.error IS NULL
+               AND batch_entries.input LIKE '%/inputs/' || inputs.file)",
         )?;
         let rows = statement.query_map([before], |row| row.get(0))?;
         rows.collect::<Result<_, _>>()?
@@ -315,4 +350,79 @@ pub fn take_unused_inputs(
     }
     transaction.commit()?;
     Ok(files)
+}
+
+/// A batch as stored: its workflow and each input's run or error.
+#[derive(Debug, Clone)]
+pub struct StoredBatch {
+    pub id: String,
+    pub owner: String,
+    pub workflow: serde_json::Value,
+    /// How many of its runs may go at once.
+    pub concurrency: usize,
+    pub entries: Vec<BatchEntry>,
+}
+
+pub fn insert_batch(connection: &mut Connection, batch: &StoredBatch) -> Result<(), StoreError> {
+    let transaction = connection.transaction()?;
+    transaction.execute(
+        "INSERT INTO batches (id, seq, owner, workflow, concurrency)
+         VALUES (?1, (SELECT COALESCE(MAX(seq), 0) + 1 FROM batches), ?2, ?3, ?4)",
+        params![
+            batch.id,
+            batch.owner,
+            serde_json::to_string(&batch.workflow)?,
+            batch.concurrency as i64
+        ],
+    )?;
+    for (index, entry) in batch.entries.iter().enumerate() {
+        transaction.execute(
+            "INSERT INTO batch_entries (batch_id, idx, input, run_id, error) VALUES (?1, ?2, ?3, ?4, ?5)",
+            params![batch.id, index as i64, entry.input, entry.run, entry.error],
+        )?;
+    }
+    transaction.commit()?;
+    Ok(())
+}
+
+/// Records the run an entry became, or why it did not.
+pub fn set_batch_entry(
+    connection: &mut Connection,
+    batch_id: &str,
+    index: usize,
+    entry: &BatchEntry,
+) -> Result<(), StoreError> {
+    connection.execute(
+        "UPDATE batch_entries SET run_id = ?3, error = ?4 WHERE batch_id = ?1 AND idx = ?2",
+        params![batch_id, index as i64, entry.run, entry.error],
+    )?;
+    Ok(())
+}
+
+/// Every batch, oldest first, or the one with `only` as its id.
+pub fn load_batches(
+    connection: &mut Connection,
+    only: Option<&str>,
+) -> Result<Vec<StoredBatch>, StoreError> {
+    let mut statement = connection.prepare(
+        "SELECT id, owner, workflow, concurrency FROM batches WHERE ?1 IS NULL OR id = ?1
+         ORDER BY seq",
+    )?;
+    let heads: Vec<(String, String, String, i64)> = statement
+        .query_map([only], |row| Ok((row.get(0)?, row.get(1)?, row.get(2)?, row.get(3)?)))?
+        .collect::<Result<_, _>>()?;
+    let mut entries_of = connection.prepare(
+        "SELECT input, run_id, error FROM batch_entries WHERE batch_id = ?1 ORDER BY idx",
+    )?;
+    let mut batches = Vec::with_capacity(heads.len());
+    for (id, owner, workflow, concurrency) in heads {
+        let rows = entries_of.query_map([&id], |row| {
+            Ok(BatchEntry { input: row.get(0)?, run: row.get(1)?, error: row.get(2)? })
+        })?;
+        let entries = rows.collect::<Result<_, _>>()?;
+        let workflow = serde_json::from_str(&workflow)?;
+        let concurrency = concurrency.max(1) as usize;
+        batches.push(StoredBatch { id, owner, workflow, concurrency, entries });
+    }
+    Ok(batches)
 }

@@ -51,7 +51,14 @@ pub struct Task {
     pub path: String,
     pub service: String,
     pub params: Map<String, Json>,
+    /// The plugin to run the service from: its SHA-256, or a unique prefix of at least
+    /// [`MIN_PIN_DIGITS`] hex digits. Only hosts offering it are planned.
+    pub plugin: Option<String>,
 }
+
+/// The shortest digest prefix a workflow may pin a plugin by: 48 bits, so a clash between
+/// two plugins on one cluster is far-fetched (and refused as ambiguous if it happens).
+pub const MIN_PIN_DIGITS: usize = 12;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Condition {
@@ -200,6 +207,30 @@ impl Workflow {
         collect_tasks(&self.steps, &mut tasks);
         tasks
     }
+
+    /// Every task, in the same order as [`Workflow::tasks`], to change.
+    pub fn tasks_mut(&mut self) -> Vec<&mut Task> {
+        let mut tasks = Vec::new();
+        collect_tasks_mut(&mut self.steps, &mut tasks);
+        tasks
+    }
+}
+
+fn collect_tasks_mut<'a>(steps: &'a mut [Step], out: &mut Vec<&'a mut Task>) {
+    for step in steps {
+        match step {
+            Step::Run(task) => out.push(task),
+            Step::If { condition, then, otherwise, .. } => {
+                out.push(&mut condition.check);
+                collect_tasks_mut(then, out);
+                collect_tasks_mut(otherwise, out);
+            }
+            Step::While { condition, body, .. } => {
+                out.push(&mut condition.check);
+                collect_tasks_mut(body, out);
+            }
+        }
+    }
 }
 
 fn collect_tasks<'a>(steps: &'a [Step], out: &mut Vec<&'a Task>) {
@@ -241,7 +272,7 @@ fn parse_steps(steps: &[Json], path: &str, depth: usize) -> Result<Vec<Step>, Wo
 fn parse_step(json: &Json, path: &str, depth: usize) -> Result<Step, WorkflowError> {
     let object = json.as_object().ok_or_else(|| WorkflowError::new(path, "a step is an object"))?;
     if object.contains_key("run") {
-        known_keys(object, path, &["run", "params"])?;
+        known_keys(object, path, &["run", "params", "plugin"])?;
         Ok(Step::Run(parse_task(object, "run", path)?))
     } else if object.contains_key("if") {
         known_keys(object, path, &["if", "then", "else"])?;
@@ -288,7 +319,7 @@ fn parse_condition(json: &Json, path: &str) -> Result<Condition, WorkflowError> 
     let object = json.as_object().ok_or_else(|| {
         WorkflowError::new(path, "a condition is {\"check\", \"params\"?, \"op\", \"value\"}")
     })?;
-    known_keys(object, path, &["check", "params", "op", "value"])?;
+    known_keys(object, path, &["check", "params", "op", "value", "plugin"])?;
     let op =
         object.get("op").and_then(Json::as_str).and_then(Comparison::parse).ok_or_else(|| {
             WorkflowError::new(format!("{path}.op"), "must be one of < <= == != >= >")
@@ -310,8 +341,26 @@ fn parse_task(object: &Map<String, Json>, key: &str, path: &str) -> Result<Task,
         Some(Json::Object(params)) => params.clone(),
         Some(_) => return Err(WorkflowError::new(format!("{path}.params"), "must be an object")),
     };
+    let plugin = match object.get("plugin") {
+        None => None,
+        Some(Json::String(digest)) if is_pin(digest) => Some(digest.to_ascii_lowercase()),
+        Some(_) => {
+            return Err(WorkflowError::new(
+                format!("{path}.plugin"),
+                format!(
+                    "must be a plugin's SHA-256 in hex, or a prefix of it of at least \
+                     {MIN_PIN_DIGITS} digits"
+                ),
+            ));
+        }
+    };
     let path = if key == "check" { format!("{path}.check") } else { path.to_owned() };
-    Ok(Task { path, service: service.to_owned(), params })
+    Ok(Task { path, service: service.to_owned(), params, plugin })
+}
+
+/// Whether `text` can name a plugin: hex digits, from [`MIN_PIN_DIGITS`] to a whole SHA-256.
+fn is_pin(text: &str) -> bool {
+    (MIN_PIN_DIGITS..=64).contains(&text.len()) && text.chars().all(|c| c.is_ascii_hexdigit())
 }
 
 fn known_keys(object: &Map<String, Json>, path: &str, known: &[&str]) -> Result<(), WorkflowError> {
@@ -380,7 +429,7 @@ mod tests {
         );
         assert_eq!(
             error(json!([{"run": "a", "param": {}}])),
-            "steps[0]: unknown key \"param\" (expected run, params)"
+            "steps[0]: unknown key \"param\" (expected run, params, plugin)"
         );
         assert_eq!(
             error(
@@ -411,6 +460,27 @@ mod tests {
             nested = json!([{"while": {"check": "c", "op": "<", "value": 1}, "do": nested}]);
         }
         assert!(error(nested).ends_with("IF and WHILE blocks nest at most 16 deep"));
+    }
+
+    #[test]
+    fn steps_and_conditions_pin_plugins_by_digest_prefixes() {
+        let digest = "AB".repeat(32);
+        let workflow = Workflow::from_json(&json!([
+            {"run": "smooth", "plugin": digest},
+            {"while": {"check": "c", "op": "<", "value": 1, "plugin": "0123456789ab"},
+             "do": [{"run": "s"}]}
+        ]))
+        .unwrap();
+        let pins: Vec<_> = workflow.tasks().iter().map(|t| t.plugin.clone()).collect();
+        assert_eq!(pins, [Some("ab".repeat(32)), Some("0123456789ab".into()), None]);
+        let error = |json| Workflow::from_json(&json).unwrap_err().to_string();
+        for bad in [json!("0123456789a"), json!("smoothing@1"), json!(7), json!("g".repeat(64))] {
+            assert!(
+                error(json!([{"run": "s", "plugin": bad}]))
+                    .starts_with("steps[0].plugin: must be a plugin's SHA-256"),
+                "{bad}"
+            );
+        }
     }
 
     #[test]

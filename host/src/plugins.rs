@@ -20,10 +20,24 @@ pub enum PluginSetError {
     NotFound(String),
     #[error("plugin {digest} has no service `{service}`; it offers: {offered}")]
     NoSuchService { digest: String, service: String, offered: String },
+    #[error(
+        "plugin {digest} offers services already on this host: {taken}; upload it with \
+         replace (`meshflow plugin upload --replace`, `POST /plugins?replace=true`) to serve \
+         them from the new plugin, the old staying for runs pinned to it"
+    )]
+    Collides { digest: String, taken: String },
     #[error("built-in plugins cannot be deleted")]
     Builtin,
     #[error("{0}")]
     Storage(String),
+}
+
+/// What an upload changed: the services no plugin offered before, and those it now
+/// serves in place of another plugin.
+#[derive(Debug, Default)]
+pub struct Uploaded {
+    pub new: Vec<String>,
+    pub replaced: Vec<String>,
 }
 
 pub struct PluginSet {
@@ -34,7 +48,8 @@ pub struct PluginSet {
 }
 
 struct Loaded {
-    /// In upload order; they shadow built-ins of the same service name.
+    /// Newest first: an upload that replaced services serves them ahead of older plugins
+    /// and the built-ins; the older ones stay for runs pinned to their digest.
     uploaded: Vec<Plugin>,
     builtins: Vec<Plugin>,
     catalog: Catalog,
@@ -74,12 +89,13 @@ impl PluginSet {
             .collect();
         stored.sort();
         let mut uploaded = Vec::new();
+        // Oldest first, each put in front: the newest serves a name, as before the restart.
         for (_, path) in stored {
             match std::fs::read(&path)
                 .map_err(|e| e.to_string())
                 .and_then(|bytes| runtime.load(&bytes).map_err(|e| e.to_string()))
             {
-                Ok(plugin) => uploaded.push(plugin),
+                Ok(plugin) => uploaded.insert(0, plugin),
                 Err(e) => tracing::warn!("skipping stored plugin {}: {e}", path.display()),
             }
         }
@@ -118,15 +134,18 @@ impl PluginSet {
         Ok((plugin.clone(), info.clone()))
     }
 
+    /// Every service of every plugin; those another plugin replaced are `pinned_only`.
     pub fn services(&self) -> Vec<ServiceEntry> {
         let loaded = self.read();
-        let services = loaded.catalog.services();
-        services
+        loaded
+            .catalog
+            .every_service()
             .into_iter()
-            .map(|(info, plugin)| ServiceEntry {
+            .map(|(info, plugin, serves_unpinned)| ServiceEntry {
                 plugin: plugin.digest.clone(),
                 builtin: loaded.is_builtin(&plugin.digest),
                 info: info.clone(),
+                pinned_only: !serves_unpinned,
             })
             .collect()
     }
@@ -164,19 +183,47 @@ impl PluginSet {
         loaded.catalog.plugins().iter().find(|p| p.digest == digest).map(|p| p.services.clone())
     }
 
-    /// Stores an uploaded plugin's bytes and offers its services ahead of the built-ins.
-    pub fn add(&self, plugin: Plugin, bytes: &[u8]) -> Result<(), PluginSetError> {
+    /// Stores an uploaded plugin's bytes and offers its services. A plugin offering a
+    /// service another plugin already serves is refused unless `replace`; then it serves
+    /// those names to unpinned runs and the other stays for runs pinned to it. Returns the
+    /// services that are new and those replaced.
+    pub fn add(
+        &self,
+        plugin: Plugin,
+        bytes: &[u8],
+        replace: bool,
+    ) -> Result<Uploaded, PluginSetError> {
+        let mut loaded = self.inner.write().expect("plugin set lock");
+        if loaded.catalog.plugins().iter().any(|p| p.digest == plugin.digest) {
+            // The same bytes raced another upload of them.
+            return Ok(Uploaded::default());
+        }
+        let mut outcome = Uploaded::default();
+        let mut taken = Vec::new();
+        for service in &plugin.services {
+            match loaded.catalog.find(&service.name) {
+                Ok((owner, _)) => {
+                    taken.push(format!("{} (plugin {})", service.name, owner.digest));
+                    outcome.replaced.push(service.name.clone());
+                }
+                Err(_) => outcome.new.push(service.name.clone()),
+            }
+        }
+        if !taken.is_empty() && !replace {
+            return Err(PluginSetError::Collides {
+                digest: plugin.digest.clone(),
+                taken: taken.join(", "),
+            });
+        }
+        // Written under the lock, so a concurrent delete cannot remove the file between
+        // writing and listing it; plugins are small and uploads rare.
         let path = self.dir.join(format!("{}.wasm", plugin.digest));
         io::write_file(&path, |out| out.write_all(bytes))
             .map_err(|e| PluginSetError::Storage(format!("storing the plugin: {e}")))?;
-        let mut loaded = self.inner.write().expect("plugin set lock");
         let mut uploaded = std::mem::take(&mut loaded.uploaded);
-        // Two uploads of the same bytes may race; keep one.
-        if !uploaded.iter().any(|p| p.digest == plugin.digest) {
-            uploaded.push(plugin);
-        }
+        uploaded.insert(0, plugin);
         *loaded = Loaded::new(uploaded, std::mem::take(&mut loaded.builtins));
-        Ok(())
+        Ok(outcome)
     }
 
     pub fn remove(&self, digest: &str) -> Result<(), PluginSetError> {

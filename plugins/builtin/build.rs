@@ -9,7 +9,7 @@ use std::process::Command;
 /// In-house plugin crates, under `plugins/`.
 const PLUGINS: &[&str] = &["smoothing", "checks", "cleanup", "holes"];
 /// Test fixture plugin crates, under `tests/plugins/`.
-const FIXTURES: &[&str] = &["hostile", "bad-describe"];
+const FIXTURES: &[&str] = &["hostile", "bad-describe", "smoothing-v2"];
 const TARGET: &str = "wasm32-wasip2";
 const PROFILE: &str = "plugin";
 

@@ -1,6 +1,7 @@
 //! One module per subcommand.
 
 pub mod apply;
+mod batch;
 pub mod check;
 pub mod correction;
 pub mod engine;
@@ -10,11 +11,13 @@ pub mod inspect;
 pub mod pack;
 pub mod plugin;
 mod remote;
+pub mod rerun;
 pub mod run;
 pub mod services;
 pub mod submit;
 pub mod tokens;
 pub mod up;
+pub mod workflow;
 
 use meshflow_runtime::Value;
 

@@ -3,51 +3,134 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use clap::Subcommand;
+use clap::{Args, Subcommand};
 use meshflow_api::HostClient;
 
 #[derive(Subcommand)]
 pub enum PluginCommand {
-    /// Upload a plugin component (.wasm) to a host; prints its digest and services.
+    /// Upload a plugin component (.wasm) to a host; prints its digest and which services
+    /// are new, replaced or already present.
     Upload {
-        /// The host's URL, e.g. http://127.0.0.1:7070.
-        #[arg(long, value_name = "URL")]
-        host: String,
+        #[command(flatten)]
+        host: HostArg,
         file: PathBuf,
-        /// The host's upload token (its --token).
-        #[arg(long, env = "MESHFLOW_UPLOAD_TOKEN", hide_env_values = true, value_name = "TOKEN")]
-        token: Option<String>,
-        /// Read the upload token from this file.
-        #[arg(long, value_name = "PATH")]
-        token_file: Option<PathBuf>,
+        /// Serve services another plugin already offers from this one (the other stays
+        /// for runs pinned to its digest until deleted); without it such an upload is
+        /// refused.
+        #[arg(long)]
+        replace: bool,
+        #[command(flatten)]
+        token: UploadToken,
         /// Print JSON.
         #[arg(long)]
         json: bool,
     },
+    /// List a host's plugins: digest, built-in or uploaded, services (those another
+    /// plugin replaced marked "pinned only").
+    List {
+        #[command(flatten)]
+        host: HostArg,
+        /// The host's cluster token, when it has one.
+        #[arg(long, env = "MESHFLOW_CLUSTER_TOKEN", hide_env_values = true, value_name = "T")]
+        cluster_token: Option<String>,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Delete an uploaded plugin from a host (by its digest).
+    Delete {
+        #[command(flatten)]
+        host: HostArg,
+        digest: String,
+        #[command(flatten)]
+        token: UploadToken,
+    },
+}
+
+#[derive(Args)]
+pub struct HostArg {
+    /// The host's URL, e.g. http://127.0.0.1:7070.
+    #[arg(long = "host", value_name = "URL")]
+    url: String,
+}
+
+#[derive(Args)]
+pub struct UploadToken {
+    /// The host's upload token (its --token).
+    #[arg(long, env = "MESHFLOW_UPLOAD_TOKEN", hide_env_values = true, value_name = "TOKEN")]
+    token: Option<String>,
+    /// Read the upload token from this file.
+    #[arg(long, value_name = "PATH")]
+    token_file: Option<PathBuf>,
+}
+
+impl UploadToken {
+    fn get(&self) -> anyhow::Result<String> {
+        super::tokens::read(self.token.as_deref(), self.token_file.as_deref())?
+            .context("give the host's upload token: --token, MESHFLOW_UPLOAD_TOKEN or --token-file")
+    }
 }
 
 pub fn run(command: PluginCommand) -> anyhow::Result<()> {
+    let runtime = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
     match command {
-        PluginCommand::Upload { host, file, token, token_file, json } => {
-            let token = super::tokens::read(token.as_deref(), token_file.as_deref())?.context(
-                "give the host's upload token: --token, MESHFLOW_UPLOAD_TOKEN or --token-file",
-            )?;
+        PluginCommand::Upload { host, file, replace, token, json } => {
+            let token = token.get()?;
             let wasm =
                 std::fs::read(&file).with_context(|| format!("reading {}", file.display()))?;
-            let client = HostClient::new(&host);
-            let uploaded = tokio::runtime::Builder::new_current_thread()
-                .enable_all()
-                .build()?
-                .block_on(client.upload_plugin(wasm, Some(&token)))
+            let uploaded = runtime
+                .block_on(HostClient::new(&host.url).upload_plugin(wasm, Some(&token), replace))
                 .with_context(|| format!("uploading {}", file.display()))?;
             if json {
                 println!("{}", serde_json::to_string_pretty(&uploaded)?);
                 return Ok(());
             }
             println!("plugin {}", uploaded.digest);
+            for (what, names) in [
+                ("new", &uploaded.new),
+                ("replaced", &uploaded.replaced),
+                ("already present", &uploaded.present),
+            ] {
+                if !names.is_empty() {
+                    println!("  {what}: {}", names.join(", "));
+                }
+            }
             for service in &uploaded.services {
                 super::services::print(service, &uploaded.digest);
             }
+            Ok(())
+        }
+        PluginCommand::List { host, cluster_token, json } => {
+            let mut client = HostClient::new(&host.url);
+            if let Some(token) = cluster_token {
+                client = client.with_token(&token);
+            }
+            let (plugins, services) = runtime
+                .block_on(async { tokio::try_join!(client.plugins(), client.services()) })
+                .with_context(|| format!("asking {} for its plugins", host.url))?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&plugins)?);
+                return Ok(());
+            }
+            for plugin in plugins {
+                let origin = if plugin.builtin { "built-in" } else { "uploaded" };
+                println!("{} ({origin})", plugin.digest);
+                for name in &plugin.services {
+                    let pinned_only = services.iter().any(|s| {
+                        s.plugin == plugin.digest && &s.info.name == name && s.pinned_only
+                    });
+                    let note = if pinned_only { " (pinned only: replaced)" } else { "" };
+                    println!("  {name}{note}");
+                }
+            }
+            Ok(())
+        }
+        PluginCommand::Delete { host, digest, token } => {
+            let token = token.get()?;
+            runtime
+                .block_on(HostClient::new(&host.url).delete_plugin(&digest, Some(&token)))
+                .with_context(|| format!("deleting plugin {digest} from {}", host.url))?;
+            println!("deleted {digest}");
             Ok(())
         }
     }

@@ -31,8 +31,22 @@ pub struct Submission {
 
 impl Submission {
     pub async fn execute(self, wait: bool) -> anyhow::Result<()> {
-        let engine = &self.engine;
         let workflow = self.read_workflow()?;
+        if !wait {
+            let id = self.start(workflow).await?;
+            match self.json {
+                true => println!("{}", json!({"id": id})),
+                false => println!("{id}"),
+            }
+            return Ok(());
+        }
+        let record = self.run_to_end(workflow).await?;
+        self.deliver(&record).await
+    }
+
+    /// Uploads the input if it is a file, submits `workflow`; returns the run's id.
+    async fn start(&self, workflow: Json) -> anyhow::Result<String> {
+        let engine = &self.engine;
         let input = match &self.input {
             Some(url) if url.starts_with("http://") || url.starts_with("https://") => {
                 Some(url.clone())
@@ -44,37 +58,48 @@ impl Submission {
             .submit(&SubmitRun { workflow, input })
             .await
             .context("the engine refused the workflow")?;
-        let id = submitted.id;
-        if !wait {
-            match self.json {
-                true => println!("{}", json!({"id": id})),
-                false => println!("{id}"),
-            }
-            return Ok(());
-        }
-        follow(engine, &id, !self.json).await?;
-        let record = engine.run(&id).await?;
+        Ok(submitted.id)
+    }
+
+    /// Runs `workflow`, following its progress, and returns its record (written to
+    /// `report` if asked), however the run ended.
+    pub async fn run_to_end(&self, workflow: Json) -> anyhow::Result<RunRecord> {
+        let id = self.start(workflow).await?;
+        follow(&self.engine, &id, !self.json).await?;
+        let record = self.engine.run(&id).await?;
         if let Some(path) = &self.report {
             let text = serde_json::to_string_pretty(&record)?;
             super::pack::write_atomically(path, text.as_bytes())?;
         }
+        Ok(record)
+    }
+
+    /// A completed run's result to `output`, and its summary (or record, `--json`); an
+    /// error for a run that did not complete.
+    async fn deliver(&self, record: &RunRecord) -> anyhow::Result<()> {
+        self.save_result(record).await?;
+        match self.json {
+            true => println!("{}", serde_json::to_string_pretty(record)?),
+            false => print_summary(record, self.output.as_deref()),
+        }
+        Ok(())
+    }
+
+    /// Writes a completed run's verified result to `output`, if one was asked for.
+    pub async fn save_result(&self, record: &RunRecord) -> anyhow::Result<()> {
         if record.status != Status::Completed {
             let status = json!(record.status);
             let reason = record.error.as_deref().unwrap_or("no reason given");
-            bail!("run {id} {}: {reason}", status.as_str().unwrap_or("ended"));
+            bail!("run {} {}: {reason}", record.id, status.as_str().unwrap_or("ended"));
         }
         if let Some(path) = &self.output {
-            super::pack::save_mesh(path, &verified_result(engine, &record).await?)?;
-        }
-        match self.json {
-            true => println!("{}", serde_json::to_string_pretty(&record)?),
-            false => print_summary(&record, self.output.as_deref()),
+            super::pack::save_mesh(path, &verified_result(&self.engine, record).await?)?;
         }
         Ok(())
     }
 
     /// The workflow file as JSON, with `--transfer` applied.
-    fn read_workflow(&self) -> anyhow::Result<Json> {
+    pub fn read_workflow(&self) -> anyhow::Result<Json> {
         let name = self.workflow.display();
         let text =
             std::fs::read_to_string(&self.workflow).with_context(|| format!("reading {name}"))?;
@@ -95,7 +120,7 @@ impl Submission {
 
 /// The run's final mesh, downloaded and decoded; it must be the mesh the record names
 /// (`result.hash`): whoever serves it is trusted no further than that.
-async fn verified_result(
+pub(super) async fn verified_result(
     engine: &EngineClient,
     record: &RunRecord,
 ) -> anyhow::Result<meshflow_mesh::MeshData> {
@@ -113,7 +138,7 @@ async fn verified_result(
     Ok(mesh)
 }
 
-async fn upload_input(engine: &EngineClient, path: &Path) -> anyhow::Result<String> {
+pub(super) async fn upload_input(engine: &EngineClient, path: &Path) -> anyhow::Result<String> {
     let bytes =
         tokio::fs::read(path).await.with_context(|| format!("reading {}", path.display()))?;
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("input");

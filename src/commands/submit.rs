@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 use meshflow_api::EngineClient;
 
+use super::batch::BatchArgs;
 use super::remote::{Submission, TransferMode};
 
 /// Which engine to talk to, and with what API token.
@@ -37,9 +38,12 @@ pub struct SubmitArgs {
     engine: EngineTarget,
     /// Workflow JSON file.
     workflow: PathBuf,
-    /// The input: a URL hosts can fetch, or a local mesh file to upload to the engine.
+    /// The input: a URL hosts can fetch, or a local mesh file to upload to the engine;
+    /// repeated (with --out-dir) for a batch.
     #[arg(long, value_name = "URL|FILE")]
-    input: Option<String>,
+    input: Vec<String>,
+    #[command(flatten)]
+    batch: BatchArgs,
     /// Where to write the result (format by extension); implies --wait.
     #[arg(short, long)]
     output: Option<PathBuf>,
@@ -59,16 +63,26 @@ pub struct SubmitArgs {
 
 pub fn run(args: SubmitArgs) -> anyhow::Result<()> {
     let wait = args.wait || args.output.is_some() || args.report.is_some();
+    let inputs = args.batch.inputs(&args.input)?;
+    super::run::check_shape(&inputs, args.output.is_some(), args.report.is_some(), &args.batch)?;
     let submission = Submission {
         engine: args.engine.client()?,
         workflow: args.workflow,
-        input: args.input,
+        input: inputs.first().cloned(),
         transfer: args.transfer,
         output: args.output,
         report: args.report,
         json: args.json,
     };
-    tokio::runtime::Runtime::new()?.block_on(submission.execute(wait))
+    let runtime = tokio::runtime::Runtime::new()?;
+    match &args.batch.out_dir {
+        None => runtime.block_on(submission.execute(wait)),
+        Some(dir) => {
+            let workflow = submission.read_workflow()?;
+            let batch = args.batch.run(submission.engine, workflow, inputs, dir.clone(), args.json);
+            runtime.block_on(batch)
+        }
+    }
 }
 
 #[derive(Args)]

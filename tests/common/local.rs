@@ -60,8 +60,12 @@ impl Local {
 
     /// A check's value on `mesh`.
     pub fn check(&self, service: &str, mesh: &MeshData) -> Json {
-        let task =
-            Task { path: "check".into(), service: service.into(), params: Default::default() };
+        let task = Task {
+            path: "check".into(),
+            service: service.into(),
+            params: Default::default(),
+            plugin: None,
+        };
         value_json(&self.service(&task, mesh).value.expect("a check returns a value"))
     }
 

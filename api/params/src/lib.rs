@@ -9,9 +9,11 @@
 
 mod json;
 mod resolve;
+mod suggest;
 
 pub use json::{from_json, value_json};
 pub use resolve::{ParamError, describe_params, resolve, type_name, value_text};
+pub use suggest::{closest, did_you_mean};
 
 use serde::{Deserialize, Serialize};
 

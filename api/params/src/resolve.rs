@@ -26,7 +26,8 @@ pub fn resolve(
     };
     for (i, (name, _)) in given.iter().enumerate() {
         if !info.params.iter().any(|p| &p.name == name) {
-            return Err(fail(format!("unknown parameter `{name}`")));
+            let hint = crate::did_you_mean(name, info.params.iter().map(|p| p.name.as_str()));
+            return Err(fail(format!("unknown parameter `{name}`{hint}")));
         }
         if given[..i].iter().any(|(earlier, _)| earlier == name) {
             return Err(fail(format!("parameter `{name}` given twice")));

@@ -25,7 +25,7 @@ use meshflow_api::params::ValueType;
 use serde_json::{Value as Json, json};
 
 use crate::limits::MAX_STEPS_PER_RUN;
-use crate::plan::{Plan, pick, placed_by_link};
+use crate::plan::{Plan, offering_pinned, pick, placed_by_link};
 use crate::record::{BroadcastRecord, HostLoad, InputRecord, ResultRecord, Status, StepRecord};
 use crate::registry::{HostEntry, Registry};
 use crate::run::Run;
@@ -50,7 +50,9 @@ pub async fn execute(run: Arc<Run>, workflow: Workflow, registry: Arc<Registry>,
     if resumed && done.is_empty() {
         // Nothing finished before the restart: start over.
         run.update("restart", |r| {
-            *r = crate::record::RunRecord::new(r.id.clone(), r.transfer);
+            let fresh = crate::record::RunRecord::new(r.id.clone(), r.transfer);
+            let (workflow, rerun_of) = (std::mem::take(&mut r.workflow), r.rerun_of.take());
+            *r = crate::record::RunRecord { workflow, rerun_of, ..fresh };
             json!(null)
         });
     }
@@ -384,10 +386,11 @@ impl Executor {
         let before = self.plan.hosts();
         for path in self.plan.tasks_on(host) {
             let service = self.plan.service(&path).to_owned();
-            let hosts = self.registry.hosts();
+            let pin = self.plan.pin(&path);
+            let candidates = offering_pinned(&self.registry.hosts(), &service, pin);
             let measured = placed_by_link(self.plan.placement(), &self.registry);
             let replacement =
-                pick(&hosts, &before, &service, excluded, measured).ok_or_else(|| {
+                pick(&candidates, &before, &service, excluded, measured).ok_or_else(|| {
                     format!(
                         "{path}: host {} failed and no other host offers \"{service}\"",
                         host.url
@@ -542,8 +545,10 @@ impl Executor {
                 failed.push(host.clone());
             }
             if failed.iter().any(|h| Arc::ptr_eq(h, &host)) {
+                let candidates =
+                    offering_pinned(&self.registry.hosts(), &task.service, task.plugin.as_deref());
                 let replacement = pick(
-                    &self.registry.hosts(),
+                    &candidates,
                     &self.plan.hosts(),
                     &task.service,
                     &failed,
@@ -589,8 +594,11 @@ impl Executor {
         let session = self.bring_up_to_date(host).await?;
         let wait_ms = waiting.elapsed().as_secs_f64() * 1e3;
         let overhead_ms = (self.last_reply.elapsed().as_secs_f64() * 1e3 - wait_ms).max(0.0);
-        let request =
-            RunRequest { service: task.service.clone(), params: task.params.clone(), plugin: None };
+        let request = RunRequest {
+            service: task.service.clone(),
+            params: task.params.clone(),
+            plugin: task.plugin.clone(),
+        };
         let started_ms = self.run.elapsed_ms();
         let (result, busy) = {
             let _in_flight = host.assign();
@@ -610,6 +618,11 @@ impl Executor {
             RunResult::Filter(filter) => asked.filter(filter)?,
             RunResult::Check(check) => asked.check(check, declared_type(host, &task.service)?)?,
         }
+        let ran = match &result {
+            RunResult::Filter(filter) => &filter.plugin,
+            RunResult::Check(check) => &check.plugin,
+        };
+        verify::ran_pinned(ran, task.plugin.as_deref())?;
         let mut record = StepRecord {
             index: 0,
             path: task.path.clone(),
@@ -618,6 +631,7 @@ impl Executor {
             host: host.url.clone(),
             plugin: String::new(),
             params: task.params.clone(),
+            resolved_params: Default::default(),
             started_ms,
             finished_ms: self.run.elapsed_ms(),
             compute_ms: 0.0,
@@ -641,6 +655,7 @@ impl Executor {
         match &result {
             RunResult::Filter(f) => {
                 record.plugin = f.plugin.clone();
+                record.resolved_params = f.resolved_params.clone();
                 record.compute_ms = f.compute_ms;
                 record.queue_ms += f.queue_ms;
                 record.report = f.report.clone();
@@ -653,6 +668,7 @@ impl Executor {
             }
             RunResult::Check(c) => {
                 record.plugin = c.plugin.clone();
+                record.resolved_params = c.resolved_params.clone();
                 record.compute_ms = c.compute_ms;
                 record.queue_ms += c.queue_ms;
                 record.report = c.report.clone();
@@ -735,7 +751,7 @@ impl Executor {
             let request = RunRequest {
                 service: task.service.clone(),
                 params: task.params.clone(),
-                plugin: None,
+                plugin: task.plugin.clone(),
             };
             let output = match busy::run_when_free(&host.client, &session, &request).await.0? {
                 RunResult::Filter(filter) => filter.output_hash,

@@ -27,6 +27,18 @@ pub enum FalseClaim {
     Inconsistent(String),
 }
 
+/// A pinned task must have run the pinned plugin: a host naming another digest did not
+/// run what it was asked to.
+pub fn ran_pinned(plugin: &str, pin: Option<&str>) -> Result<(), FalseClaim> {
+    match pin {
+        Some(pin) if !plugin.starts_with(pin) => Err(FalseClaim::Inconsistent(format!(
+            "ran plugin {} where plugin {pin} was asked for",
+            shown(plugin)
+        ))),
+        _ => Ok(()),
+    }
+}
+
 /// A host's text as an error may repeat it: quoted, escaped and cut short.
 fn shown(text: &str) -> String {
     let kept: String = text.chars().take(SHOWN_CHARS).collect();
@@ -231,6 +243,7 @@ mod tests {
             compute_ms: 1.5,
             queue_ms: 0.0,
             report: String::new(),
+            resolved_params: Default::default(),
             correction: BlobRef { url: format!("{HOST}/blobs/{}.mfc", hash('c')), bytes: 120 },
             replay: BlobRef { url: format!("{HOST}/blobs/{}.mfr", hash('f')), bytes: 190 },
             full: FullRef { url: format!("{HOST}/blobs/{}.mfm", hash('b')), hash: hash('b') },
@@ -306,6 +319,13 @@ mod tests {
     }
 
     #[test]
+    fn a_pinned_task_must_name_the_pinned_plugin() {
+        assert_eq!(ran_pinned(&hash('e'), None), Ok(()));
+        assert_eq!(ran_pinned(&hash('e'), Some("eeeeeeeeeeee")), Ok(()));
+        assert!(ran_pinned(&hash('e'), Some(&hash('f'))).is_err());
+    }
+
+    #[test]
     fn a_check_answer_must_have_the_declared_type() {
         let input = hash('a');
         let answer = |value| CheckResult {
@@ -315,6 +335,7 @@ mod tests {
             compute_ms: 0.1,
             queue_ms: 0.0,
             report: String::new(),
+            resolved_params: Default::default(),
         };
         let asked = asked(&input);
         assert_eq!(asked.check(&answer(json!(true)), ValueType::Boolean), Ok(()));

@@ -36,17 +36,27 @@ impl Catalog {
             .collect()
     }
 
-    /// The plugin offering `service`, or an error listing every service on offer.
+    /// Every service of every plugin, in priority order, each with whether it is the one
+    /// an unpinned run gets (false: a plugin earlier in the order offers the same name).
+    pub fn every_service(&self) -> Vec<(&ServiceInfo, &Plugin, bool)> {
+        let mut seen = std::collections::HashSet::new();
+        self.plugins
+            .iter()
+            .flat_map(|p| p.services.iter().map(move |s| (s, p)))
+            .map(|(s, p)| (s, p, seen.insert(s.name.as_str())))
+            .collect()
+    }
+
+    /// The plugin offering `service`, or an error listing every service on offer (and
+    /// the one a typo probably meant).
     pub fn find(&self, service: &str) -> Result<(&Plugin, &ServiceInfo), RunError> {
         self.plugins.iter().find_map(|p| p.service(service).map(|s| (p, s))).ok_or_else(|| {
+            let offered = self.services();
+            let names = || offered.iter().map(|(s, _)| s.name.as_str());
             RunError::UnknownService {
                 service: service.to_owned(),
-                available: self
-                    .services()
-                    .iter()
-                    .map(|(s, _)| s.name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", "),
+                suggestion: meshflow_params::did_you_mean(service, names()),
+                available: names().collect::<Vec<_>>().join(", "),
             }
         })
     }

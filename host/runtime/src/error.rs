@@ -20,8 +20,8 @@ pub enum PluginError {
 
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
-    #[error("unknown service `{service}`; available services: {available}")]
-    UnknownService { service: String, available: String },
+    #[error("unknown service `{service}`{suggestion}; available services: {available}")]
+    UnknownService { service: String, suggestion: String, available: String },
     #[error(transparent)]
     Params(#[from] ParamError),
     #[error("{service}: stopped at the deadline of {deadline:?} (infinite loop or too slow?)")]

@@ -127,6 +127,10 @@ impl Runtime {
     ) -> Result<RunOutput, RunError> {
         let info = plugin.service(service).ok_or_else(|| RunError::UnknownService {
             service: service.to_owned(),
+            suggestion: meshflow_params::did_you_mean(
+                service,
+                plugin.services.iter().map(|s| s.name.as_str()),
+            ),
             available: plugin
                 .services
                 .iter()

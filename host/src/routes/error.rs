@@ -90,6 +90,9 @@ impl From<PluginSetError> for ApiError {
             PluginSetError::NoSuchService { .. } => {
                 Self::bad_request("unknown-service", error.to_string())
             }
+            PluginSetError::Collides { .. } => {
+                Self::new(StatusCode::CONFLICT, "services-taken", error.to_string())
+            }
             PluginSetError::Builtin => {
                 Self::new(StatusCode::FORBIDDEN, "builtin", error.to_string())
             }

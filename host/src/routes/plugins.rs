@@ -5,22 +5,33 @@ use std::sync::Arc;
 
 use axum::Json;
 use axum::body::Bytes;
-use axum::extract::{Path, State};
+use axum::extract::{Path, Query, State};
 use axum::http::StatusCode;
+use serde::Deserialize;
 
 use super::error::ApiError;
 use crate::state::Host;
 use meshflow_api::host::{PluginEntry, ServiceEntry, UploadedPlugin};
 use meshflow_runtime::digest;
 
+/// `POST /plugins?replace=true`.
+#[derive(Deserialize)]
+pub struct UploadQuery {
+    #[serde(default)]
+    replace: bool,
+}
+
 /// `POST /plugins`: body = component bytes.
 pub async fn upload(
     State(host): State<Arc<Host>>,
+    Query(query): Query<UploadQuery>,
     body: Bytes,
 ) -> Result<(StatusCode, Json<UploadedPlugin>), ApiError> {
     let digest = digest(&body);
     if let Some(services) = host.plugins.known(&digest) {
-        return Ok((StatusCode::OK, Json(UploadedPlugin { digest, services })));
+        let present = services.iter().map(|s| s.name.clone()).collect();
+        let answer = UploadedPlugin { digest, services, present, ..UploadedPlugin::default() };
+        return Ok((StatusCode::OK, Json(answer)));
     }
     let runtime = host.runtime.clone();
     let bytes = body.clone();
@@ -28,9 +39,11 @@ pub async fn upload(
         .await?
         .map_err(|e| ApiError::unprocessable("invalid-plugin", e.to_string()))?;
     let services = plugin.services.clone();
-    host.plugins.add(plugin, &body)?;
-    tracing::info!("plugin {digest} uploaded");
-    Ok((StatusCode::CREATED, Json(UploadedPlugin { digest, services })))
+    let outcome = host.plugins.add(plugin, &body, query.replace)?;
+    tracing::info!("plugin {digest} uploaded (replacing: {:?})", outcome.replaced);
+    let (new, replaced) = (outcome.new, outcome.replaced);
+    let answer = UploadedPlugin { digest, services, new, replaced, present: Vec::new() };
+    Ok((StatusCode::CREATED, Json(answer)))
 }
 
 /// `GET /plugins`.

@@ -22,8 +22,8 @@ use meshflow_api::host::{
 use meshflow_codec::correction;
 use meshflow_codec::quantize::{Grid, snap_step};
 use meshflow_mesh::{ContentHash, MeshData};
-use meshflow_params::{from_json as params_from_json, value_json};
-use meshflow_runtime::ServiceKind;
+use meshflow_params::{from_json as params_from_json, resolve, value_json};
+use meshflow_runtime::{ServiceInfo, ServiceKind, Value};
 
 /// `POST /sessions/{id}/update`: re-run the step (`replay`) or replay its edit log
 /// (`correction`), as asked, falling back to the edit log and then to the full mesh.
@@ -215,6 +215,7 @@ pub async fn run(
     let (plugin, info) = host.plugins.find(&request.service, request.plugin.as_deref())?;
     let params = params_from_json(&info, &request.params)
         .map_err(|e| ApiError::bad_request("bad-params", e.to_string()))?;
+    let resolved_params = resolved_json(&info, &params)?;
     let ran = (plugin.clone(), params.clone());
     let session = host.sessions.begin(&id)?;
     let input = session.current.clone();
@@ -230,7 +231,8 @@ pub async fn run(
     if info.kind == ServiceKind::Check {
         let value = output.value.as_ref().map(value_json).unwrap_or_default();
         let report = output.report;
-        let result = CheckResult { service, plugin, value, compute_ms, queue_ms, report };
+        let result =
+            CheckResult { service, plugin, value, compute_ms, queue_ms, report, resolved_params };
         return Ok(Json(RunResult::Check(result)));
     }
 
@@ -280,6 +282,7 @@ pub async fn run(
         compute_ms,
         queue_ms,
         report: output.report,
+        resolved_params,
         correction: BlobRef { url: host.blob_url(&correction_name), bytes: correction_bytes },
         replay: BlobRef { url: host.blob_url(&replay_name), bytes: replay_bytes },
         full: FullRef { url: host.blob_url(&full_name), hash: next.hash.clone() },
@@ -288,4 +291,14 @@ pub async fn run(
     drop(stored);
     crate::eviction::enforce_budget(&host).await;
     Ok(Json(RunResult::Filter(result)))
+}
+
+/// Every parameter of the run with defaults filled in, as JSON: what the plugin receives.
+fn resolved_json(
+    info: &ServiceInfo,
+    given: &[(String, Value)],
+) -> Result<serde_json::Map<String, serde_json::Value>, ApiError> {
+    let resolved =
+        resolve(info, given).map_err(|e| ApiError::bad_request("bad-params", e.to_string()))?;
+    Ok(resolved.iter().map(|(name, value)| (name.clone(), value_json(value))).collect())
 }
