@@ -1,5 +1,6 @@
 //! `meshflow correction apply|inspect`: replay a step's correction, or describe one.
 
+use crate::output::out;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -64,9 +65,9 @@ fn apply(base: &Path, correction: &Path, output: &Path, json: bool) -> anyhow::R
             "correction_bytes": bytes.len(),
             "apply_ms": millis(apply_time),
         });
-        println!("{summary}");
+        out!("{summary}");
     } else {
-        println!(
+        out!(
             "{} vertices, {} triangles ({}) -> {}",
             result.vertex_count(),
             result.triangle_count(),
@@ -104,21 +105,23 @@ fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
             "bytes": sections,
             "total_bytes": c.total_bytes(),
         });
-        println!("{summary}");
+        out!("{summary}");
         return Ok(());
     }
-    println!("correction v{}, {} bytes", c.version, c.total_bytes());
-    println!("base:   {} ({} vertices, {} triangles)", c.base, c.base_counts[0], c.base_counts[1]);
-    println!(
+    out!("correction v{}, {} bytes", c.version, c.total_bytes());
+    out!("base:   {} ({} vertices, {} triangles)", c.base, c.base_counts[0], c.base_counts[1]);
+    out!(
         "result: {} ({} vertices, {} triangles)",
-        c.result, c.result_counts[0], c.result_counts[1]
+        c.result,
+        c.result_counts[0],
+        c.result_counts[1]
     );
     for (k, n) in kinds {
-        println!("  {:<20} {:>8} ops {:>10} edits", k.name(), n.ops, n.edits);
+        out!("  {:<20} {:>8} ops {:>10} edits", k.name(), n.ops, n.edits);
     }
-    println!("  {:<20} {:>8} bytes", "header", c.header_bytes);
+    out!("  {:<20} {:>8} bytes", "header", c.header_bytes);
     for (name, size) in SECTIONS.iter().zip(c.section_bytes) {
-        println!("  {name:<20} {size:>8} bytes");
+        out!("  {name:<20} {size:>8} bytes");
     }
     Ok(())
 }
