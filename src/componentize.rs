@@ -9,9 +9,10 @@ use wasi_preview1_component_adapter_provider::{
 };
 use wit_component::ComponentEncoder;
 
-/// The package whose `plugin` world a plugin implements, as `wit/meshflow.wit` names it.
-const PLUGIN_PACKAGE: &str = "meshflow:geometry@0.1.0";
-const PLUGIN_WORLD: &str = "plugin";
+/// The world a plugin implements and the interface it exports, as `wit/meshflow.wit` names
+/// them.
+const PLUGIN_WORLD: &str = "meshflow:geometry/plugin@0.1.0";
+const SERVICE_INTERFACE: &str = "meshflow:geometry/service@0.1.0";
 
 /// The component made from `core`, and the plugin it loads as.
 pub fn componentize(runtime: &Runtime, core: &[u8]) -> anyhow::Result<(Vec<u8>, Plugin)> {
@@ -36,15 +37,15 @@ pub fn componentize(runtime: &Runtime, core: &[u8]) -> anyhow::Result<(Vec<u8>, 
         .and_then(|encoder| encoder.encode())
         .map_err(|e| {
             anyhow::anyhow!(
-                "the module does not implement {PLUGIN_PACKAGE}/{PLUGIN_WORLD} as its bindings \
-                 declare: {e:#}"
+                "the module does not implement {PLUGIN_WORLD} as its bindings declare: {e:#}"
             )
         })?;
     let plugin = runtime.load(&component).context("the component does not load as a plugin")?;
     Ok((component, plugin))
 }
 
-/// Refuses a module that carries no world, or another one than meshflow's, naming it.
+/// Refuses a module that carries no world, or one that does not export meshflow's service
+/// interface, naming what it exports instead.
 fn check_world(core: &[u8]) -> anyhow::Result<()> {
     let (with_world, bindgen) =
         wit_component::metadata::decode(core).context("reading the module's component type")?;
@@ -55,13 +56,13 @@ fn check_world(core: &[u8]) -> anyhow::Result<()> {
         );
     }
     let world = &bindgen.resolve.worlds[bindgen.world];
-    let package = world.package.map(|p| bindgen.resolve.packages[p].name.to_string());
-    let package = package.unwrap_or_default();
-    if package != PLUGIN_PACKAGE || world.name != PLUGIN_WORLD {
+    let exports: Vec<String> =
+        world.exports.keys().map(|key| bindgen.resolve.name_world_key(key)).collect();
+    if !exports.iter().any(|name| name == SERVICE_INTERFACE) {
         bail!(
-            "the module was built for the world {package}/{}, not {PLUGIN_PACKAGE}/{PLUGIN_WORLD}: \
+            "the module was built for another world: it exports [{}], not {SERVICE_INTERFACE}; \
              generate its bindings from meshflow's wit/ (sdk/cpp/generated/ has them)",
-            world.name
+            exports.join(", ")
         );
     }
     Ok(())

@@ -171,11 +171,11 @@ fn componentize_refuses_what_is_not_a_meshflow_core_module() {
     );
 
     // A core module whose bindings were made for another world.
-    let wit_component::DecodedWasm::Component(resolve, world) =
-        wit_component::decode(builtin("checks")).unwrap()
-    else {
-        panic!("a built-in plugin is a component")
-    };
+    let mut resolve = wit_parser::Resolve::default();
+    let package = resolve
+        .push_str("other.wit", "package other:thing@1.0.0; world plugin { export run: func(); }")
+        .unwrap();
+    let world = resolve.select_world(&[package], Some("plugin")).unwrap();
     let mut other = b"\0asm\x01\0\0\0".to_vec();
     wit_component::embed_component_metadata(
         &mut other,
@@ -185,7 +185,7 @@ fn componentize_refuses_what_is_not_a_meshflow_core_module() {
     )
     .unwrap();
     let wrong = refused("other-world.wasm", &other);
-    assert!(wrong.contains("not meshflow:geometry@0.1.0/plugin"), "{wrong}");
+    assert!(wrong.contains("exports [run], not meshflow:geometry/service@0.1.0"), "{wrong}");
 
     // And the template's own core module goes through.
     let core = Path::new(env!("CARGO_TARGET_TMPDIR")).join("plugin-template-cpp/taubin-core.wasm");
