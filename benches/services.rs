@@ -23,14 +23,15 @@ use meshflow_generate::scan;
 use meshflow_mesh::MeshData;
 use meshflow_mesh::store::{MeshStore, Op};
 use meshflow_meshio as io;
-use meshflow_plugin_checks::{angles, counts, normals, topology};
+use meshflow_plugin_checks::{angles, counts, measures, normals, topology};
 use meshflow_plugin_cleanup::components::{Keep, small_components};
 use meshflow_plugin_cleanup::degenerate::repair_degenerate;
 use meshflow_plugin_holes::fill::{Settings, fill_holes};
+use meshflow_plugin_sdk::geometry::bounding_box;
 use meshflow_plugin_smoothing::laplacian::{Pinning, Weights, smooth};
 use meshflow_plugin_smoothing::noise::add_noise;
+use meshflow_plugin_smoothing::taubin;
 use meshflow_runtime::{Limits, Runtime, Value};
-use meshflow_sdk::geometry::bounding_box;
 
 const RUNS: usize = 3;
 
@@ -56,7 +57,7 @@ fn moved(positions: Vec<f32>, mesh: &MeshData) -> Outcome {
     Outcome { triangles: mesh.triangle_count(), positions: Some(positions) }
 }
 
-const FILTERS: [Filter; 5] = [
+const FILTERS: [Filter; 6] = [
     Filter {
         plugin: "cleanup",
         service: "remove-smallest-components",
@@ -89,6 +90,7 @@ const FILTERS: [Filter; 5] = [
         meshlab: "ms.apply_coord_laplacian_smoothing(stepsmoothnum=1, boundary=True, \
                   cotangentweight=False)",
     },
+    TAUBIN,
     Filter {
         plugin: "smoothing",
         service: "add-noise",
@@ -119,11 +121,21 @@ const FILTERS: [Filter; 5] = [
     },
 ];
 
+/// Taubin smoothing with its defaults (λ 0.5, μ -0.53, 10 iterations), MeshLab's too; also
+/// timed on the bunny.
+const TAUBIN: Filter = Filter {
+    plugin: "smoothing",
+    service: "taubin-smoothing",
+    native: |m| moved(taubin::smooth(&m.positions, &m.triangles, 0.5, -0.53, 10), m),
+    meshlab_issue: None,
+    meshlab: "ms.apply_coord_taubin_smoothing(lambda_=0.5, mu=-0.53, stepsmoothnum=10)",
+};
+
 /// A check run natively on the host's arrays.
 type NativeCheck = fn(&MeshData) -> Value;
 
 /// Every check with its native twin.
-const CHECKS: [(&str, NativeCheck); 11] = [
+const CHECKS: [(&str, NativeCheck); 12] = [
     ("vertex-count", |m| Value::Integer(m.vertex_count() as i64)),
     ("edge-count", |m| Value::Integer(counts::edge_count(m.vertex_count(), &m.triangles) as i64)),
     ("triangle-count", |m| Value::Integer(m.triangle_count() as i64)),
@@ -139,6 +151,7 @@ const CHECKS: [(&str, NativeCheck); 11] = [
     ("normal-instability", |m| {
         Value::Real(normals::normal_instability(&m.positions, &m.triangles))
     }),
+    ("surface-area", |m| Value::Real(measures::surface_area(&m.positions, &m.triangles))),
 ];
 
 /// MeshLab's closest equivalent of all checks: its topological measures, and per-face
@@ -175,6 +188,14 @@ fn main() {
         rows.push(filter_row(&runtime, &mesh, filter, meshlab(filter.meshlab)));
     }
     rows.extend(check_rows(&runtime, &mesh, meshlab(MESHLAB_CHECKS)));
+    let bunny_path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data/bunny.obj");
+    let bunny = Arc::new(io::load(&bunny_path).expect("the bunny"));
+    let meshlab_bunny = with_meshlab
+        .then(|| meshlab_time(&bunny_path, "ms.load_new_mesh(MESH)", TAUBIN.meshlab, RUNS));
+    let mut bunny_row = filter_row(&runtime, &bunny, &TAUBIN, meshlab_bunny.flatten());
+    bunny_row.service = "taubin-smoothing (bunny)".into();
+    rows.push(bunny_row);
 
     println!(
         "mesh: generated scan ({} vertices, {} triangles, {} pieces, {} holes punched)",

@@ -1,7 +1,7 @@
 //! The runtime and catalog a CLI invocation works with: the user's plugins first, then the
 //! built-in ones, compiled components cached on disk between invocations.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use meshflow_runtime::Limits;
@@ -14,8 +14,7 @@ pub fn load(args: &PluginArgs) -> anyhow::Result<(Runtime, Catalog)> {
     let runtime = Runtime::new(Limits::default(), cache.as_deref())?;
     let mut catalog = Catalog::new();
     for path in &args.plugins {
-        let bytes =
-            std::fs::read(path).with_context(|| format!("reading plugin {}", path.display()))?;
+        let bytes = read_plugin_file(path)?;
         let plugin =
             runtime.load(&bytes).with_context(|| format!("loading plugin {}", path.display()))?;
         catalog.add(plugin);
@@ -43,4 +42,34 @@ pub fn cache_dir() -> Option<PathBuf> {
         .map(PathBuf::from)
         .or_else(|| std::env::var_os("HOME").map(|home| PathBuf::from(home).join(".cache")))?;
     Some(base.join("meshflow").join("components"))
+}
+
+/// A plugin file's bytes. A missing `.wasm` is usually a build that made none: say which
+/// (an `.rlib` alone beside it means the crate lacks `crate-type = ["cdylib"]`).
+pub fn read_plugin_file(path: &Path) -> anyhow::Result<Vec<u8>> {
+    match std::fs::read(path) {
+        Ok(bytes) => Ok(bytes),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err(missing_wasm(path)),
+        Err(e) => Err(e).with_context(|| format!("reading plugin {}", path.display())),
+    }
+}
+
+fn missing_wasm(path: &Path) -> anyhow::Error {
+    let shown = path.display();
+    let (Some(dir), Some(stem)) = (path.parent(), path.file_stem()) else {
+        return anyhow::anyhow!("{shown} does not exist");
+    };
+    let rlib = dir.join(format!("lib{}.rlib", stem.to_string_lossy()));
+    if rlib.exists() {
+        return anyhow::anyhow!(
+            "{shown} does not exist, but {} does: the build made a Rust library and no \
+             component. Add `crate-type = [\"cdylib\", \"rlib\"]` under `[lib]` in Cargo.toml \
+             and build again",
+            rlib.display()
+        );
+    }
+    anyhow::anyhow!(
+        "{shown} does not exist: build the plugin with `cargo build --release --target \
+         wasm32-wasip2` (the file is target/wasm32-wasip2/release/<crate name with _ for ->.wasm)"
+    )
 }

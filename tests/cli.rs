@@ -1,7 +1,8 @@
 //! The `meshflow` command line, end to end: real files, real plugins, real exit codes.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
 
 fn meshflow(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_meshflow"))
@@ -230,17 +231,75 @@ fn generate_scan_is_deterministic_by_seed() {
 }
 
 /// The README's walkthrough: the example plugin, built only on the SDK, runs in the CLI.
+/// The code blocks of the Rust template's README that name a file (```toml Cargo.toml),
+/// joined per file in order: the crate the README makes.
+fn readme_crate() -> BTreeMap<String, String> {
+    let readme = std::fs::read_to_string(template_dir().join("README.md")).unwrap();
+    let mut files = BTreeMap::<String, String>::new();
+    let mut open: Option<String> = None;
+    for line in readme.lines() {
+        match (&open, line.strip_prefix("```")) {
+            (None, Some(info)) => {
+                open =
+                    Some(info.split_once(' ').map(|(_, name)| name.to_owned()).unwrap_or_default())
+            }
+            (Some(_), Some("")) => open = None,
+            (Some(name), _) if !name.is_empty() => {
+                let file = files.entry(name.clone()).or_default();
+                file.push_str(line);
+                file.push('\n');
+            }
+            _ => {}
+        }
+    }
+    files
+}
+
+fn template_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/plugin-template")
+}
+
 #[test]
-fn the_example_plugin_builds_and_runs() {
+fn the_template_crate_is_what_its_readme_says() {
+    let files = readme_crate();
+    let names: Vec<&str> = files.keys().map(String::as_str).collect();
+    assert_eq!(names, [".cargo/config.toml", "Cargo.toml", "src/lib.rs"]);
+    for (name, text) in &files {
+        let actual = std::fs::read_to_string(template_dir().join(name)).unwrap();
+        // The template's manifest adds only a patch to the checkout's SDK.
+        assert!(actual.starts_with(text.as_str()), "{name} differs from the README");
+        assert_eq!(actual.len() == text.len(), name != "Cargo.toml", "{name}");
+    }
+}
+
+#[test]
+fn a_crate_pasted_from_the_template_readme_builds_and_runs_outside_the_checkout() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scratch = tempfile::tempdir().unwrap();
+    for (name, text) in readme_crate() {
+        let path = scratch.path().join(&name);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, text).unwrap();
+    }
+    // The README's git URL, pointed at this checkout's SDK; the template's lock pins the
+    // same versions as the workspace, so the build needs no network.
+    let mut manifest = std::fs::read_to_string(scratch.path().join("Cargo.toml")).unwrap();
+    let sdk = root.join("sdk");
+    manifest.push_str(&format!(
+        "\n[patch.\"file:///home/me/src/meshflow\"]\nmeshflow-plugin-sdk = {{ path = {:?} }}\n",
+        sdk.display().to_string()
+    ));
+    std::fs::write(scratch.path().join("Cargo.toml"), manifest).unwrap();
+    std::fs::copy(template_dir().join("Cargo.lock"), scratch.path().join("Cargo.lock")).unwrap();
+
     let target_dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("plugin-template");
     let status = Command::new(env!("CARGO"))
-        .current_dir(root.join("examples/plugin-template"))
-        .args(["build", "--release", "--target", "wasm32-wasip2", "--target-dir"])
+        .current_dir(scratch.path())
+        .args(["build", "--release", "--offline", "--target", "wasm32-wasip2", "--target-dir"])
         .arg(&target_dir)
         .status()
         .expect("running cargo");
-    assert!(status.success(), "building the example plugin failed");
+    assert!(status.success(), "building the README's crate failed");
     let wasm: PathBuf = target_dir.join("wasm32-wasip2/release/surface_tools.wasm");
     let plugin = wasm.to_str().unwrap();
 
@@ -252,6 +311,42 @@ fn the_example_plugin_builds_and_runs() {
     ok(&["apply", "scale", &bunny(), "-o", &big, "--param", "factor=3", "--plugin", plugin]);
     let ratio = area(&big) / area(&bunny());
     assert!((ratio - 9.0).abs() < 1e-3, "area grew by {ratio}, not 9");
+}
+
+#[test]
+fn a_build_without_cdylib_or_for_another_target_gets_told_what_to_change() {
+    let dir = tempfile::tempdir().unwrap();
+    let release = dir.path().join("target/wasm32-wasip2/release");
+    std::fs::create_dir_all(&release).unwrap();
+    let wasm = release.join("surface_tools.wasm").display().to_string();
+    let error = failure(&["services", "--plugin", &wasm]);
+    assert!(error.contains("--target wasm32-wasip2"), "{error}");
+    // A crate without `crate-type = ["cdylib"]` leaves only the rlib.
+    std::fs::write(release.join("libsurface_tools.rlib"), b"!<arch>\n").unwrap();
+    let error = failure(&["services", "--plugin", &wasm]);
+    assert!(error.contains("crate-type = [\"cdylib\", \"rlib\"]"), "{error}");
+    // A core module (wasm32-unknown-unknown, wasip1) is not a component.
+    std::fs::write(&wasm, b"\0asm\x01\0\0\0").unwrap();
+    let error = failure(&["services", "--plugin", &wasm]);
+    assert!(error.contains("wasm32-wasip2") && error.contains("plugin componentize"), "{error}");
+}
+
+#[test]
+fn a_reader_that_stops_early_does_not_make_meshflow_panic() {
+    for args in [&["services"][..], &["services", "--json"], &["info", &bunny(), "--json"]] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_meshflow"))
+            .args(args)
+            .env("MESHFLOW_CACHE_DIR", Path::new(env!("CARGO_TARGET_TMPDIR")).join("components"))
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // `| head -0`: the pipe closes before meshflow writes.
+        drop(child.stdout.take());
+        let out = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success() && stderr.is_empty(), "meshflow {args:?}: {stderr}");
+    }
 }
 
 /// A one-step workflow file in `dir`.

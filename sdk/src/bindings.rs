@@ -6,6 +6,6 @@ wit_bindgen::generate!({
     world: "plugin",
     pub_export_macro: true,
     export_macro_name: "export_component",
-    default_bindings_module: "meshflow_sdk::bindings",
-    runtime_path: "meshflow_sdk::__private::wit_bindgen::rt",
+    default_bindings_module: "meshflow_plugin_sdk::bindings",
+    runtime_path: "meshflow_plugin_sdk::__private::wit_bindgen::rt",
 });

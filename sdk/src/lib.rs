@@ -5,7 +5,7 @@
 //! one line:
 //!
 //! ```no_run
-//! use meshflow_sdk::{Mesh, ParamSpec, Params, Result, Service};
+//! use meshflow_plugin_sdk::{Mesh, ParamSpec, Params, Result, Service};
 //!
 //! /// Moves the mesh up by `height`.
 //! fn lift(mesh: &Mesh, params: &Params) -> Result<String> {
@@ -19,22 +19,28 @@
 //!         .param(ParamSpec::real("height", 1.0).range(-1e6, 1e6))]
 //! }
 //!
-//! meshflow_sdk::export_plugin!(services);
+//! meshflow_plugin_sdk::export_plugin!(services);
 //! ```
 //!
 //! Algorithms are best written as pure functions over the flat arrays
 //! ([`Mesh::positions`], [`Mesh::triangles`]); [`topology`] and [`geometry`] provide what
 //! most of them need, and work natively too, so they can be tested with `cargo test`.
 //!
-//! This crate must not depend on any host-side meshflow crate (mesh store, codec, runtime):
-//! it is compiled into plugins, for `wasm32-wasip2`.
+//! With the `native` feature (for tests), [`native::run`] runs a service in process on a
+//! mesh loaded from a file, with the host's own edit checks.
+//!
+//! What is compiled into plugins depends on no host-side meshflow crate. The `native`
+//! feature alone links the recording store (`meshflow-mesh`) and the mesh readers
+//! (`meshflow-meshio`), which depend on nothing of the SDK's, wasmtime or the runtime.
 
 // The generated code names this crate by its public path, which must work inside it too.
-extern crate self as meshflow_sdk;
+extern crate self as meshflow_plugin_sdk;
 
 pub mod bindings;
 mod error;
 mod mesh;
+#[cfg(feature = "native")]
+pub mod native;
 mod service;
 
 pub use meshflow_topology as topology;

@@ -10,195 +10,220 @@ use crate::bindings::meshflow::geometry::mesh::Mesh as RawMesh;
 /// What [`Mesh::triangles`] shows in all three corners of a triangle removed in this run.
 pub const REMOVED: u32 = u32::MAX;
 
-/// A borrowed handle to the mesh a service runs on.
+/// A borrowed handle to the mesh a service runs on: the host's, or with the `native`
+/// feature an in-process one (see [`crate::native`]).
 #[derive(Clone, Copy)]
 pub struct Mesh<'a> {
-    raw: &'a RawMesh,
+    backend: Backend<'a>,
+}
+
+#[derive(Clone, Copy)]
+enum Backend<'a> {
+    Host(&'a RawMesh),
+    #[cfg(feature = "native")]
+    Native(&'a crate::native::NativeMesh),
+}
+
+/// Calls the method of whichever mesh backs this handle; both have the generated import's
+/// signatures.
+macro_rules! dispatch {
+    ($self:ident, $method:ident ( $($arg:expr),* )) => {
+        match $self.backend {
+            Backend::Host(raw) => raw.$method($($arg),*),
+            #[cfg(feature = "native")]
+            Backend::Native(native) => native.$method($($arg),*),
+        }
+    };
 }
 
 impl<'a> Mesh<'a> {
     pub fn new(raw: &'a RawMesh) -> Self {
-        Self { raw }
+        Self { backend: Backend::Host(raw) }
+    }
+
+    #[cfg(feature = "native")]
+    pub(crate) fn native(native: &'a crate::native::NativeMesh) -> Self {
+        Self { backend: Backend::Native(native) }
     }
 
     // ---- bulk reads ------------------------------------------------------------------------
 
     /// Vertex ids in use, removed ones included.
     pub fn vertex_slots(&self) -> usize {
-        self.raw.vertex_slots() as usize
+        dispatch!(self, vertex_slots()) as usize
     }
 
     /// Triangle ids in use, removed ones included.
     pub fn triangle_slots(&self) -> usize {
-        self.raw.triangle_slots() as usize
+        dispatch!(self, triangle_slots()) as usize
     }
 
     /// Live vertices.
     pub fn vertex_count(&self) -> usize {
-        self.raw.vertex_count() as usize
+        dispatch!(self, vertex_count()) as usize
     }
 
     /// Live triangles.
     pub fn triangle_count(&self) -> usize {
-        self.raw.triangle_count() as usize
+        dispatch!(self, triangle_count()) as usize
     }
 
     /// `x y z` per vertex slot.
     pub fn positions(&self) -> Vec<f32> {
-        self.raw.positions()
+        dispatch!(self, positions())
     }
 
     /// `a b c` per triangle slot; removed triangles read [`REMOVED`] three times.
     pub fn triangles(&self) -> Vec<u32> {
-        self.raw.triangles()
+        dispatch!(self, triangles())
     }
 
     /// Vertices removed during this run, ascending.
     pub fn removed_vertices(&self) -> Vec<u32> {
-        self.raw.removed_vertices()
+        dispatch!(self, removed_vertices())
     }
 
     // ---- per-element reads: one host call each ------------------------------------------
 
     pub fn position(&self, vertex: u32) -> Result<[f32; 3]> {
-        let (x, y, z) = self.raw.position(vertex)?;
+        let (x, y, z) = dispatch!(self, position(vertex))?;
         Ok([x, y, z])
     }
 
     pub fn triangle(&self, triangle: u32) -> Result<[u32; 3]> {
-        let (a, b, c) = self.raw.triangle(triangle)?;
+        let (a, b, c) = dispatch!(self, triangle(triangle))?;
         Ok([a, b, c])
     }
 
     pub fn is_vertex_live(&self, vertex: u32) -> bool {
-        self.raw.is_vertex_live(vertex)
+        dispatch!(self, is_vertex_live(vertex))
     }
 
     pub fn is_triangle_live(&self, triangle: u32) -> bool {
-        self.raw.is_triangle_live(triangle)
+        dispatch!(self, is_triangle_live(triangle))
     }
 
     // ---- vertices --------------------------------------------------------------------------
 
     /// Appends a vertex; returns its id.
     pub fn add_vertex(&self, [x, y, z]: [f32; 3]) -> Result<u32> {
-        Ok(self.raw.add_vertex(x, y, z)?)
+        Ok(dispatch!(self, add_vertex(x, y, z))?)
     }
 
     /// Appends `xyz.len() / 3` vertices; returns the first id.
     pub fn add_vertices(&self, xyz: &[f32]) -> Result<u32> {
-        Ok(self.raw.add_vertices(xyz)?)
+        Ok(dispatch!(self, add_vertices(xyz))?)
     }
 
     pub fn move_vertex(&self, vertex: u32, [x, y, z]: [f32; 3]) -> Result<()> {
-        Ok(self.raw.move_vertex(vertex, x, y, z)?)
+        Ok(dispatch!(self, move_vertex(vertex, x, y, z))?)
     }
 
     /// Moves `ids[i]` to `xyz[3i..3i + 3]`.
     pub fn move_vertices(&self, ids: &[u32], xyz: &[f32]) -> Result<()> {
-        Ok(self.raw.move_vertices(ids, xyz)?)
+        Ok(dispatch!(self, move_vertices(ids, xyz))?)
     }
 
     /// Moves every vertex at once: `xyz` has 3 values per vertex slot.
     pub fn set_positions(&self, xyz: &[f32]) -> Result<()> {
-        Ok(self.raw.set_positions(xyz)?)
+        Ok(dispatch!(self, set_positions(xyz))?)
     }
 
     /// Removes the vertex and every triangle using it.
     pub fn remove_vertex(&self, vertex: u32) -> Result<()> {
-        Ok(self.raw.remove_vertex(vertex)?)
+        Ok(dispatch!(self, remove_vertex(vertex))?)
     }
 
     pub fn remove_vertices(&self, ids: &[u32]) -> Result<()> {
-        Ok(self.raw.remove_vertices(ids)?)
+        Ok(dispatch!(self, remove_vertices(ids))?)
     }
 
     // ---- triangles -------------------------------------------------------------------------
 
     /// Appends a triangle; returns its id. Corners must be live and distinct.
     pub fn add_triangle(&self, [a, b, c]: [u32; 3]) -> Result<u32> {
-        Ok(self.raw.add_triangle(a, b, c)?)
+        Ok(dispatch!(self, add_triangle(a, b, c))?)
     }
 
     /// Appends `abc.len() / 3` triangles; returns the first id.
     pub fn add_triangles(&self, abc: &[u32]) -> Result<u32> {
-        Ok(self.raw.add_triangles(abc)?)
+        Ok(dispatch!(self, add_triangles(abc))?)
     }
 
     /// Removes a triangle; its vertices stay.
     pub fn remove_triangle(&self, triangle: u32) -> Result<()> {
-        Ok(self.raw.remove_triangle(triangle)?)
+        Ok(dispatch!(self, remove_triangle(triangle))?)
     }
 
     pub fn remove_triangles(&self, ids: &[u32]) -> Result<()> {
-        Ok(self.raw.remove_triangles(ids)?)
+        Ok(dispatch!(self, remove_triangles(ids))?)
     }
 
     /// Reverses the orientation (swaps corners 1 and 2).
     pub fn flip_triangle(&self, triangle: u32) -> Result<()> {
-        Ok(self.raw.flip_triangle(triangle)?)
+        Ok(dispatch!(self, flip_triangle(triangle))?)
     }
 
     pub fn flip_triangles(&self, ids: &[u32]) -> Result<()> {
-        Ok(self.raw.flip_triangles(ids)?)
+        Ok(dispatch!(self, flip_triangles(ids))?)
     }
 
     /// Splits into three at the centroid; returns the new vertex.
     pub fn split_triangle(&self, triangle: u32) -> Result<u32> {
-        Ok(self.raw.split_triangle(triangle)?)
+        Ok(dispatch!(self, split_triangle(triangle))?)
     }
 
     /// Splits into three at `point`; returns the new vertex.
     pub fn split_triangle_at(&self, triangle: u32, [x, y, z]: [f32; 3]) -> Result<u32> {
-        Ok(self.raw.split_triangle_at(triangle, x, y, z)?)
+        Ok(dispatch!(self, split_triangle_at(triangle, x, y, z))?)
     }
 
     // ---- edges: half-edge `3 * t + k` runs from corner k to corner (k + 1) % 3 -------------
 
     /// Adds the triangle `b a apex` beyond half-edge `a -> b`; returns its id.
     pub fn extend_edge(&self, edge: u32, apex: u32) -> Result<u32> {
-        Ok(self.raw.extend_edge(edge, apex)?)
+        Ok(dispatch!(self, extend_edge(edge, apex))?)
     }
 
     /// Splits the edge (and its triangles) at the midpoint; returns the new vertex.
     pub fn split_edge(&self, edge: u32) -> Result<u32> {
-        Ok(self.raw.split_edge(edge)?)
+        Ok(dispatch!(self, split_edge(edge))?)
     }
 
     /// Splits the edge (and its triangles) at `point`; returns the new vertex.
     pub fn split_edge_at(&self, edge: u32, [x, y, z]: [f32; 3]) -> Result<u32> {
-        Ok(self.raw.split_edge_at(edge, x, y, z)?)
+        Ok(dispatch!(self, split_edge_at(edge, x, y, z))?)
     }
 
     /// Flips the diagonal of the two triangles on a manifold interior edge.
     pub fn swap_edge(&self, edge: u32) -> Result<()> {
-        Ok(self.raw.swap_edge(edge)?)
+        Ok(dispatch!(self, swap_edge(edge))?)
     }
 
     /// Merges the edge's end vertex into its start vertex.
     pub fn collapse_edge(&self, edge: u32) -> Result<()> {
-        Ok(self.raw.collapse_edge(edge)?)
+        Ok(dispatch!(self, collapse_edge(edge))?)
     }
 
     // ---- components and the whole mesh -------------------------------------------------------
 
     /// Removes the edge-connected component of `triangle` and the vertices it leaves unused.
     pub fn remove_component(&self, triangle: u32) -> Result<()> {
-        Ok(self.raw.remove_component(triangle)?)
+        Ok(dispatch!(self, remove_component(triangle))?)
     }
 
     /// Applies a row-major 3x4 affine map to the component of `triangle`.
     pub fn transform_component(&self, triangle: u32, matrix: &[f32; 12]) -> Result<()> {
-        Ok(self.raw.transform_component(triangle, matrix)?)
+        Ok(dispatch!(self, transform_component(triangle, matrix))?)
     }
 
     /// Applies a row-major 3x4 affine map to every vertex.
     pub fn transform(&self, matrix: &[f32; 12]) -> Result<()> {
-        Ok(self.raw.transform(matrix)?)
+        Ok(dispatch!(self, transform(matrix))?)
     }
 
     /// Removes everything.
     pub fn clear(&self) -> Result<()> {
-        Ok(self.raw.clear()?)
+        Ok(dispatch!(self, clear())?)
     }
 }

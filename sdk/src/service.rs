@@ -18,7 +18,7 @@ enum Runner {
 /// One service of a plugin: its description and the function that runs it.
 ///
 /// ```
-/// use meshflow_sdk::{Mesh, ParamSpec, Params, Result, Service, Value, ValueType};
+/// use meshflow_plugin_sdk::{Mesh, ParamSpec, Params, Result, Service, Value, ValueType};
 ///
 /// fn count(mesh: &Mesh, _: &Params) -> Result<Value> {
 ///     Ok(Value::Integer(mesh.vertex_count() as i64))

@@ -1,5 +1,6 @@
 //! `meshflow apply`: one filter on one mesh file, locally.
 
+use crate::output::out;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -125,12 +126,12 @@ pub fn run(args: &ApplyArgs) -> anyhow::Result<()> {
             "correction_bytes": correction_bytes,
             "quantize_bits": args.quantize,
         });
-        println!("{summary}");
+        out!("{summary}");
     } else {
         if !output.report.is_empty() {
-            println!("{}: {}", args.service, output.report);
+            out!("{}: {}", args.service, output.report);
         }
-        println!(
+        out!(
             "{} vertices, {} triangles, {edits} edits -> {}",
             result.vertex_count(),
             result.triangle_count(),

@@ -3,6 +3,8 @@
 //! one overall; `DIR/summary.csv` and `summary.json` hold a row per input. One failing
 //! mesh never stops the others.
 
+use crate::output::out;
+
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -68,7 +70,7 @@ impl BatchArgs {
         };
         let rows = batch.execute().await?;
         if json {
-            println!("{}", serde_json::to_string_pretty(&rows)?);
+            out!("{}", serde_json::to_string_pretty(&rows)?);
         }
         let failed: Vec<&str> =
             rows.iter().filter(|r| r.status != "completed").map(|r| r.name.as_str()).collect();

@@ -1,5 +1,6 @@
 //! `meshflow check`: one check on one mesh file, locally.
 
+use crate::output::out;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -45,9 +46,9 @@ pub fn run(args: &CheckArgs) -> anyhow::Result<()> {
             "value": value_json(&value),
             "timings_ms": { "load": millis(load_time), "run": millis(output.duration) },
         });
-        println!("{summary}");
+        out!("{summary}");
     } else {
-        println!("{}", value_text(&value));
+        out!("{}", value_text(&value));
     }
     Ok(())
 }

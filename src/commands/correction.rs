@@ -1,6 +1,7 @@
 //! `meshflow correction apply|inspect`: replay a step's correction (an edit log, `.mfc`, or
 //! a named step re-run in the sandbox, `.mfr`), or describe one.
 
+use crate::output::out;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -83,9 +84,9 @@ fn apply(
             "correction_bytes": bytes.len(),
             "apply_ms": millis(apply_time),
         });
-        println!("{summary}");
+        out!("{summary}");
     } else {
-        println!(
+        out!(
             "{} vertices, {} triangles ({}) -> {}",
             result.vertex_count(),
             result.triangle_count(),
@@ -145,21 +146,23 @@ fn inspect(path: &Path, json: bool) -> anyhow::Result<()> {
             "bytes": sections,
             "total_bytes": c.total_bytes(),
         });
-        println!("{summary}");
+        out!("{summary}");
         return Ok(());
     }
-    println!("edit log (correction v{}), {} bytes", c.version, c.total_bytes());
-    println!("base:   {} ({} vertices, {} triangles)", c.base, c.base_counts[0], c.base_counts[1]);
-    println!(
+    out!("edit log (correction v{}), {} bytes", c.version, c.total_bytes());
+    out!("base:   {} ({} vertices, {} triangles)", c.base, c.base_counts[0], c.base_counts[1]);
+    out!(
         "result: {} ({} vertices, {} triangles)",
-        c.result, c.result_counts[0], c.result_counts[1]
+        c.result,
+        c.result_counts[0],
+        c.result_counts[1]
     );
     for (k, n) in kinds {
-        println!("  {:<20} {:>8} ops {:>10} edits", k.name(), n.ops, n.edits);
+        out!("  {:<20} {:>8} ops {:>10} edits", k.name(), n.ops, n.edits);
     }
-    println!("  {:<20} {:>8} bytes", "header", c.header_bytes);
+    out!("  {:<20} {:>8} bytes", "header", c.header_bytes);
     for (name, size) in SECTIONS.iter().zip(c.section_bytes) {
-        println!("  {name:<20} {size:>8} bytes");
+        out!("  {name:<20} {size:>8} bytes");
     }
     Ok(())
 }
@@ -180,20 +183,18 @@ fn inspect_replay(path: &Path, bytes: &[u8], json: bool) -> anyhow::Result<()> {
             "result": { "vertices": step.result_counts[0], "triangles": step.result_counts[1] },
             "total_bytes": bytes.len(),
         });
-        println!("{summary}");
+        out!("{summary}");
         return Ok(());
     }
-    println!(
-        "replay (v{}), {} bytes: re-runs the step on the base mesh",
-        replay::VERSION,
-        bytes.len()
-    );
-    println!("plugin: {}", step.plugin_hex());
-    println!("step:   {} {params}", step.service);
-    println!("base:   {}", step.base);
-    println!(
+    out!("replay (v{}), {} bytes: re-runs the step on the base mesh", replay::VERSION, bytes.len());
+    out!("plugin: {}", step.plugin_hex());
+    out!("step:   {} {params}", step.service);
+    out!("base:   {}", step.base);
+    out!(
         "result: {} ({} vertices, {} triangles)",
-        step.result, step.result_counts[0], step.result_counts[1]
+        step.result,
+        step.result_counts[0],
+        step.result_counts[1]
     );
     Ok(())
 }

@@ -1,5 +1,6 @@
 //! `meshflow generate`: deterministic test meshes.
 
+use crate::output::out;
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -49,7 +50,7 @@ pub fn run(command: &GenerateCommand) -> anyhow::Result<()> {
             let mesh = scan(&spec);
             io::save(&args.output, &mesh)
                 .with_context(|| format!("writing {}", args.output.display()))?;
-            println!(
+            out!(
                 "{} vertices, {} triangles -> {}",
                 mesh.vertex_count(),
                 mesh.triangle_count(),

@@ -1,12 +1,13 @@
 //! `meshflow hash` and `meshflow info`: facts about a mesh file.
 
+use crate::output::out;
 use std::path::Path;
 
 use meshflow_meshio as io;
 
 pub fn hash(input: &Path) -> anyhow::Result<()> {
     let mesh = io::load(input)?;
-    println!("{}", mesh.content_hash());
+    out!("{}", mesh.content_hash());
     Ok(())
 }
 
@@ -20,13 +21,13 @@ pub fn info(input: &Path, json: bool) -> anyhow::Result<()> {
             "triangles": mesh.triangle_count(),
             "bbox": bbox,
         });
-        println!("{info}");
+        out!("{info}");
     } else {
-        println!("vertices:  {}", mesh.vertex_count());
-        println!("triangles: {}", mesh.triangle_count());
+        out!("vertices:  {}", mesh.vertex_count());
+        out!("triangles: {}", mesh.triangle_count());
         match bbox {
-            Some((lo, hi)) => println!("bbox:      {lo:?} .. {hi:?}"),
-            None => println!("bbox:      (empty)"),
+            Some((lo, hi)) => out!("bbox:      {lo:?} .. {hi:?}"),
+            None => out!("bbox:      (empty)"),
         }
     }
     Ok(())

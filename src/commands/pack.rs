@@ -1,6 +1,7 @@
 //! `meshflow pack` and `meshflow unpack`: meshes to and from the packed `.mfm` format, and
 //! the file helpers other commands share for packed meshes and corrections.
 
+use crate::output::out;
 use std::path::Path;
 use std::time::Instant;
 
@@ -55,9 +56,9 @@ fn report(
             "hash": mesh.content_hash().to_hex(),
             "time_ms": millis(time),
         });
-        println!("{summary}");
+        out!("{summary}");
     } else {
-        println!(
+        out!(
             "{what} {} vertices, {} triangles ({packed} packed bytes) -> {}",
             mesh.vertex_count(),
             mesh.triangle_count(),

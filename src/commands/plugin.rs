@@ -1,10 +1,12 @@
-//! `meshflow plugin`: manage the plugins of a running host.
+//! `meshflow plugin`: publish plugins on a running host, and make C/C++ ones components.
 
+use crate::output::out;
 use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
 use meshflow_api::HostClient;
+use meshflow_runtime::{Limits, Runtime};
 
 #[derive(Subcommand)]
 pub enum PluginCommand {
@@ -45,6 +47,16 @@ pub enum PluginCommand {
         #[command(flatten)]
         token: UploadToken,
     },
+    /// Turn a wasm32-wasip1 core module (C, C++: clang with wasi-libc) into a plugin
+    /// component, with the WASI preview-1 adapter; checked as a host checks an upload.
+    Componentize {
+        /// The core module, linked with the world's type object
+        /// (sdk/cpp/generated/plugin_component_type.o).
+        core: PathBuf,
+        /// Where to write the component.
+        #[arg(short, long, value_name = "PLUGIN.wasm")]
+        output: PathBuf,
+    },
 }
 
 #[derive(Args)]
@@ -76,23 +88,22 @@ pub fn run(command: PluginCommand) -> anyhow::Result<()> {
     match command {
         PluginCommand::Upload { host, file, replace, token, json } => {
             let token = token.get()?;
-            let wasm =
-                std::fs::read(&file).with_context(|| format!("reading {}", file.display()))?;
+            let wasm = crate::plugins::read_plugin_file(&file)?;
             let uploaded = runtime
                 .block_on(HostClient::new(&host.url).upload_plugin(wasm, Some(&token), replace))
                 .with_context(|| format!("uploading {}", file.display()))?;
             if json {
-                println!("{}", serde_json::to_string_pretty(&uploaded)?);
+                out!("{}", serde_json::to_string_pretty(&uploaded)?);
                 return Ok(());
             }
-            println!("plugin {}", uploaded.digest);
+            out!("plugin {}", uploaded.digest);
             for (what, names) in [
                 ("new", &uploaded.new),
                 ("replaced", &uploaded.replaced),
                 ("already present", &uploaded.present),
             ] {
                 if !names.is_empty() {
-                    println!("  {what}: {}", names.join(", "));
+                    out!("  {what}: {}", names.join(", "));
                 }
             }
             for service in &uploaded.services {
@@ -109,18 +120,18 @@ pub fn run(command: PluginCommand) -> anyhow::Result<()> {
                 .block_on(async { tokio::try_join!(client.plugins(), client.services()) })
                 .with_context(|| format!("asking {} for its plugins", host.url))?;
             if json {
-                println!("{}", serde_json::to_string_pretty(&plugins)?);
+                out!("{}", serde_json::to_string_pretty(&plugins)?);
                 return Ok(());
             }
             for plugin in plugins {
                 let origin = if plugin.builtin { "built-in" } else { "uploaded" };
-                println!("{} ({origin})", plugin.digest);
+                out!("{} ({origin})", plugin.digest);
                 for name in &plugin.services {
                     let pinned_only = services.iter().any(|s| {
                         s.plugin == plugin.digest && &s.info.name == name && s.pinned_only
                     });
                     let note = if pinned_only { " (pinned only: replaced)" } else { "" };
-                    println!("  {name}{note}");
+                    out!("  {name}{note}");
                 }
             }
             Ok(())
@@ -130,7 +141,20 @@ pub fn run(command: PluginCommand) -> anyhow::Result<()> {
             runtime
                 .block_on(HostClient::new(&host.url).delete_plugin(&digest, Some(&token)))
                 .with_context(|| format!("deleting plugin {digest} from {}", host.url))?;
-            println!("deleted {digest}");
+            out!("deleted {digest}");
+            Ok(())
+        }
+        PluginCommand::Componentize { core, output } => {
+            let bytes = crate::plugins::read_plugin_file(&core)?;
+            let sandbox = Runtime::new(Limits::default(), crate::plugins::cache_dir().as_deref())?;
+            let (component, plugin) = crate::componentize::componentize(&sandbox, &bytes)
+                .with_context(|| format!("componentizing {}", core.display()))?;
+            std::fs::write(&output, component)
+                .with_context(|| format!("writing {}", output.display()))?;
+            out!("wrote {}: plugin {}", output.display(), plugin.digest);
+            for service in &plugin.services {
+                super::services::print(service, &plugin.digest);
+            }
             Ok(())
         }
     }

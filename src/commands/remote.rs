@@ -1,6 +1,7 @@
 //! Talking to an engine from the command line: upload the input, submit the workflow,
 //! follow its progress, fetch the record and the result.
 
+use crate::output::out;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -35,8 +36,8 @@ impl Submission {
         if !wait {
             let id = self.start(workflow).await?;
             match self.json {
-                true => println!("{}", json!({"id": id})),
-                false => println!("{id}"),
+                true => out!("{}", json!({"id": id})),
+                false => out!("{id}"),
             }
             return Ok(());
         }
@@ -79,7 +80,7 @@ impl Submission {
     async fn deliver(&self, record: &RunRecord) -> anyhow::Result<()> {
         self.save_result(record).await?;
         match self.json {
-            true => println!("{}", serde_json::to_string_pretty(record)?),
+            true => out!("{}", serde_json::to_string_pretty(record)?),
             false => print_summary(record, self.output.as_deref()),
         }
         Ok(())
@@ -318,7 +319,7 @@ fn step_line(step: &StepRecord) -> String {
 
 fn print_summary(record: &RunRecord, output: Option<&Path>) {
     if let Some(broadcast) = &record.broadcast {
-        println!("input broadcast to {} hosts in {:.0} ms", broadcast.hosts.len(), broadcast.ms);
+        out!("input broadcast to {} hosts in {:.0} ms", broadcast.hosts.len(), broadcast.ms);
     }
     for step in &record.steps {
         let transfers: Vec<String> = step
@@ -333,10 +334,10 @@ fn print_summary(record: &RunRecord, output: Option<&Path>) {
             true => String::new(),
             false => format!("; sent on: {}", transfers.join(", ")),
         };
-        println!("  {}{forwarded}", step_line(step));
+        out!("  {}{forwarded}", step_line(step));
     }
     if let Some(result) = &record.result {
-        println!(
+        out!(
             "run {} completed: {} steps in {:.2} s; result {} vertices, {} triangles, hash {}",
             record.id,
             record.steps.len(),
@@ -347,9 +348,9 @@ fn print_summary(record: &RunRecord, output: Option<&Path>) {
         );
     }
     for warning in &record.warnings {
-        println!("warning: {warning}");
+        out!("warning: {warning}");
     }
     if let Some(path) = output {
-        println!("wrote {}", path.display());
+        out!("wrote {}", path.display());
     }
 }

@@ -1,6 +1,8 @@
 //! `meshflow rerun RECORD.json`: a recorded run again, every task pinned to the plugin
 //! digest and resolved parameters it ran with, and whether the result is bit-identical.
 
+use crate::output::out;
+
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
@@ -111,12 +113,12 @@ pub fn run(args: RerunArgs) -> anyhow::Result<()> {
 
 fn report(comparison: &Comparison, recorded: &RunRecord, json: bool) -> anyhow::Result<()> {
     if json {
-        println!("{}", serde_json::to_string_pretty(comparison)?);
+        out!("{}", serde_json::to_string_pretty(comparison)?);
     }
     let Some(divergence) = &comparison.divergence else {
         if !json {
             let hash = recorded.result.as_ref().map_or("", |r| r.hash.as_str());
-            println!("bit-identical to run {}: result {hash}", recorded.id);
+            out!("bit-identical to run {}: result {hash}", recorded.id);
         }
         return Ok(());
     };

@@ -1,5 +1,6 @@
 //! `meshflow services`: what can be run, and how.
 
+use crate::output::out;
 use meshflow_runtime::{ServiceInfo, ServiceKind, describe_params};
 
 use crate::PluginArgs;
@@ -21,7 +22,7 @@ pub fn run(args: &PluginArgs, json: bool) -> anyhow::Result<()> {
             .into_iter()
             .map(|(info, plugin)| Listed { info, plugin: &plugin.digest })
             .collect();
-        println!("{}", serde_json::to_string_pretty(&services)?);
+        out!("{}", serde_json::to_string_pretty(&services)?);
         return Ok(());
     }
     for (s, plugin) in catalog.services() {
@@ -32,7 +33,7 @@ pub fn run(args: &PluginArgs, json: bool) -> anyhow::Result<()> {
 
 /// One service and its parameters, as `meshflow services` lists them.
 pub fn print(s: &ServiceInfo, digest: &str) {
-    println!(
+    out!(
         "{} ({}, plugin {}): {}",
         s.name,
         kind_name(s.kind),
@@ -40,7 +41,7 @@ pub fn print(s: &ServiceInfo, digest: &str) {
         s.doc
     );
     for line in describe_params(s).lines().skip(1) {
-        println!("{line}");
+        out!("{line}");
     }
 }
 

@@ -1,5 +1,6 @@
 //! `meshflow submit`: a workflow to a running engine, optionally waiting for the result.
 
+use crate::output::out;
 use std::path::PathBuf;
 
 use clap::Args;
@@ -97,6 +98,6 @@ pub struct CancelArgs {
 pub fn cancel(args: CancelArgs) -> anyhow::Result<()> {
     let engine = args.engine.client()?;
     let cancelled = tokio::runtime::Runtime::new()?.block_on(engine.cancel(&args.run))?;
-    println!("run {}: cancelled after {} step(s)", cancelled.id, cancelled.steps);
+    out!("run {}: cancelled after {} step(s)", cancelled.id, cancelled.steps);
     Ok(())
 }

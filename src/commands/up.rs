@@ -1,5 +1,6 @@
 //! `meshflow up`: the embedded default — an engine and N hosts on loopback, until Ctrl-C.
 
+use crate::output::out;
 use std::path::PathBuf;
 
 use clap::Args;
@@ -41,13 +42,13 @@ pub fn run(args: UpArgs) -> anyhow::Result<()> {
         )
         .await?;
         let (url, tokens) = (&system.engine.url, &system.tokens);
-        println!("engine: {url}");
-        println!("web UI: {url}/#token={}", tokens.api);
+        out!("engine: {url}");
+        out!("web UI: {url}/#token={}", tokens.api);
         for host in &system.hosts {
-            println!("host:   {}", host.url);
+            out!("host:   {}", host.url);
         }
-        println!("for meshflow submit:    export MESHFLOW_API_TOKEN={}", tokens.api);
-        println!("for more hosts:         export MESHFLOW_CLUSTER_TOKEN={}", tokens.cluster);
+        out!("for meshflow submit:    export MESHFLOW_API_TOKEN={}", tokens.api);
+        out!("for more hosts:         export MESHFLOW_CLUSTER_TOKEN={}", tokens.cluster);
         tokio::signal::ctrl_c().await?;
         Ok(())
     })

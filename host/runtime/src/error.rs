@@ -6,6 +6,15 @@ pub use meshflow_params::ParamError;
 
 #[derive(Debug, thiserror::Error)]
 pub enum PluginError {
+    #[error("not a WebAssembly file (it does not start with `\\0asm`)")]
+    NotWasm,
+    #[error(
+        "this is a core WebAssembly module, not a component: build a Rust plugin with \
+         `cargo build --release --target wasm32-wasip2` (a cdylib built for that target is a \
+         component), or turn a wasm32-wasip1 module (C, C++) into one with \
+         `meshflow plugin componentize CORE.wasm -o PLUGIN.wasm`"
+    )]
+    CoreModule,
     #[error("not a valid WebAssembly component: {0}")]
     Compile(String),
     #[error("the component does not fit the meshflow:geometry/plugin world: {0}")]

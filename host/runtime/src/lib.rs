@@ -12,6 +12,7 @@
 mod bindings;
 mod cache;
 mod catalog;
+mod crash;
 mod error;
 mod host_mesh;
 mod limits;
@@ -92,6 +93,7 @@ impl Runtime {
     /// Compiles (or loads from the cache), links and validates a component, and asks it to
     /// describe its services.
     pub fn load(&self, bytes: &[u8]) -> Result<Plugin, PluginError> {
+        plugin::check_component_preamble(bytes)?;
         let digest = digest(bytes);
         let component = match &self.cache {
             Some(cache) => cache.load_or_compile(&self.engine, &digest, bytes)?,
@@ -233,12 +235,7 @@ impl Runtime {
                 RunError::Fuel { service, fuel: self.limits.fuel.unwrap_or(0) }
             }
             _ => {
-                // A Rust panic prints its message to stderr before trapping: show it.
-                let stderr = captured(&state.stderr);
-                let mut message = format!("{error:#}");
-                if !stderr.trim().is_empty() {
-                    message = format!("{message}\nplugin stderr:\n{}", tail(&stderr, 2000));
-                }
+                let message = crash::crash_message(&error, &captured(&state.stderr));
                 RunError::Trap { service, message }
             }
         }
@@ -321,10 +318,4 @@ fn check_value(info: &ServiceInfo, value: Option<&Value>) -> Result<(), String> 
 
 fn captured(pipe: &wasmtime_wasi::p2::pipe::MemoryOutputPipe) -> String {
     String::from_utf8_lossy(&pipe.contents()).into_owned()
-}
-
-fn tail(text: &str, max: usize) -> &str {
-    let start = text.len().saturating_sub(max);
-    let start = (start..text.len()).find(|&i| text.is_char_boundary(i)).unwrap_or(text.len());
-    &text[start..]
 }

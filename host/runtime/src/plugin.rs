@@ -97,6 +97,17 @@ fn is_service_name(name: &str) -> bool {
         })
 }
 
+/// Refuses what is not a component before compiling, so the user reads what to do rather
+/// than a parser's complaint. A wasm binary starts with `\0asm` and a version: 1 for a core
+/// module, (0x0d, layer 1) for a component.
+pub(crate) fn check_component_preamble(bytes: &[u8]) -> Result<(), PluginError> {
+    match bytes.get(..8) {
+        Some([0, b'a', b's', b'm', 1, 0, 0, 0]) => Err(PluginError::CoreModule),
+        Some([0, b'a', b's', b'm', ..]) => Ok(()),
+        _ => Err(PluginError::NotWasm),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -79,9 +79,29 @@ fn a_trap_and_a_panic_are_reported_with_the_panic_message() {
     let runtime = runtime_with(quick_limits());
     let error = run_hostile(&runtime, "trap");
     assert!(matches!(error, RunError::Trap { .. }), "{error}");
-    let error = run_hostile(&runtime, "panic");
-    assert!(error.to_string().contains("panics on purpose"), "{error}");
+    let text = run_hostile(&runtime, "panic").to_string();
+    // The panic's message first, the stack after it, and no advice the sandbox forbids.
+    let said = text.find("panics on purpose").expect(&text);
+    let stack = text.find("wasm stack:").expect(&text);
+    assert!(said < stack && said < 300, "{text}");
+    assert!(!text.contains("RUST_BACKTRACE"), "{text}");
     assert_still_works(&runtime);
+}
+
+#[test]
+fn a_core_module_or_a_non_wasm_file_is_refused_saying_what_to_build() {
+    let runtime = runtime_with(quick_limits());
+    // The smallest core module: what `--target wasm32-unknown-unknown` or wasip1 produces.
+    let error = runtime.load(b"\0asm\x01\0\0\0").unwrap_err();
+    assert!(matches!(error, PluginError::CoreModule), "{error}");
+    let text = error.to_string();
+    assert!(
+        text.contains("--target wasm32-wasip2") && text.contains("plugin componentize"),
+        "{text}"
+    );
+    // An rlib (what a crate without `crate-type = ["cdylib"]` leaves behind).
+    let error = runtime.load(b"!<arch>\n/               0").unwrap_err();
+    assert!(matches!(error, PluginError::NotWasm), "{error}");
 }
 
 #[test]

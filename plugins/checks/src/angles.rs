@@ -12,8 +12,8 @@
 //! belongs to the largest such ratio and the largest angle to the smallest; one pass finds
 //! that triangle, and only its angle is then computed exactly.
 
-use meshflow_sdk::geometry::{self, cross, dot, sub};
-use meshflow_sdk::topology::is_proper_triangle;
+use meshflow_plugin_sdk::geometry::{self, cross, dot, sub};
+use meshflow_plugin_sdk::topology::is_proper_triangle;
 
 /// The smallest angle in degrees over the non-degenerate triangles, 0 if there is none. O(T).
 pub fn min_angle(positions: &[f32], triangles: &[u32]) -> f64 {

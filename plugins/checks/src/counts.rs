@@ -2,10 +2,10 @@
 //!
 //! Vertex and triangle counts come straight from the host (see `lib.rs`); these need the
 //! triangle array. Triangles with a repeated or out-of-range vertex id are raw-scan defects:
-//! they are counted as the SDK's [`topology`](meshflow_sdk::topology) module documents,
+//! they are counted as the SDK's [`topology`](meshflow_plugin_sdk::topology) module documents,
 //! never rejected.
 
-use meshflow_sdk::topology::{EdgeBuckets, UnionFind, boundary_loops};
+use meshflow_plugin_sdk::topology::{EdgeBuckets, UnionFind, boundary_loops};
 
 /// The number of distinct undirected edges `{a, b}` of the proper triangles (three distinct
 /// in-range vertex ids); an edge shared by any number of triangles counts once. O(V + T).

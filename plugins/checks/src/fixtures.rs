@@ -104,3 +104,36 @@ pub fn degenerate_only() -> Fixture {
         triangles: vec![0, 1, 2, 0, 0, 1, 0, 1, 9],
     }
 }
+
+/// The unit sphere as a subdivided octahedron: each face split into `n²` triangles, every
+/// lattice point projected onto the sphere, shared between faces, wound outward.
+pub fn sphere(n: i32) -> Fixture {
+    let mut ids = std::collections::HashMap::new();
+    let mut positions = Vec::new();
+    let mut id = |p: [i32; 3]| {
+        *ids.entry(p).or_insert_with(|| {
+            let len = p.iter().map(|&c| (c * c) as f64).sum::<f64>().sqrt();
+            positions.extend(p.map(|c| (c as f64 / len) as f32));
+            positions.len() as u32 / 3 - 1
+        })
+    };
+    let mut triangles = Vec::new();
+    for signs in 0..8 {
+        let s = [0, 1, 2].map(|axis| if signs >> axis & 1 == 0 { 1 } else { -1 });
+        let at = |i: i32, j: i32| [s[0] * (n - i - j), s[1] * i, s[2] * j];
+        let mut push = |a, b, c| {
+            let t = [id(a), id(b), id(c)];
+            // Mirroring an odd number of axes turns the winding inward: undo it.
+            triangles.extend(if s[0] * s[1] * s[2] > 0 { t } else { [t[0], t[2], t[1]] });
+        };
+        for i in 0..n {
+            for j in 0..n - i {
+                push(at(i, j), at(i + 1, j), at(i, j + 1));
+                if i + j + 1 < n {
+                    push(at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+                }
+            }
+        }
+    }
+    Fixture { positions, triangles }
+}

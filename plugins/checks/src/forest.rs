@@ -1,6 +1,6 @@
 //! Union-find over triangles with a parity bit per link: whether "same or opposite
 //! orientation" constraints between triangles can all be met. (Plain connectivity uses the
-//! SDK's [`UnionFind`](meshflow_sdk::topology::UnionFind).)
+//! SDK's [`UnionFind`](meshflow_plugin_sdk::topology::UnionFind).)
 
 /// A disjoint-set forest whose links remember whether a node's orientation is the same as
 /// (0) or opposite to (1) its parent's.

@@ -7,13 +7,14 @@
 pub mod angles;
 pub mod counts;
 pub mod forest;
+pub mod measures;
 pub mod normals;
 pub mod topology;
 
 #[cfg(test)]
 mod fixtures;
 
-use meshflow_sdk::{Mesh, Params, Result, Service, Value, ValueType};
+use meshflow_plugin_sdk::{Mesh, Params, Result, Service, Value, ValueType};
 
 fn integer(n: usize) -> Result<Value> {
     Ok(Value::Integer(n as i64))
@@ -61,6 +62,14 @@ fn max_angle(mesh: &Mesh, _: &Params) -> Result<Value> {
 
 fn normal_instability(mesh: &Mesh, _: &Params) -> Result<Value> {
     Ok(Value::Real(normals::normal_instability(&mesh.positions(), &mesh.triangles())))
+}
+
+fn surface_area(mesh: &Mesh, _: &Params) -> Result<Value> {
+    Ok(Value::Real(measures::surface_area(&mesh.positions(), &mesh.triangles())))
+}
+
+fn volume(mesh: &Mesh, _: &Params) -> Result<Value> {
+    Ok(Value::Real(measures::enclosed_volume(&mesh.positions(), &mesh.triangles())?))
 }
 
 fn services() -> Vec<Service> {
@@ -141,7 +150,21 @@ fn services() -> Vec<Service> {
             Real,
             normal_instability,
         ),
+        Service::check(
+            "surface-area",
+            "Total area of the triangles, in the mesh's units squared.",
+            Real,
+            surface_area,
+        ),
+        Service::check(
+            "volume",
+            "Signed volume enclosed by the closed components (positive when wound outward), \
+             summed; open components are skipped, and a mesh with no closed component is \
+             refused.",
+            Real,
+            volume,
+        ),
     ]
 }
 
-meshflow_sdk::export_plugin!(services);
+meshflow_plugin_sdk::export_plugin!(services);

@@ -1,7 +1,7 @@
 //! Normal instability: how much the surface turns from triangle to triangle.
 
-use meshflow_sdk::geometry::{Vec3, angle_between, dot, normalize, sub, triangle_normal};
-use meshflow_sdk::topology::{EdgeBuckets, is_proper_triangle};
+use meshflow_plugin_sdk::geometry::{Vec3, angle_between, dot, normalize, sub, triangle_normal};
+use meshflow_plugin_sdk::topology::{EdgeBuckets, is_proper_triangle};
 
 /// The mean angle in degrees between the normals of the two triangles of each interior
 /// manifold edge (an edge with exactly two triangles), or 0 if there is no such edge.

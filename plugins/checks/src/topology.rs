@@ -5,7 +5,7 @@
 //! triangle, or a duplicated one, does make the mesh non-manifold. Zero-area triangles with
 //! distinct ids are proper and count like any other.
 
-use meshflow_sdk::topology::{EdgeBuckets, HalfEdges, manifold};
+use meshflow_plugin_sdk::topology::{EdgeBuckets, HalfEdges, manifold};
 
 use crate::forest::ParityForest;
 

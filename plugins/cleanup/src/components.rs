@@ -1,6 +1,6 @@
 //! Choosing the small connected components to remove.
 
-use meshflow_sdk::topology::components::TriangleComponents;
+use meshflow_plugin_sdk::topology::components::TriangleComponents;
 
 /// Which components go: every one but the largest, or every one below a size.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -15,7 +15,9 @@
 
 use std::collections::VecDeque;
 
-use meshflow_sdk::geometry::{add, dot, is_degenerate, is_degenerate_within, point, scale, sub};
+use meshflow_plugin_sdk::geometry::{
+    add, dot, is_degenerate, is_degenerate_within, point, scale, sub,
+};
 
 use crate::mirror::MirrorMesh;
 
@@ -254,7 +256,7 @@ mod tests {
     use super::*;
     use crate::mirror::tests::assert_store_agrees;
     use meshflow_mesh::MeshData;
-    use meshflow_sdk::topology::{HalfEdges, boundary_loops, is_manifold};
+    use meshflow_plugin_sdk::topology::{HalfEdges, boundary_loops, is_manifold};
 
     /// The live triangles of the mirror (vertex ids unchanged: enough for topology checks).
     fn live(mesh: &MirrorMesh) -> Vec<u32> {

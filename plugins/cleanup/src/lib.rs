@@ -6,7 +6,7 @@ pub mod components;
 pub mod degenerate;
 pub mod mirror;
 
-use meshflow_sdk::{Error, Mesh, ParamSpec, Params, Result, Service};
+use meshflow_plugin_sdk::{Error, Mesh, ParamSpec, Params, Result, Service};
 
 use components::Keep;
 use mirror::Edit;
@@ -82,4 +82,4 @@ fn services() -> Vec<Service> {
     ]
 }
 
-meshflow_sdk::export_plugin!(services);
+meshflow_plugin_sdk::export_plugin!(services);

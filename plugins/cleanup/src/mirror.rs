@@ -11,9 +11,9 @@
 
 use std::collections::BTreeMap;
 
-use meshflow_sdk::REMOVED;
-use meshflow_sdk::topology::adjacency::VertexTriangles;
-use meshflow_sdk::topology::halfedge::next;
+use meshflow_plugin_sdk::REMOVED;
+use meshflow_plugin_sdk::topology::adjacency::VertexTriangles;
+use meshflow_plugin_sdk::topology::halfedge::next;
 
 /// One recorded edit, in the host's vocabulary.
 #[derive(Clone, Debug, PartialEq)]

@@ -8,8 +8,8 @@
 //! sparse and small; conjugate gradients on the normal equations (CGLS) solve it in a fixed
 //! number of steps without assembling a matrix.
 
-use meshflow_sdk::geometry::{Vec3, add, dot, scale, sub};
-use meshflow_sdk::topology::VertexNeighbours;
+use meshflow_plugin_sdk::geometry::{Vec3, add, dot, scale, sub};
+use meshflow_plugin_sdk::topology::VertexNeighbours;
 
 /// The mesh neighbours of one loop vertex, summed (each neighbour once).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -156,7 +156,7 @@ mod tests {
     use crate::patch::Patch;
     use crate::refine::refine;
     use crate::triangulate::{Polygon, triangulate};
-    use meshflow_sdk::geometry::{distance, norm};
+    use meshflow_plugin_sdk::geometry::{distance, norm};
 
     /// A hole in the unit sphere around the north pole (loop at polar angle `cap`, `n` edges),
     /// triangulated and refined; with each loop vertex's mesh ring: its loop neighbours and

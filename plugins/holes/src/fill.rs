@@ -2,9 +2,9 @@
 //! and for each: triangulate, refine, fair. Returns the new vertices and triangles for the
 //! caller to add in bulk.
 
-use meshflow_sdk::geometry::{Vec3, distance, larger, point, smaller, triangle_unit_normal};
-use meshflow_sdk::topology::boundary::{BoundaryLoop, boundary_loops};
-use meshflow_sdk::topology::halfedge::{HalfEdges, triangle_of};
+use meshflow_plugin_sdk::geometry::{Vec3, distance, larger, point, smaller, triangle_unit_normal};
+use meshflow_plugin_sdk::topology::boundary::{BoundaryLoop, boundary_loops};
+use meshflow_plugin_sdk::topology::halfedge::{HalfEdges, triangle_of};
 
 use crate::fair::{Ring, fair};
 use crate::patch::Patch;

@@ -8,7 +8,7 @@ pub mod refine;
 pub mod surroundings;
 pub mod triangulate;
 
-use meshflow_sdk::{Error, Mesh, ParamSpec, Params, Result, Service};
+use meshflow_plugin_sdk::{Error, Mesh, ParamSpec, Params, Result, Service};
 
 use fill::{Settings, fill_holes};
 
@@ -67,4 +67,4 @@ fn services() -> Vec<Service> {
     ]
 }
 
-meshflow_sdk::export_plugin!(services);
+meshflow_plugin_sdk::export_plugin!(services);

@@ -5,9 +5,9 @@
 //! triangle `t` to corner `(k + 1) % 3`, as in the mesh. A half-edge on the hole's loop has
 //! no twin: the triangle across it belongs to the mesh, and the patch never changes it.
 
-use meshflow_sdk::geometry::{Vec3, angle_between, cross, dot, norm, sub};
-use meshflow_sdk::topology::NONE;
-use meshflow_sdk::topology::halfedge::{next, prev};
+use meshflow_plugin_sdk::geometry::{Vec3, angle_between, cross, dot, norm, sub};
+use meshflow_plugin_sdk::topology::NONE;
+use meshflow_plugin_sdk::topology::halfedge::{next, prev};
 
 /// A triangulated hole: geometry, target edge lengths and connectivity.
 pub struct Patch {

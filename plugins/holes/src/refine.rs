@@ -2,7 +2,7 @@
 //! density matches the surroundings (the √2 rule on the scale attributes `sigma`), relaxing
 //! edges by swaps after every split so the triangles stay well shaped.
 
-use meshflow_sdk::geometry::{add, distance, scale};
+use meshflow_plugin_sdk::geometry::{add, distance, scale};
 
 use crate::patch::Patch;
 
@@ -72,7 +72,7 @@ fn split_point(patch: &Patch, t: u32) -> Option<([f64; 3], f64)> {
 mod tests {
     use super::*;
     use crate::triangulate::{Polygon, triangulate};
-    use meshflow_sdk::geometry::{Vec3, corner_angles_of};
+    use meshflow_plugin_sdk::geometry::{Vec3, corner_angles_of};
 
     /// A flat round hole of radius 1 with `n` loop edges, triangulated, with scale `sigma`.
     fn round_hole(n: usize, sigma: f64) -> Patch {
@@ -106,7 +106,7 @@ mod tests {
             .iter()
             .map(|t| {
                 let p = t.map(|v| patch.points[v as usize]);
-                let n = meshflow_sdk::geometry::normal_of(&p);
+                let n = meshflow_plugin_sdk::geometry::normal_of(&p);
                 assert!(n[2] > 0.0, "folded triangle {t:?}");
                 corner_angles_of(&p).into_iter().fold(f64::MAX, f64::min).to_degrees()
             })

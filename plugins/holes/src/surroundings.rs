@@ -4,9 +4,9 @@
 
 use std::collections::BTreeSet;
 
-use meshflow_sdk::geometry::{add, distance, point};
-use meshflow_sdk::topology::NONE;
-use meshflow_sdk::topology::halfedge::{EdgeKind, HalfEdges, origin, target};
+use meshflow_plugin_sdk::geometry::{add, distance, point};
+use meshflow_plugin_sdk::topology::NONE;
+use meshflow_plugin_sdk::topology::halfedge::{EdgeKind, HalfEdges, origin, target};
 
 use crate::fair::Ring;
 

@@ -5,7 +5,7 @@
 //! lexicographically. The dihedral angles include those with the mesh triangles on the
 //! hole's rim, so the patch continues the surface instead of cutting across it.
 
-use meshflow_sdk::geometry::{Vec3, cross, dot, norm, scale, smaller, sub};
+use meshflow_plugin_sdk::geometry::{Vec3, cross, dot, norm, scale, smaller, sub};
 
 /// Cosines closer than this count as the same dihedral angle, so area decides between
 /// triangulations whose worst angles differ only by rounding (planar holes).

@@ -1,9 +1,9 @@
 //! Laplacian smoothing: every free vertex moves to the weighted average of its neighbours.
 
-use meshflow_sdk::geometry::{cotangent_weights, larger};
-use meshflow_sdk::topology::adjacency::VertexNeighbours;
-use meshflow_sdk::topology::boundary::boundary_vertices;
-use meshflow_sdk::topology::halfedge::HalfEdges;
+use meshflow_plugin_sdk::geometry::{cotangent_weights, larger};
+use meshflow_plugin_sdk::topology::adjacency::VertexNeighbours;
+use meshflow_plugin_sdk::topology::boundary::boundary_vertices;
+use meshflow_plugin_sdk::topology::halfedge::HalfEdges;
 
 /// Which vertices stay where they are.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -4,9 +4,10 @@
 pub mod laplacian;
 pub mod noise;
 pub mod random;
+pub mod taubin;
 
-use meshflow_sdk::geometry::bounding_box;
-use meshflow_sdk::{Mesh, ParamSpec, Params, Result, Service};
+use meshflow_plugin_sdk::geometry::bounding_box;
+use meshflow_plugin_sdk::{Mesh, ParamSpec, Params, Result, Service};
 
 use laplacian::{Pinning, Weights};
 
@@ -24,6 +25,17 @@ fn laplacian_smoothing(mesh: &Mesh, params: &Params) -> Result<String> {
     Ok(format!(
         "{iterations} {} Laplacian iteration(s) over {} vertices",
         params.text("weights")?,
+        mesh.vertex_count()
+    ))
+}
+
+fn taubin_smoothing(mesh: &Mesh, params: &Params) -> Result<String> {
+    let (lambda, mu) = (params.real("lambda")?, params.real("mu")?);
+    let iterations = params.integer("iterations")? as u32;
+    let smoothed = taubin::smooth(&mesh.positions(), &mesh.triangles(), lambda, mu, iterations);
+    mesh.set_positions(&smoothed)?;
+    Ok(format!(
+        "{iterations} Taubin iteration(s) (lambda {lambda}, mu {mu}) over {} vertices",
         mesh.vertex_count()
     ))
 }
@@ -55,6 +67,24 @@ fn services() -> Vec<Service> {
              the sampling and move vertices along the normal.",
         )),
         Service::filter(
+            "taubin-smoothing",
+            "Smooths without shrinking: each iteration moves every vertex by `lambda` times its \
+             uniform Laplacian, then by `mu` (negative) times the Laplacian again. Boundary \
+             vertices stay.",
+            taubin_smoothing,
+        )
+        .param(
+            ParamSpec::real("lambda", 0.5)
+                .range(1e-6, 1.0)
+                .doc("Shrinking step, towards the neighbours' mean."),
+        )
+        .param(
+            ParamSpec::real("mu", -0.53)
+                .range(-1.0, -1e-6)
+                .doc("Inflating step (negative); |mu| slightly above lambda keeps the volume."),
+        )
+        .param(ParamSpec::integer("iterations", 10).range(1.0, 1000.0).doc("lambda|mu steps.")),
+        Service::filter(
             "add-noise",
             "Moves every vertex by a random vector, uniform in a ball of radius `amount` % of \
              the bounding-box diagonal; the same seed gives the same result.",
@@ -73,4 +103,4 @@ fn services() -> Vec<Service> {
     ]
 }
 
-meshflow_sdk::export_plugin!(services);
+meshflow_plugin_sdk::export_plugin!(services);

@@ -32,6 +32,8 @@
 //! | holes                                  | [`boundary_loops`]                 | O(boundary)     |
 //! | connected components                   | [`TriangleComponents::new`]        | O(V + T·log d)  |
 //! | manifold / oriented / orientable       | [`manifold`] on a `HalfEdges`      | O(V + T)        |
+//! | uniform / cotangent Laplacian          | [`laplacian`] on a `VertexNeighbours` | O(V + E)     |
+//! | enclosed volume per closed component   | [`measure::closed_component_volumes`] | O(V + T·log d) |
 //!
 //! (`d` is the vertex degree, about 6 on scans, so the `log d` factors are small constants.)
 
@@ -43,7 +45,10 @@ pub mod edges;
 pub mod geometry;
 mod half_edge_ids;
 pub mod halfedge;
+pub mod laplacian;
 pub mod manifold;
+pub mod measure;
+pub mod transform;
 
 pub use adjacency::{VertexNeighbours, VertexTriangles, unreferenced_vertices};
 pub use boundary::{BoundaryLoop, boundary_loops, boundary_vertices};
@@ -51,6 +56,7 @@ pub use components::{TriangleComponents, UnionFind};
 pub use csr::Csr;
 pub use edges::{EdgeBuckets, Members};
 pub use halfedge::{EdgeKind, EdgeLookup, HalfEdges};
+pub use laplacian::{cotangent_laplacian, uniform_laplacian};
 pub use manifold::{
     has_duplicate_triangles, has_improper_triangles, is_edge_manifold, is_manifold, is_orientable,
     is_oriented, is_vertex_manifold, non_manifold_vertices, orientation_flips,
@@ -63,6 +69,17 @@ pub const NONE: u32 = u32::MAX;
 #[inline]
 pub fn triangle_count(triangles: &[u32]) -> usize {
     triangles.len() / 3
+}
+
+/// Every triangle not removed during the current run, as `(id, corners)`: a removed one
+/// reads [`NONE`] in all three corners (the SDK's `REMOVED`). Ids stay those of the flat
+/// array, so edits can name them. O(1) per item.
+pub fn live_triangles(triangles: &[u32]) -> impl Iterator<Item = (u32, [u32; 3])> + '_ {
+    triangles
+        .chunks_exact(3)
+        .enumerate()
+        .filter(|(_, c)| c[0] != NONE)
+        .map(|(t, c)| (t as u32, [c[0], c[1], c[2]]))
 }
 
 /// Whether triangle `t` is proper: three distinct vertex ids, all `< vertex_count`. O(1).
@@ -82,4 +99,16 @@ pub(crate) fn proper(c: [u32; 3], vertex_count: usize) -> bool {
         && (c[0] as usize) < vertex_count
         && (c[1] as usize) < vertex_count
         && (c[2] as usize) < vertex_count
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn live_triangles_skip_removed_ones_and_keep_their_ids() {
+        let triangles = [0, 1, 2, NONE, NONE, NONE, 2, 1, 3, 7];
+        let live: Vec<_> = live_triangles(&triangles).collect();
+        assert_eq!(live, [(0, [0, 1, 2]), (2, [2, 1, 3])]);
+    }
 }

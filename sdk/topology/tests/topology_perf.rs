@@ -1,5 +1,5 @@
 //! Timings on a 1M-vertex / 2M-triangle grid. Ignored by default; run with
-//! `cargo test -p meshflow-sdk --release --test topology_perf -- --ignored --nocapture`.
+//! `cargo test -p meshflow-plugin-sdk --release --test topology_perf -- --ignored --nocapture`.
 
 use std::time::Instant;
 

@@ -1,7 +1,7 @@
 //! Test fixture: a plugin that describes the same service twice. The host must refuse to
 //! load it, saying why.
 
-use meshflow_sdk::{Mesh, Params, Result, Service};
+use meshflow_plugin_sdk::{Mesh, Params, Result, Service};
 
 fn nothing(_: &Mesh, _: &Params) -> Result<String> {
     Ok(String::new())
@@ -11,4 +11,4 @@ fn services() -> Vec<Service> {
     vec![Service::filter("twin", "First.", nothing), Service::filter("twin", "Second.", nothing)]
 }
 
-meshflow_sdk::export_plugin!(services);
+meshflow_plugin_sdk::export_plugin!(services);

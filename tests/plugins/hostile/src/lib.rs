@@ -1,7 +1,7 @@
 //! Test fixture: every way a plugin can misbehave. The host must stop each with a clear
 //! error, within its limits, and stay usable for the next run.
 
-use meshflow_sdk::{Mesh, Params, Result, Service, Value, ValueType};
+use meshflow_plugin_sdk::{Mesh, Params, Result, Service, Value, ValueType};
 
 fn loop_forever(_: &Mesh, _: &Params) -> Result<String> {
     let mut x = 0u64;
@@ -145,4 +145,4 @@ fn services() -> Vec<Service> {
     ]
 }
 
-meshflow_sdk::export_plugin!(services);
+meshflow_plugin_sdk::export_plugin!(services);

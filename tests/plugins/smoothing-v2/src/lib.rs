@@ -2,7 +2,7 @@
 //! another result (each vertex moves half way to its neighbours' mean), so that running it
 //! instead of the built-in changes a run's hashes.
 
-use meshflow_sdk::{Mesh, ParamSpec, Params, Result, Service};
+use meshflow_plugin_sdk::{Mesh, ParamSpec, Params, Result, Service};
 
 fn half_step_smoothing(mesh: &Mesh, params: &Params) -> Result<String> {
     let iterations = params.integer("iterations")?;
@@ -44,4 +44,4 @@ fn services() -> Vec<Service> {
     ]
 }
 
-meshflow_sdk::export_plugin!(services);
+meshflow_plugin_sdk::export_plugin!(services);

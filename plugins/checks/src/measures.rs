@@ -1,0 +1,61 @@
+//! Surface area and enclosed volume.
+
+use meshflow_plugin_sdk::geometry::total_area;
+use meshflow_plugin_sdk::topology::measure::closed_component_volumes;
+
+/// The total area of the live triangles (removed and out-of-range ones skipped).
+pub fn surface_area(positions: &[f32], triangles: &[u32]) -> f64 {
+    total_area(positions, triangles)
+}
+
+/// The signed volume enclosed by the closed components, summed: positive for outward
+/// winding. Open components enclose nothing and are skipped; a mesh without a closed
+/// component is refused, since 0 would read as a measurement.
+pub fn enclosed_volume(positions: &[f32], triangles: &[u32]) -> Result<f64, String> {
+    let closed = closed_component_volumes(positions, triangles);
+    if closed.is_empty() {
+        return Err("no closed component: every component has boundary edges, so none \
+                    encloses a volume (fill its holes first)"
+            .into());
+    }
+    Ok(closed.iter().map(|c| c.volume).sum())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fixtures::{cube, open_cube, sphere};
+    use std::f64::consts::PI;
+
+    #[test]
+    fn the_unit_cube_has_area_six_and_volume_one() {
+        let c = cube();
+        assert!((surface_area(&c.positions, &c.triangles) - 6.0).abs() < 1e-12);
+        assert!((enclosed_volume(&c.positions, &c.triangles).unwrap() - 1.0).abs() < 1e-12);
+        let mut inside_out = cube();
+        inside_out.triangles.chunks_exact_mut(3).for_each(|t| t.swap(1, 2));
+        let volume = enclosed_volume(&inside_out.positions, &inside_out.triangles).unwrap();
+        assert!((volume + 1.0).abs() < 1e-12, "{volume}");
+    }
+
+    #[test]
+    fn a_fine_sphere_approaches_four_pi_and_four_thirds_pi() {
+        let s = sphere(32);
+        let area = surface_area(&s.positions, &s.triangles);
+        let volume = enclosed_volume(&s.positions, &s.triangles).unwrap();
+        assert!((area / (4.0 * PI) - 1.0).abs() < 0.01, "{area}");
+        assert!((volume / (4.0 / 3.0 * PI) - 1.0).abs() < 0.01, "{volume}");
+        assert!(volume < 4.0 / 3.0 * PI, "an inscribed polyhedron is smaller");
+    }
+
+    #[test]
+    fn an_open_mesh_is_refused_and_open_pieces_do_not_count() {
+        let open = open_cube();
+        let err = enclosed_volume(&open.positions, &open.triangles).unwrap_err();
+        assert!(err.contains("no closed component"), "{err}");
+        let mut both = cube();
+        both.positions.extend(&open.positions);
+        both.triangles.extend(open.triangles.iter().map(|v| v + 8));
+        assert!((enclosed_volume(&both.positions, &both.triangles).unwrap() - 1.0).abs() < 1e-12);
+    }
+}

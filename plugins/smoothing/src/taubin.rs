@@ -1,0 +1,123 @@
+//! Taubin smoothing (λ|μ): every iteration moves each free vertex by `λ` times its uniform
+//! Laplacian, then by `μ` times the Laplacian of the result. With `μ < -λ < 0` the second,
+//! inflating step cancels the shrinkage of the first at low frequencies, so noise goes and
+//! the volume stays (G. Taubin, "A signal processing approach to fair surface design", 1995).
+
+use meshflow_plugin_sdk::topology::boundary::boundary_vertices;
+use meshflow_plugin_sdk::topology::halfedge::HalfEdges;
+use meshflow_plugin_sdk::topology::{VertexNeighbours, uniform_laplacian};
+
+/// `iterations` λ|μ steps over `positions` (x y z per vertex). Boundary vertices stay, so
+/// borders and holes keep their shape; vertices without neighbours never move. The Laplacian
+/// is summed in `f64` over the neighbours in ascending order and each half-step is rounded to
+/// `f32` once, so the result is the same on every machine (the C++ template repeats exactly
+/// these operations).
+pub fn smooth(
+    positions: &[f32],
+    triangles: &[u32],
+    lambda: f64,
+    mu: f64,
+    iterations: u32,
+) -> Vec<f32> {
+    let vertex_count = positions.len() / 3;
+    let neighbours = VertexNeighbours::new(vertex_count, triangles);
+    let pinned =
+        boundary_vertices(vertex_count, triangles, &HalfEdges::new(vertex_count, triangles));
+    let mut current = positions.to_vec();
+    for _ in 0..iterations {
+        for factor in [lambda, mu] {
+            let laplacian = uniform_laplacian(&current, &neighbours);
+            for (v, _) in pinned.iter().enumerate().filter(|(_, pinned)| !**pinned) {
+                for i in 3 * v..3 * v + 3 {
+                    current[i] = (current[i] as f64 + factor * laplacian[i]) as f32;
+                }
+            }
+        }
+    }
+    current
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::laplacian::{self, Pinning, Weights};
+    use crate::noise::add_noise;
+    use meshflow_plugin_sdk::topology::measure::closed_component_volumes;
+
+    /// A closed UV sphere of radius 1: `rings` latitude bands, `segments` around, wound
+    /// outward.
+    fn sphere(rings: u32, segments: u32) -> (Vec<f32>, Vec<u32>) {
+        use std::f64::consts::PI;
+        let mut positions = vec![0.0, 0.0, 1.0];
+        for r in 1..rings {
+            let theta = PI * r as f64 / rings as f64;
+            for s in 0..segments {
+                let phi = 2.0 * PI * s as f64 / segments as f64;
+                let p = [theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()];
+                positions.extend(p.map(|x| x as f32));
+            }
+        }
+        positions.extend([0.0, 0.0, -1.0]);
+        let south = 1 + (rings - 1) * segments;
+        let ring = |r: u32, s: u32| 1 + r * segments + s % segments;
+        let mut triangles = Vec::new();
+        for s in 0..segments {
+            triangles.extend([0, ring(0, s), ring(0, s + 1)]);
+            triangles.extend([south, ring(rings - 2, s + 1), ring(rings - 2, s)]);
+            for r in 0..rings - 2 {
+                triangles.extend([ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)]);
+                triangles.extend([ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)]);
+            }
+        }
+        (positions, triangles)
+    }
+
+    fn volume(positions: &[f32], triangles: &[u32]) -> f64 {
+        closed_component_volumes(positions, triangles).iter().map(|c| c.volume).sum()
+    }
+
+    #[test]
+    fn taubin_keeps_the_volume_of_a_noised_sphere_where_laplacian_shrinks_it() {
+        let (clean, triangles) = sphere(40, 80);
+        let noised = add_noise(&clean, 0.02, 7);
+        let before = volume(&noised, &triangles);
+        assert!((before - 4.0 / 3.0 * std::f64::consts::PI).abs() < 0.05, "{before}");
+        let taubin = smooth(&noised, &triangles, 0.5, -0.53, 10);
+        let uniform =
+            laplacian::smooth(&noised, &triangles, 10, Pinning::Boundary, Weights::Uniform);
+        let kept = volume(&taubin, &triangles) / before;
+        let shrunk = volume(&uniform, &triangles) / before;
+        assert!(
+            (kept - 1.0).abs() < 0.01,
+            "Taubin changed the volume by {:.3}%",
+            100.0 * (kept - 1.0)
+        );
+        assert!(shrunk < 0.99, "Laplacian kept {:.3}% of the volume", 100.0 * shrunk);
+        // And the noise went: vertices are closer to the unit sphere than before.
+        let spread = |p: &[f32]| {
+            p.chunks_exact(3)
+                .map(|q| ((q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt() - 1.0).abs() as f64)
+                .sum::<f64>()
+        };
+        assert!(spread(&taubin) < 0.5 * spread(&noised));
+    }
+
+    #[test]
+    fn boundary_and_isolated_vertices_stay_and_zero_iterations_change_nothing() {
+        // A fan of four triangles around vertex 4, lifted, plus an unreferenced vertex 5.
+        let positions = [0., 0., 0., 2., 0., 0., 2., 2., 0., 0., 2., 0., 1., 1., 1., 5., 5., 5.];
+        let triangles = [0, 1, 4, 1, 2, 4, 2, 3, 4, 3, 0, 4];
+        assert_eq!(smooth(&positions, &triangles, 0.5, -0.53, 0), positions);
+        let smoothed = smooth(&positions, &triangles, 0.5, -0.53, 3);
+        assert_eq!(&smoothed[..12], &positions[..12]);
+        assert_eq!(&smoothed[15..], &positions[15..]);
+        // λ then μ on the centre: 1 -> 0.5 -> 0.5 - 0.53 * (0 - 0.5) = 0.765, and so on.
+        assert_eq!(&smoothed[12..14], &[1.0, 1.0]);
+        let mut z = 1.0f64;
+        for _ in 0..3 {
+            z = (z + 0.5 * -z) as f32 as f64;
+            z = (z + -0.53 * -z) as f32 as f64;
+        }
+        assert_eq!(smoothed[14] as f64, z);
+    }
+}
