@@ -4,6 +4,7 @@
 
 use meshflow_sdk::geometry::{cross, dot, point};
 use meshflow_sdk::topology::halfedge::{EdgeKind, HalfEdges};
+use meshflow_sdk::topology::manifold::orientation_patches;
 
 /// Which triangles to flip, and what stood in the way.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -23,59 +24,28 @@ pub struct Orientation {
 /// fewest flips for open ones (ties: the patch's first triangle keeps its orientation).
 /// Improper triangles are never flipped. O(V + T log d).
 pub fn orient_consistently(positions: &[f32], triangles: &[u32]) -> Orientation {
-    let vertex_count = positions.len() / 3;
-    let half_edges = HalfEdges::new(vertex_count, triangles);
-    let tris = triangles.len() / 3;
-    let mut flip = vec![false; tris];
-    let mut seen = vec![false; tris];
-    let mut patch: Vec<u32> = Vec::new();
+    let half_edges = HalfEdges::new(positions.len() / 3, triangles);
     let mut result = Orientation::default();
-    for root in 0..tris as u32 {
-        let proper = half_edges.kind(3 * root) != EdgeKind::Degenerate;
-        if seen[root as usize] || !proper {
-            continue;
-        }
-        seen[root as usize] = true;
-        patch.clear();
-        patch.push(root);
-        let (mut head, mut closed, mut contradiction) = (0, true, false);
-        while head < patch.len() {
-            let t = patch[head];
-            head += 1;
-            for h in 3 * t..3 * t + 3 {
-                let kind = half_edges.kind(h);
-                if !kind.is_interior() {
-                    closed = false;
-                    continue;
-                }
-                let u = half_edges.opposite(h) / 3;
-                let want = flip[t as usize] ^ (kind == EdgeKind::InteriorInconsistent);
-                if !seen[u as usize] {
-                    seen[u as usize] = true;
-                    flip[u as usize] = want;
-                    patch.push(u);
-                } else if flip[u as usize] != want {
-                    contradiction = true;
-                }
-            }
+    let flip = orientation_patches(&half_edges, |patch, flip| {
+        let first = patch.triangles[0];
+        if half_edges.kind(3 * first) == EdgeKind::Degenerate {
+            return; // an improper triangle: no orientation to fix
         }
         result.patches += 1;
-        result.non_orientable += contradiction as usize;
-        let turn = if closed && !contradiction {
-            let volume = signed_volume(positions, triangles, &patch, &flip);
-            result.turned_outward += (volume < 0.0) as usize;
-            volume < 0.0
+        result.non_orientable += !patch.orientable as usize;
+        let turn = if patch.closed && patch.orientable {
+            let outward = signed_volume(positions, triangles, patch.triangles, flip) >= 0.0;
+            result.turned_outward += !outward as usize;
+            !outward
         } else {
-            let flipped = patch.iter().filter(|&&t| flip[t as usize]).count();
-            2 * flipped > patch.len()
+            let flipped = patch.triangles.iter().filter(|&&t| flip[t as usize]).count();
+            2 * flipped > patch.triangles.len()
         };
         if turn {
-            for &t in &patch {
-                flip[t as usize] = !flip[t as usize];
-            }
+            patch.triangles.iter().for_each(|&t| flip[t as usize] ^= true);
         }
-    }
-    result.flips = (0..tris as u32).filter(|&t| flip[t as usize]).collect();
+    });
+    result.flips = (0..flip.len() as u32).filter(|&t| flip[t as usize]).collect();
     result
 }
 
