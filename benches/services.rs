@@ -11,6 +11,12 @@
 //!
 //! Goals: each filter ≤ 0.5× MeshLab's figure, all checks together ≤ 800 ms in the sandbox,
 //! WASM ≤ 1.3× native.
+//!
+//! A second table (issue 18) runs the repair, orientation, decimation, remeshing and
+//! subdivision filters on the bunny and on the 1M scan (repair and orientation on the raw
+//! scan, the others on the scan after `repair-non-manifold`, as they need manifold edges),
+//! each side by side with MeshLab's equivalent on the same file, and reports the bytes of
+//! the run's correction (`.mfc`, the edit log) against the packed result (`.mfm`).
 
 mod common;
 
@@ -19,6 +25,7 @@ use std::time::Duration;
 
 use common::{SCAN_1M, best, meshlab_available, meshlab_time, ms, ratio};
 use meshflow_builtin_plugins::PLUGINS;
+use meshflow_codec::{correction, pack};
 use meshflow_generate::scan;
 use meshflow_mesh::MeshData;
 use meshflow_mesh::store::{MeshStore, Op};
@@ -26,8 +33,13 @@ use meshflow_meshio as io;
 use meshflow_plugin_checks::{angles, counts, measures, normals, topology};
 use meshflow_plugin_cleanup::components::{Keep, small_components};
 use meshflow_plugin_cleanup::degenerate::repair_degenerate;
+use meshflow_plugin_cleanup::nonmanifold::repair_non_manifold;
+use meshflow_plugin_cleanup::orient::orient_consistently;
 use meshflow_plugin_holes::fill::{Settings, fill_holes};
-use meshflow_plugin_sdk::geometry::bounding_box;
+use meshflow_plugin_remeshing::decimate::{self, decimate};
+use meshflow_plugin_remeshing::isotropic::{self, remesh};
+use meshflow_plugin_remeshing::loop_subdivision::loop_subdivision;
+use meshflow_plugin_sdk::geometry::{bounding_box, distance, point};
 use meshflow_plugin_smoothing::laplacian::{Pinning, Weights, smooth};
 use meshflow_plugin_smoothing::noise::add_noise;
 use meshflow_plugin_smoothing::taubin;
@@ -183,19 +195,27 @@ fn main() {
     };
     let runtime = Runtime::new(Limits::default(), None).expect("a runtime");
 
+    // `cargo bench --bench services -- issue18` measures only the second table.
+    let only_new = std::env::args().any(|a| a == "issue18");
     let mut rows = Vec::new();
-    for filter in &FILTERS {
-        rows.push(filter_row(&runtime, &mesh, filter, meshlab(filter.meshlab)));
+    if !only_new {
+        for filter in &FILTERS {
+            rows.push(filter_row(&runtime, &mesh, filter, meshlab(filter.meshlab)));
+        }
+        rows.extend(check_rows(&runtime, &mesh, meshlab(MESHLAB_CHECKS)));
     }
-    rows.extend(check_rows(&runtime, &mesh, meshlab(MESHLAB_CHECKS)));
     let bunny_path =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data/bunny.obj");
-    let bunny = Arc::new(io::load(&bunny_path).expect("the bunny"));
-    let meshlab_bunny = with_meshlab
-        .then(|| meshlab_time(&bunny_path, "ms.load_new_mesh(MESH)", TAUBIN.meshlab, RUNS));
-    let mut bunny_row = filter_row(&runtime, &bunny, &TAUBIN, meshlab_bunny.flatten());
-    bunny_row.service = "taubin-smoothing (bunny)".into();
-    rows.push(bunny_row);
+    let bunny = Arc::new(io::load(&bunny_path).expect("the bunny ships with the repository"));
+    if !only_new {
+        let meshlab_bunny = with_meshlab
+            .then(|| meshlab_time(&bunny_path, "ms.load_new_mesh(MESH)", TAUBIN.meshlab, RUNS));
+        let mut bunny_row = filter_row(&runtime, &bunny, &TAUBIN, meshlab_bunny.flatten());
+        bunny_row.service = "taubin-smoothing (bunny)".into();
+        rows.push(bunny_row);
+    }
+    let mut new_rows = new_filter_rows(&runtime, "bunny", &bunny, with_meshlab, RUNS);
+    new_rows.extend(new_filter_rows(&runtime, "scan 1M", &mesh, with_meshlab, 1));
 
     println!(
         "mesh: generated scan ({} vertices, {} triangles, {} pieces, {} holes punched)",
@@ -207,7 +227,10 @@ fn main() {
     if !with_meshlab {
         println!("pymeshlab does not import: no \"MeshLab here\" figures (pip install pymeshlab)");
     }
-    print_table(&rows);
+    if !only_new {
+        print_table(&rows);
+    }
+    print_new_filter_table(&new_rows);
     println!(
         "\nwasm: the whole `Runtime::run` — the run's store sharing the mesh (a filter copies it \
          on its first edit), a fresh instance (pool slot), the guest copying the arrays in, computing and sending its edits, \
@@ -363,4 +386,230 @@ fn print_table(rows: &[Row]) {
             r.goal,
         );
     }
+}
+
+// ---- issue 18: repair, orientation, decimation, remeshing, subdivision -----------------------
+
+/// One new filter on one mesh.
+struct NewRow {
+    mesh: &'static str,
+    service: &'static str,
+    native: Duration,
+    meshlab_here: Option<Duration>,
+    /// The sandboxed run, or why it stopped (a deadline, a refusal).
+    wasm: Result<WasmRun, String>,
+}
+
+struct WasmRun {
+    time: Duration,
+    triangles: usize,
+    correction_bytes: usize,
+    packed_bytes: usize,
+}
+
+/// The mean edge length of a mesh (interior edges counted twice).
+fn mean_edge(mesh: &MeshData) -> f64 {
+    let p = &mesh.positions;
+    let sum: f64 = mesh
+        .triangles
+        .chunks_exact(3)
+        .flat_map(|c| [(c[0], c[1]), (c[1], c[2]), (c[2], c[0])])
+        .map(|(a, b)| distance(point(p, a), point(p, b)))
+        .sum();
+    sum / mesh.triangles.len() as f64
+}
+
+/// Runs the new filters on `raw` (repair and orientation) and on its repaired copy (the rest).
+fn new_filter_rows(
+    runtime: &Runtime,
+    name: &'static str,
+    raw: &Arc<MeshData>,
+    with_meshlab: bool,
+    runs: usize,
+) -> Vec<NewRow> {
+    let dir = tempfile::tempdir().expect("a temporary directory");
+    let raw_ply = dir.path().join("raw.ply");
+    io::save(&raw_ply, raw).expect("saving the mesh");
+    let cleanup = load(runtime, "cleanup");
+    let repaired = runtime
+        .run(&cleanup, "repair-non-manifold", Arc::clone(raw), &[])
+        .expect("repairing")
+        .mesh
+        .expect("a mesh");
+    let repaired = Arc::new(repaired);
+    let repaired_ply = dir.path().join("repaired.ply");
+    io::save(&repaired_ply, &repaired).expect("saving the repaired mesh");
+    let diagonal = bounding_box(&repaired.positions).map_or(1.0, |b| b.diagonal());
+    let length = mean_edge(&repaired);
+    let percent = 100.0 * length / diagonal;
+    let meshlab = |file: &std::path::Path, statement: &str| {
+        with_meshlab.then(|| meshlab_time(file, "ms.load_new_mesh(MESH)", statement, runs))?
+    };
+
+    let mut rows = Vec::new();
+    let mut row = |service: &'static str,
+                   plugin: &str,
+                   base: &Arc<MeshData>,
+                   params: Vec<(String, Value)>,
+                   native: &dyn Fn(&MeshData) -> usize,
+                   meshlab_here: Option<Duration>| {
+        let plugin = load(runtime, plugin);
+        let (native_time, _) = best(runs, || native(base));
+        let (time, output) =
+            best(runs, || runtime.run(&plugin, service, Arc::clone(base), &params));
+        let wasm = output.map_err(|e| e.to_string()).map(|output| {
+            let result = output.mesh.expect("a filter returns a mesh");
+            WasmRun {
+                time,
+                triangles: result.triangle_count(),
+                correction_bytes: correction::encode(base, &output.log, &result)
+                    .expect("encodes")
+                    .len(),
+                packed_bytes: pack::encode(&result).expect("packs").len(),
+            }
+        });
+        rows.push(NewRow { mesh: name, service, native: native_time, meshlab_here, wasm });
+    };
+
+    row(
+        "repair-non-manifold",
+        "cleanup",
+        raw,
+        Vec::new(),
+        &|m| {
+            let r = repair_non_manifold(&m.positions, &m.triangles);
+            m.triangle_count() - r.removed.len()
+        },
+        meshlab(
+            &raw_ply,
+            "ms.meshing_repair_non_manifold_edges(); ms.meshing_repair_non_manifold_vertices()",
+        ),
+    );
+    row(
+        "orient-consistently",
+        "cleanup",
+        raw,
+        Vec::new(),
+        &|m| orient_consistently(&m.positions, &m.triangles).flips.len(),
+        meshlab(&raw_ply, "ms.meshing_re_orient_faces_coherently()"),
+    );
+    let target = repaired.triangle_count() / 10;
+    row(
+        "quadric-decimation",
+        "remeshing",
+        &repaired,
+        vec![("target-triangles".into(), Value::Integer(target as i64))],
+        &|m| {
+            let settings = decimate::Settings {
+                target_triangles: target,
+                preserve_boundary: true,
+                quality_weight: 0.0,
+            };
+            decimate(&m.positions, &m.triangles, settings).triangles_after
+        },
+        meshlab(
+            &repaired_ply,
+            &format!(
+                "ms.meshing_decimation_quadric_edge_collapse(targetfacenum={target}, \
+                 preserveboundary=True, preservenormal=True, preservetopology=True)"
+            ),
+        ),
+    );
+    row(
+        "isotropic-remeshing",
+        "remeshing",
+        &repaired,
+        vec![
+            ("mean-edge-length".into(), Value::Boolean(false)),
+            ("target-edge-length".into(), Value::Real(percent)),
+        ],
+        &|m| {
+            let settings = isotropic::Settings {
+                target_length: length,
+                iterations: 10,
+                feature_angle_degrees: 45.0,
+            };
+            remesh(&m.positions, &m.triangles, settings).expect("remeshes").positions.len() / 3
+        },
+        meshlab(
+            &repaired_ply,
+            &format!(
+                "ms.meshing_isotropic_explicit_remeshing(iterations=10, \
+                 targetlen=pymeshlab.PercentageValue({percent}), featuredeg=45)"
+            ),
+        ),
+    );
+    row(
+        "loop-subdivision",
+        "remeshing",
+        &repaired,
+        Vec::new(),
+        &|m| loop_subdivision(&m.positions, &m.triangles, 1).expect("subdivides").triangles.len(),
+        meshlab(
+            &repaired_ply,
+            "ms.meshing_surface_subdivision_loop(iterations=1, \
+             threshold=pymeshlab.PercentageValue(0))",
+        ),
+    );
+    rows
+}
+
+fn print_new_filter_table(rows: &[NewRow]) {
+    println!(
+        "\nissue 18 filters (repair and orientation on the raw mesh, the rest on it repaired)"
+    );
+    println!(
+        "| {:<8} | {:<20} | {:>9} | {:>9} | {:>8} | {:>8} | {:>7} | {:>9} | {:>10} | {:>10} | {:>7} |",
+        "mesh",
+        "service",
+        "native ms",
+        "wasm ms",
+        "wasm/nat",
+        "ML here",
+        "wasm/ML",
+        "triangles",
+        "mfc B",
+        "mfm B",
+        "mfc/mfm"
+    );
+    println!(
+        "|{:-<10}|{:-<22}|{:->11}|{:->11}|{:->10}|{:->10}|{:->9}|{:->11}|{:->12}|{:->12}|{:->9}|",
+        "", "", "", "", "", "", "", "", "", "", ""
+    );
+    for r in rows {
+        let meshlab = r.meshlab_here.map_or("—".into(), |t| format!("{:.0}", ms(t)));
+        let Ok(w) = &r.wasm else {
+            let error = r.wasm.as_ref().err().map_or("", |e| e.as_str());
+            println!(
+                "| {:<8} | {:<20} | {:>9.1} | {:>9} | {:>8} | {:>8} | stopped: {error}",
+                r.mesh,
+                r.service,
+                ms(r.native),
+                "—",
+                "—",
+                meshlab
+            );
+            continue;
+        };
+        println!(
+            "| {:<8} | {:<20} | {:>9.1} | {:>9.1} | {:>8.2} | {:>8} | {:>7} | {:>9} | {:>10} | {:>10} | {:>7.3} |",
+            r.mesh,
+            r.service,
+            ms(r.native),
+            ms(w.time),
+            ratio(w.time, r.native),
+            meshlab,
+            r.meshlab_here.map_or("—".into(), |m| format!("{:.2}", ratio(w.time, m))),
+            w.triangles,
+            w.correction_bytes,
+            w.packed_bytes,
+            w.correction_bytes as f64 / w.packed_bytes as f64,
+        );
+    }
+    println!(
+        "goal: wasm ≤ 0.5× MeshLab's equivalent (meshing_repair_non_manifold_edges + _vertices, \
+         meshing_re_orient_faces_coherently, meshing_decimation_quadric_edge_collapse, \
+         meshing_isotropic_explicit_remeshing, meshing_surface_subdivision_loop) on the same \
+         file in this run; mfc: the run's edit-log correction, mfm: the packed result."
+    );
 }

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// In-house plugin crates, under `plugins/`.
-const PLUGINS: &[&str] = &["smoothing", "checks", "cleanup", "holes"];
+const PLUGINS: &[&str] = &["smoothing", "checks", "cleanup", "holes", "remeshing"];
 /// Test fixture plugin crates, under `tests/plugins/`.
 const FIXTURES: &[&str] = &["hostile", "bad-describe", "smoothing-v2"];
 const TARGET: &str = "wasm32-wasip2";

@@ -1,10 +1,13 @@
-//! Cleanup filters for raw scans: small components and degenerate triangles. Algorithms are
+//! Cleanup filters for raw scans: small components, degenerate triangles, non-manifold spots
+//! and incoherent orientation. Algorithms are
 //! pure functions over arrays (one per file); the service functions here only move data
 //! between them and the host.
 
 pub mod components;
 pub mod degenerate;
 pub mod mirror;
+pub mod nonmanifold;
+pub mod orient;
 
 use meshflow_plugin_sdk::{Error, Mesh, ParamSpec, Params, Result, Service};
 
@@ -55,6 +58,55 @@ fn remove_degenerate_triangles(mesh: &Mesh, params: &Params) -> Result<String> {
     Ok(report.to_string())
 }
 
+fn repair_non_manifold(mesh: &Mesh, _: &Params) -> Result<String> {
+    let repair = nonmanifold::repair_non_manifold(&mesh.positions(), &mesh.triangles());
+    let gone: Vec<u32> = repair.removed.iter().chain(&repair.repointed).copied().collect();
+    if !gone.is_empty() {
+        mesh.remove_triangles(&gone)?;
+    }
+    if !repair.new_positions.is_empty() {
+        // The re-added triangles name the copies by the ids they get when appended in bulk.
+        let expected = mesh.vertex_slots() as u32;
+        let first = mesh.add_vertices(&repair.new_positions)?;
+        if first != expected {
+            return Err(Error(format!("new vertices start at {first}, expected {expected}")));
+        }
+    }
+    if !repair.readded.is_empty() {
+        mesh.add_triangles(&repair.readded)?;
+    }
+    Ok(format!(
+        "removed {} improper, {} duplicate and {} extra triangle(s) on {} non-manifold edge(s); \
+         split {} non-manifold vertex(es) into {} new one(s)",
+        repair.improper,
+        repair.duplicates,
+        repair.removed.len() - repair.improper - repair.duplicates,
+        repair.non_manifold_edges,
+        repair.non_manifold_vertices,
+        repair.new_positions.len() / 3,
+    ))
+}
+
+fn orient_consistently(mesh: &Mesh, _: &Params) -> Result<String> {
+    let orientation = orient::orient_consistently(&mesh.positions(), &mesh.triangles());
+    if !orientation.flips.is_empty() {
+        mesh.flip_triangles(&orientation.flips)?;
+    }
+    let mut report = format!(
+        "flipped {} triangle(s) in {} patch(es); {} closed patch(es) turned outward",
+        orientation.flips.len(),
+        orientation.patches,
+        orientation.turned_outward
+    );
+    if orientation.non_orientable > 0 {
+        report += &format!(
+            "; {} patch(es) are not orientable (Möbius-like) and keep some inconsistent edges",
+            orientation.non_orientable
+        );
+    }
+    Ok(report)
+}
+
 fn services() -> Vec<Service> {
     vec![
         Service::filter(
@@ -79,6 +131,21 @@ fn services() -> Vec<Service> {
             "0: only exactly flat triangles; otherwise also those whose height is at most \
              this fraction of their longest edge.",
         )),
+        Service::filter(
+            "repair-non-manifold",
+            "Makes the mesh manifold: removes triangles that repeat a vertex and duplicated \
+             triangles, keeps two triangles on each edge that has more (an oppositely oriented \
+             pair where there is one), and splits each vertex where separate fans meet into \
+             one vertex per fan. Unreferenced vertices are left alone.",
+            repair_non_manifold,
+        ),
+        Service::filter(
+            "orient-consistently",
+            "Flips triangles so that each patch joined by manifold edges is consistently \
+             oriented: closed patches with their normals outward, open ones with the fewest \
+             flips. Non-manifold edges separate patches; a non-orientable patch is reported.",
+            orient_consistently,
+        ),
     ]
 }
 

@@ -68,6 +68,44 @@ pub fn larger(a: f64, b: f64) -> f64 {
     if b > a || a.is_nan() { b } else { a }
 }
 
+/// The point of triangle `abc` closest to `p` (Ericson, *Real-Time Collision Detection*,
+/// 5.1.5: by the Voronoi region of `p`). A flat triangle answers with a point on it. O(1).
+pub fn closest_point_on_triangle(p: Vec3, [a, b, c]: [Vec3; 3]) -> Vec3 {
+    let along = |o: Vec3, d: Vec3, t: f64| add(o, scale(d, t));
+    let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
+    let (d1, d2) = (dot(ab, ap), dot(ac, ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = sub(p, b);
+    let (d3, d4) = (dot(ab, bp), dot(ac, bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return along(a, ab, d1 / (d1 - d3));
+    }
+    let cp = sub(p, c);
+    let (d5, d6) = (dot(ab, cp), dot(ac, cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return along(a, ac, d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        return along(b, sub(c, b), (d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = va + vb + vc;
+    if denom == 0.0 {
+        return a;
+    }
+    add(a, add(scale(ab, vb / denom), scale(ac, vc / denom)))
+}
+
 /// Distance between two points.
 #[inline]
 pub fn distance(a: Vec3, b: Vec3) -> f64 {
@@ -532,5 +570,26 @@ mod tests {
         assert_eq!(angle_between([1., 0., 0.], [0., 0., 0.]), 0.0);
         assert!(close(angle_between([1., 0., 0.], [-1., 1e-20, 0.]), PI));
         assert!(close(cotangent([1., 0., 0.], [1., 1., 0.]), 1.0));
+    }
+
+    #[test]
+    fn closest_points_on_a_triangle_by_region() {
+        let t = [[0., 0., 0.], [2., 0., 0.], [0., 2., 0.]];
+        let cases = [
+            ([0.5, 0.5, 3.0], [0.5, 0.5, 0.0]),   // above the inside
+            ([-1.0, -1.0, 0.0], [0.0, 0.0, 0.0]), // beyond corner a
+            ([3.0, -1.0, 1.0], [2.0, 0.0, 0.0]),  // beyond corner b
+            ([-1.0, 3.0, 0.0], [0.0, 2.0, 0.0]),  // beyond corner c
+            ([1.0, -2.0, 0.0], [1.0, 0.0, 0.0]),  // beyond edge ab
+            ([-2.0, 1.0, 5.0], [0.0, 1.0, 0.0]),  // beyond edge ca
+            ([2.0, 2.0, 0.0], [1.0, 1.0, 0.0]),   // beyond edge bc
+        ];
+        for (p, expected) in cases {
+            let q = closest_point_on_triangle(p, t);
+            assert!(distance(q, expected) < EPS, "{p:?}: {q:?}");
+        }
+        // A flat triangle still answers with one of its points.
+        let flat = [[0., 0., 0.], [1., 0., 0.], [2., 0., 0.]];
+        assert!(closest_point_on_triangle([1.0, 1.0, 0.0], flat)[1] == 0.0);
     }
 }

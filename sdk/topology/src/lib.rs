@@ -59,7 +59,7 @@ pub use halfedge::{EdgeKind, EdgeLookup, HalfEdges};
 pub use laplacian::{cotangent_laplacian, uniform_laplacian};
 pub use manifold::{
     has_duplicate_triangles, has_improper_triangles, is_edge_manifold, is_manifold, is_orientable,
-    is_oriented, is_vertex_manifold, non_manifold_vertices, orientation_flips,
+    is_oriented, is_vertex_manifold, non_manifold_vertices, orientation_flips, orientation_patches,
 };
 
 /// "No element": a missing twin, an absent triangle. Equal to `u32::MAX`.

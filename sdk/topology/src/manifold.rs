@@ -149,6 +149,36 @@ fn fan_size(triangles: &[u32], half_edges: &HalfEdges, h: u32, limit: u32) -> u3
 /// side is flipped (on a tie, the side without the patch's smallest triangle), so an
 /// oriented mesh yields all `false`. Degenerate triangles are never flipped.
 pub fn orientation_flips(half_edges: &HalfEdges) -> Option<Vec<bool>> {
+    let mut orientable = true;
+    let flip = orientation_patches(half_edges, |patch, flip| {
+        orientable &= patch.orientable;
+        let flipped = patch.triangles.iter().filter(|&&t| flip[t as usize]).count();
+        if 2 * flipped > patch.triangles.len() {
+            patch.triangles.iter().for_each(|&t| flip[t as usize] ^= true);
+        }
+    });
+    orientable.then_some(flip)
+}
+
+/// A set of triangles joined by interior (two-triangle) edges, as
+/// [`orientation_patches`] hands it over.
+pub struct OrientationPatch<'a> {
+    /// In breadth-first order from the patch's smallest triangle.
+    pub triangles: &'a [u32],
+    /// No edge of the patch is a boundary, non-manifold or degenerate one.
+    pub closed: bool,
+    /// No interior edge contradicts the colouring (a Möbius strip does).
+    pub orientable: bool,
+}
+
+/// 2-colours every patch of triangles joined by interior edges by breadth-first search from
+/// its smallest triangle (`true`: flip it to agree with that triangle), calls `visit` with
+/// each patch and the colouring so far (it may invert the patch's own entries, to choose the
+/// other side), and returns the colouring. O(T) time and memory.
+pub fn orientation_patches(
+    half_edges: &HalfEdges,
+    mut visit: impl FnMut(OrientationPatch, &mut [bool]),
+) -> Vec<bool> {
     let tris = half_edges.len() / 3;
     let mut flip = vec![false; tris];
     let mut seen = vec![false; tris];
@@ -160,14 +190,14 @@ pub fn orientation_flips(half_edges: &HalfEdges) -> Option<Vec<bool>> {
         seen[root as usize] = true;
         queue.clear();
         queue.push(root);
-        let mut head = 0;
-        let mut flipped = 0usize;
+        let (mut head, mut closed, mut orientable) = (0, true, true);
         while head < queue.len() {
             let t = queue[head];
             head += 1;
             for h in 3 * t..3 * t + 3 {
                 let kind = half_edges.kind(h);
                 if !kind.is_interior() {
+                    closed = false;
                     continue;
                 }
                 let u = half_edges.opposite(h) / 3;
@@ -175,20 +205,15 @@ pub fn orientation_flips(half_edges: &HalfEdges) -> Option<Vec<bool>> {
                 if !seen[u as usize] {
                     seen[u as usize] = true;
                     flip[u as usize] = want;
-                    flipped += want as usize;
                     queue.push(u);
                 } else if flip[u as usize] != want {
-                    return None;
+                    orientable = false;
                 }
             }
         }
-        if 2 * flipped > queue.len() {
-            for &t in &queue {
-                flip[t as usize] = !flip[t as usize];
-            }
-        }
+        visit(OrientationPatch { triangles: &queue, closed, orientable }, &mut flip);
     }
-    Some(flip)
+    flip
 }
 
 /// Whether some choice of triangle flips makes every interior edge consistently oriented

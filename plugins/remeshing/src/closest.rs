@@ -1,0 +1,181 @@
+//! Closest points on a fixed triangle mesh: a uniform grid of triangle bounding boxes,
+//! searched in growing shells of cells around the query.
+
+use meshflow_plugin_sdk::geometry::{Vec3, closest_point_on_triangle, norm, point, sub};
+
+/// Cells per axis are capped so a key packs into 63 bits (21 bits per axis).
+const MAX_CELLS_PER_AXIS: f64 = ((1u32 << 21) - 1) as f64;
+/// A triangle whose bounding box spans more cells than this is stored in every cell of
+/// its box only up to this many; beyond it the grid is too fine for the mesh and the
+/// triangle is put into its corners' cells (queries then fall back to a wider search).
+const MAX_CELLS_PER_TRIANGLE: usize = 64;
+
+/// The reference surface and its grid.
+pub struct Surface {
+    positions: Vec<f32>,
+    triangles: Vec<[u32; 3]>,
+    origin: Vec3,
+    cell: f64,
+    /// `(cell key, triangle)`, sorted.
+    entries: Vec<(u64, u32)>,
+    /// Cells per axis.
+    extent: [i64; 3],
+}
+
+impl Surface {
+    /// Indexes the given triangles (all corners in range) with cells of about `cell_size`.
+    pub fn new(positions: &[f32], triangles: Vec<[u32; 3]>, cell_size: f64) -> Self {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for t in &triangles {
+            for &v in t {
+                let p = point(positions, v);
+                for k in 0..3 {
+                    lo[k] = lo[k].min(p[k]);
+                    hi[k] = hi[k].max(p[k]);
+                }
+            }
+        }
+        if triangles.is_empty() {
+            lo = [0.0; 3];
+            hi = [0.0; 3];
+        }
+        let span = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+        let cell = cell_size.max(span / MAX_CELLS_PER_AXIS).max(f64::MIN_POSITIVE);
+        let extent = std::array::from_fn(|k| ((hi[k] - lo[k]) / cell) as i64 + 1);
+        let mut surface = Surface {
+            positions: positions.to_vec(),
+            triangles,
+            origin: lo,
+            cell,
+            entries: Vec::new(),
+            extent,
+        };
+        let mut entries = Vec::with_capacity(surface.triangles.len() * 2);
+        for (t, c) in surface.triangles.iter().enumerate() {
+            let cells = c.map(|v| surface.cell_of(point(positions, v)));
+            let min: [i64; 3] = std::array::from_fn(|k| cells.iter().map(|c| c[k]).min().unwrap());
+            let max: [i64; 3] = std::array::from_fn(|k| cells.iter().map(|c| c[k]).max().unwrap());
+            let count: i64 = (0..3).map(|k| max[k] - min[k] + 1).product();
+            if count as usize <= MAX_CELLS_PER_TRIANGLE {
+                for x in min[0]..=max[0] {
+                    for y in min[1]..=max[1] {
+                        for z in min[2]..=max[2] {
+                            entries.push((key([x, y, z]), t as u32));
+                        }
+                    }
+                }
+            } else {
+                entries.extend(cells.iter().map(|&c| (key(c), t as u32)));
+            }
+        }
+        entries.sort_unstable();
+        entries.dedup();
+        surface.entries = entries;
+        surface
+    }
+
+    fn cell_of(&self, p: Vec3) -> [i64; 3] {
+        std::array::from_fn(|k| {
+            (((p[k] - self.origin[k]) / self.cell).floor() as i64).clamp(0, self.extent[k] - 1)
+        })
+    }
+
+    fn cell_triangles(&self, c: [i64; 3]) -> &[(u64, u32)] {
+        let k = key(c);
+        let start = self.entries.partition_point(|e| e.0 < k);
+        let end = start + self.entries[start..].partition_point(|e| e.0 == k);
+        &self.entries[start..end]
+    }
+
+    /// The closest point of the surface to `p`, or `None` for an empty surface.
+    pub fn closest(&self, p: Vec3) -> Option<Vec3> {
+        if self.triangles.is_empty() {
+            return None;
+        }
+        let centre = self.cell_of(p);
+        let mut best: Option<(f64, Vec3)> = None;
+        let widest = *self.extent.iter().max().expect("three axes");
+        for radius in 0..=widest {
+            // Every point in a cell beyond this shell is at least this far away.
+            if let Some((d, _)) = best
+                && d < (radius - 1).max(0) as f64 * self.cell
+            {
+                break;
+            }
+            for_shell(centre, radius, self.extent, |c| {
+                for &(_, t) in self.cell_triangles(c) {
+                    let corners = self.triangles[t as usize].map(|v| point(&self.positions, v));
+                    let q = closest_point_on_triangle(p, corners);
+                    let d = norm(sub(p, q));
+                    if best.is_none_or(|(bd, _)| d < bd) {
+                        best = Some((d, q));
+                    }
+                }
+            });
+        }
+        best.map(|(_, q)| q)
+    }
+}
+
+fn key(c: [i64; 3]) -> u64 {
+    ((c[0] as u64) << 42) | ((c[1] as u64) << 21) | c[2] as u64
+}
+
+/// Calls `f` on every in-range cell at Chebyshev distance exactly `radius` from `centre`.
+fn for_shell(centre: [i64; 3], radius: i64, extent: [i64; 3], mut f: impl FnMut([i64; 3])) {
+    let range = |k: usize| (centre[k] - radius).max(0)..=(centre[k] + radius).min(extent[k] - 1);
+    for x in range(0) {
+        for y in range(1) {
+            let on_side = (x - centre[0]).abs() == radius || (y - centre[1]).abs() == radius;
+            if on_side {
+                for z in range(2) {
+                    f([x, y, z]);
+                }
+            } else {
+                for z in [centre[2] - radius, centre[2] + radius] {
+                    if (0..extent[2]).contains(&z) {
+                        f([x, y, z]);
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn closest_points_match_a_brute_force_search() {
+        // A bumpy grid and points around it, near and far.
+        let n = 12u32;
+        let positions: Vec<f32> = (0..n * n)
+            .flat_map(|i| {
+                let (x, y) = ((i % n) as f32, (i / n) as f32);
+                [x, y, (x * 0.7).sin() + (y * 0.4).cos()]
+            })
+            .collect();
+        let mut triangles = Vec::new();
+        for y in 0..n - 1 {
+            for x in 0..n - 1 {
+                let v = y * n + x;
+                triangles.extend([[v, v + 1, v + n + 1], [v, v + n + 1, v + n]]);
+            }
+        }
+        let surface = Surface::new(&positions, triangles.clone(), 1.0);
+        for i in 0..200 {
+            let f = i as f64;
+            let p = [(f * 0.37) % 14.0 - 1.0, (f * 0.61) % 14.0 - 1.0, (f * 0.13) % 6.0 - 3.0];
+            let brute = triangles
+                .iter()
+                .map(|t| closest_point_on_triangle(p, t.map(|v| point(&positions, v))))
+                .map(|q| norm(sub(p, q)))
+                .fold(f64::INFINITY, f64::min);
+            let found = norm(sub(p, surface.closest(p).unwrap()));
+            assert!((found - brute).abs() < 1e-12, "{p:?}: {found} vs {brute}");
+        }
+        assert!(Surface::new(&positions, Vec::new(), 1.0).closest([0.0; 3]).is_none());
+    }
+}
