@@ -77,6 +77,9 @@ pub struct Applied {
     pub edits: u64,
     pub vertices: u64,
     pub producer_compute_ms: f64,
+    /// The receiver had the plugin before this update: a replay's time is then the re-run
+    /// alone, not a download and compilation too.
+    pub had_plugin: bool,
 }
 
 #[derive(Default)]
@@ -160,7 +163,7 @@ impl Measured {
                 speed.unpack_ms_per_vertex =
                     learned(speed.unpack_ms_per_vertex, sample, &mut samples[1]);
             }
-            Transfer::Replay if applied.producer_compute_ms > 0.0 => {
+            Transfer::Replay if applied.producer_compute_ms > 0.0 && applied.had_plugin => {
                 let sample = ms / applied.producer_compute_ms;
                 speed.replay_ratio = learned(speed.replay_ratio, sample, &mut samples[2]);
             }
@@ -219,6 +222,7 @@ mod tests {
             edits: 1_000_000,
             vertices: 500_000,
             producer_compute_ms: 100.0,
+            had_plugin: true,
         };
         assert!(!measured.has_fetched("h", "p"));
         for _ in 0..30 {
@@ -227,6 +231,11 @@ mod tests {
             measured.applied("h", "p", &applied(Transfer::Full, f64::NAN));
         }
         assert!(measured.has_fetched("h", "p") && !measured.has_fetched("g", "p"));
+        // A replay that first fetched and compiled the plugin says nothing of re-run speed.
+        let first = Applied { had_plugin: false, ..applied(Transfer::Replay, 5_000.0) };
+        measured.applied("g", "p", &first);
+        assert!(measured.has_fetched("g", "p"));
+        assert_eq!(measured.speed("g").replay_ratio, DEFAULT_SPEED.replay_ratio);
         let speed = measured.speed("h");
         assert!((speed.replay_ratio - 1.5).abs() < 0.01, "{speed:?}");
         assert!((speed.apply_ms_per_edit - 0.000_2).abs() < 1e-5, "{speed:?}");

@@ -457,13 +457,14 @@ impl Executor {
                 continue;
             }
             let receiver = &replica.host;
+            let has_plugin = receiver.has_plugin(&filter.plugin)
+                || measured.has_fetched(&receiver.url, &filter.plugin);
             let estimates = cost::estimate(
                 &output,
                 &cost::Receiver {
                     link: measured.link(&host.url, &receiver.url),
                     speed: measured.speed(&receiver.url),
-                    has_plugin: receiver.has_plugin(&filter.plugin)
-                        || measured.has_fetched(&receiver.url, &filter.plugin),
+                    has_plugin,
                     load: receiver.load(),
                 },
             );
@@ -476,6 +477,7 @@ impl Executor {
             let forwarded = replica::Forwarded {
                 update,
                 plugin: filter.plugin.clone(),
+                had_plugin: has_plugin,
                 estimates: (self.transfer == Transfer::Auto).then_some(estimates),
                 output,
                 last_full: last_full.clone(),

@@ -21,8 +21,9 @@ use crate::run::Run;
 /// what the outcome teaches it.
 pub struct Forwarded {
     pub update: Update,
-    /// The digest of the plugin that made the step.
+    /// The digest of the plugin that made the step, and whether the receiver had it.
     pub plugin: String,
+    pub had_plugin: bool,
     /// Recorded when the model chose (`transfer: auto`).
     pub estimates: Option<TransferEstimates>,
     pub output: StepOutput,
@@ -143,6 +144,7 @@ fn learn(forwarded: &Forwarded, updated: &Updated, producer: &str, receiver: &st
         edits: output.edits,
         vertices: output.vertices,
         producer_compute_ms: output.compute_ms,
+        had_plugin: forwarded.had_plugin,
     };
     measured.applied(receiver, &forwarded.plugin, &applied);
     if updated.via == meshflow_api::host::Transfer::Full && updated.fallback.is_none() {
