@@ -134,6 +134,9 @@ async function main(page) {
   await canvasNotBlank(page, 'result');
   await shot(page, '04-run-bunny');
 
+  // Every way a step can travel is offered, replays included.
+  const modes = await page.getByTestId('transfer').locator('option').allTextContents();
+  assert.deepEqual(modes, ['auto', 'correction', 'replay', 'full']);
   // The same run with `transfer: full`: what was sent says so.
   await page.getByTestId('transfer').selectOption('full');
   await page.getByTestId('run').click();

@@ -15,7 +15,7 @@ export const EXAMPLES = {
   'smooth-while-unstable.json': smooth,
 };
 const OPS = ['<', '<=', '==', '!=', '>=', '>'];
-const TRANSFERS = ['auto', 'correction', 'full'];
+const TRANSFERS = ['auto', 'correction', 'replay', 'full'];
 /** Quiet time after the last keystroke before asking the engine to validate. */
 const VALIDATE_DELAY_MS = 250;
 
