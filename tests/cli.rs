@@ -363,6 +363,26 @@ fn run_goes_through_an_embedded_engine_and_hosts_with_fresh_tokens() {
     let workflow = one_step_workflow(dir.path());
     ok(&["run", &workflow, &bunny(), "-o", &out, "--hosts", "2", "--layout", "all"]);
     assert!(Path::new(&out).is_file());
+    // Across hosts that each offer one family, every step travels as its replay.
+    let repair = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/workflows/repair.json");
+    let report = dir.path().join("r.json");
+    let args = ["--transfer", "replay", "--report", &report.display().to_string()];
+    ok(&[&["run", &repair.display().to_string(), &bunny(), "-o", &out][..], &args].concat());
+    let record = json(&std::fs::read_to_string(&report).unwrap());
+    let transfers: Vec<&serde_json::Value> = record["steps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|s| s["transfers"].as_array().unwrap())
+        .collect();
+    assert!(!transfers.is_empty(), "{record}");
+    for t in transfers {
+        assert_eq!(
+            (&t["asked"], &t["via"], &t["fallback"]),
+            (&"replay".into(), &"replay".into(), &serde_json::Value::Null),
+            "{t}"
+        );
+    }
 }
 
 /// `meshflow up`, killed when dropped.

@@ -15,8 +15,13 @@ use serde_json::{Value as Json, json};
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum TransferMode {
+    /// Per receiving host, the way the cost model expects to be quickest.
     Auto,
+    /// The edit log.
     Correction,
+    /// The step re-run on the receiver (the edit log as fallback).
+    Replay,
+    /// The whole mesh, packed.
     Full,
 }
 
