@@ -235,7 +235,7 @@ fn main() {
         "\nwasm: the whole `Runtime::run` — the run's store sharing the mesh (a filter copies it \
          on its first edit), a fresh instance (pool slot), the guest copying the arrays in, computing and sending its edits, \
          the host checking, applying and logging them, and compaction — with the sandbox on \
-         (epoch deadline, memory cap, NaN canonicalisation). native: the plugin crate's \
+         (epoch deadline, memory cap; NaN canonicalisation off). native: the plugin crate's \
          function on the host's arrays, no copies. store: a filter's edit log replayed \
          natively into a fresh store and compacted, the host's work in any run; \
          wasm/(nat+st) is what the sandbox adds to the same work in process. Best of {RUNS}: pool slots keep linear \
