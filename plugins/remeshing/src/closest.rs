@@ -1,6 +1,8 @@
 //! Closest points on a fixed triangle mesh: a uniform grid of triangle bounding boxes,
 //! searched in growing shells of cells around the query.
 
+use std::collections::HashMap;
+
 use meshflow_plugin_sdk::geometry::{Vec3, closest_point_on_triangle, norm, point, sub};
 
 /// Cells per axis are capped so a key packs into 63 bits (21 bits per axis).
@@ -16,8 +18,9 @@ pub struct Surface {
     triangles: Vec<[u32; 3]>,
     origin: Vec3,
     cell: f64,
-    /// `(cell key, triangle)`, sorted.
-    entries: Vec<(u64, u32)>,
+    /// The triangles of each cell, one run per cell in `triangles_by_cell`.
+    cells: HashMap<u64, (u32, u32)>,
+    triangles_by_cell: Vec<u32>,
     /// Cells per axis.
     extent: [i64; 3],
 }
@@ -48,7 +51,8 @@ impl Surface {
             triangles,
             origin: lo,
             cell,
-            entries: Vec::new(),
+            cells: HashMap::new(),
+            triangles_by_cell: Vec::new(),
             extent,
         };
         let mut entries = Vec::with_capacity(surface.triangles.len() * 2);
@@ -71,7 +75,11 @@ impl Surface {
         }
         entries.sort_unstable();
         entries.dedup();
-        surface.entries = entries;
+        for run in entries.chunk_by(|x, y| x.0 == y.0) {
+            let start = surface.triangles_by_cell.len() as u32;
+            surface.triangles_by_cell.extend(run.iter().map(|&(_, t)| t));
+            surface.cells.insert(run[0].0, (start, surface.triangles_by_cell.len() as u32));
+        }
         surface
     }
 
@@ -81,11 +89,20 @@ impl Surface {
         })
     }
 
-    fn cell_triangles(&self, c: [i64; 3]) -> &[(u64, u32)] {
-        let k = key(c);
-        let start = self.entries.partition_point(|e| e.0 < k);
-        let end = start + self.entries[start..].partition_point(|e| e.0 == k);
-        &self.entries[start..end]
+    /// The distance from `p` to the box of cell `c` (0 inside).
+    fn distance_to_cell(&self, p: Vec3, c: [i64; 3]) -> f64 {
+        let gap = std::array::from_fn(|k| {
+            let low = self.origin[k] + c[k] as f64 * self.cell;
+            (low - p[k]).max(p[k] - (low + self.cell)).max(0.0)
+        });
+        norm(gap)
+    }
+
+    fn cell_triangles(&self, c: [i64; 3]) -> &[u32] {
+        match self.cells.get(&key(c)) {
+            Some(&(start, end)) => &self.triangles_by_cell[start as usize..end as usize],
+            None => &[],
+        }
     }
 
     /// The closest point of the surface to `p`, or `None` for an empty surface.
@@ -104,7 +121,11 @@ impl Surface {
                 break;
             }
             for_shell(centre, radius, self.extent, |c| {
-                for &(_, t) in self.cell_triangles(c) {
+                // Most shell cells are farther than the best so far: skip their lookup.
+                if best.is_some_and(|(d, _)| self.distance_to_cell(p, c) >= d) {
+                    return;
+                }
+                for &t in self.cell_triangles(c) {
                     let corners = self.triangles[t as usize].map(|v| point(&self.positions, v));
                     let q = closest_point_on_triangle(p, corners);
                     let d = norm(sub(p, q));

@@ -238,9 +238,6 @@ impl Local {
             if !(self.alive[a as usize] && self.alive[b as usize]) || self.length(a, b) >= short {
                 continue;
             }
-            if self.mesh.on_edge(a, b).is_empty() {
-                continue;
-            }
             if let Some((h, at)) = self.collapsible(a, b, long) {
                 self.collapse(h, at);
             }
@@ -261,26 +258,20 @@ impl Local {
                 (a, b, mid.map(|x| x as f32 as f64))
             }
         };
-        let on_edge = self.mesh.on_edge(a, b);
-        if on_edge.len() != 2 {
+        if self.mesh.collapse_keeps_topology(a, b)?.count() != 2 {
             return None;
-        }
-        let (na, nb) = (self.mesh.neighbours(a), self.mesh.neighbours(b));
-        let shared = na.iter().filter(|w| nb.binary_search(w).is_ok()).count();
-        if shared != 2 || na.len() + nb.len() - 2 - shared < 3 {
-            return None;
-        }
-        for &t in &on_edge {
-            let apex = self.mesh.corners(t).into_iter().find(|&v| v != a && v != b)?;
-            let least = if self.mesh.is_boundary(apex) { 3 } else { 4 };
-            if self.mesh.neighbours(apex).len() < least {
-                return None;
-            }
         }
         // No new edge may be long, and no triangle may fold.
-        for &w in na.iter().chain(&nb) {
-            if w != a && w != b && norm(sub(self.pos[w as usize], at)) > long {
-                return None;
+        for v in [a, b] {
+            for &t in self.mesh.around(v) {
+                if self
+                    .mesh
+                    .corners(t)
+                    .into_iter()
+                    .any(|w| norm(sub(self.pos[w as usize], at)) > long)
+                {
+                    return None;
+                }
             }
         }
         for v in [a, b] {
@@ -312,7 +303,7 @@ impl Local {
 
     fn flip_toward_valence_six(&mut self) {
         let mut valence: Vec<i32> =
-            (0..self.pos.len() as u32).map(|v| self.mesh.neighbours(v).len() as i32).collect();
+            (0..self.pos.len() as u32).map(|v| self.mesh.valence(v) as i32).collect();
         let ideal: Vec<i32> = (0..self.pos.len() as u32)
             .map(|v| if self.mesh.is_boundary(v) { 4 } else { 6 })
             .collect();
@@ -320,7 +311,7 @@ impl Local {
             if self.features.contains(&edge(a, b)) {
                 continue;
             }
-            if self.mesh.on_edge(a, b).len() != 2 {
+            if self.mesh.on_edge(a, b).count() != 2 {
                 continue;
             }
             let (Some(h), Some(g)) = (self.mesh.half_edge(a, b), self.mesh.half_edge(b, a)) else {
@@ -365,11 +356,15 @@ impl Local {
             if !self.alive[v as usize] || self.fixed[v as usize] || self.mesh.around(v).is_empty() {
                 continue;
             }
-            let ring = self.mesh.neighbours(v);
-            let centroid = scale(
-                ring.iter().fold([0.0; 3], |s, &w| add(s, self.pos[w as usize])),
-                1.0 / ring.len() as f64,
-            );
+            // A moving vertex is inside a closed fan, so each neighbour is the other corner
+            // of exactly two of its triangles: summing over triangles weighs all alike.
+            let around = self.mesh.around(v);
+            let sum = around
+                .iter()
+                .flat_map(|&t| self.mesh.corners(t))
+                .filter(|&w| w != v)
+                .fold([0.0; 3], |s, w| add(s, self.pos[w as usize]));
+            let centroid = scale(sum, 1.0 / (2 * around.len()) as f64);
             let normal = self
                 .mesh
                 .around(v)
