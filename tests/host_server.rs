@@ -53,7 +53,7 @@ async fn serve_files(files: Vec<(&str, Vec<u8>)>) -> String {
     let app =
         axum::Router::new()
             .route(
-                "/{name}",
+                "/{*name}",
                 axum::routing::get(
                     |State(files): State<Arc<HashMap<String, Vec<u8>>>>,
                      Path(name): Path<String>| async move {
@@ -250,6 +250,31 @@ async fn a_replayed_step_reaches_the_same_mesh_and_a_diverging_one_falls_back() 
     );
     let reason = updated.fallback.unwrap();
     assert!(reason.contains("replay") && reason.contains("reached mesh"), "{reason}");
+
+    // A producer answering with other bytes than the digest named: nothing is loaded or
+    // kept, and the edit log is used, saying why.
+    let impostor = serve_files(vec![
+        ("step.mfr", a.download(&step.replay.url).await.unwrap()),
+        (
+            &format!("plugins/{}/wasm", step.plugin),
+            meshflow_builtin_plugins::fixture("hostile").to_vec(),
+        ),
+    ])
+    .await;
+    let dir_c = tempfile::tempdir().unwrap();
+    let (_c, c) = start_host(HostConfig { builtins: Vec::new(), ..config(dir_c.path()) }).await;
+    let on_c = ready_session(&c, &url).await;
+    let mut impostor_replay = replay.clone();
+    impostor_replay.replay.as_mut().unwrap().url = format!("{impostor}/step.mfr");
+    let updated = c.update(&on_c, &impostor_replay).await.unwrap();
+    assert_eq!(
+        (updated.via, updated.hash.as_str()),
+        (Transfer::Correction, step.output_hash.as_str())
+    );
+    let reason = updated.fallback.unwrap();
+    assert!(reason.contains("have digest"), "{reason}");
+    let kept = dir_c.path().join("replay-plugins");
+    assert!(!kept.exists() || std::fs::read_dir(&kept).unwrap().next().is_none());
 
     // After a restart, B rebuilds its session by re-running the step with the kept plugin.
     b_handle.shutdown().await.unwrap();
@@ -515,12 +540,15 @@ async fn blobs_over_the_budget_are_evicted_unless_a_session_needs_them() {
     client.delete_session(&first).await.unwrap();
     assert_eq!(api_error(client.session(&first).await).0, 404);
     let last = filter(&client, &second, "add-noise", serde_json::json!({"seed": 3})).await;
-    assert_eq!(api_error(client.blob_size(&gone.correction.url).await).0, 404);
-    for needed in [&kept.correction, &last.correction] {
+    for evicted in [&gone.correction, &gone.replay] {
+        assert_eq!(api_error(client.blob_size(&evicted.url).await).0, 404);
+    }
+    // The live session's replays stay too: other hosts fetch them to re-run its steps.
+    for needed in [&kept.correction, &last.correction, &kept.replay, &last.replay] {
         assert_eq!(client.blob_size(&needed.url).await.unwrap(), needed.bytes);
     }
     let blobs = std::fs::read_dir(dir.path().join("blobs")).unwrap().count();
-    assert_eq!(blobs, 3, "the input and the live session's two corrections");
+    assert_eq!(blobs, 5, "the input and the live session's two corrections and two replays");
 }
 
 #[test]

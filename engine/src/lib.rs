@@ -354,6 +354,12 @@ async fn persist(engine: std::sync::Weak<Engine>) {
         if let Err(error) = engine.store.call(move |c| store::save_runs(c, &changes)).await {
             tracing::error!("saving runs: {error}");
         }
+        if let Some(snapshot) = engine.registry.measured.take_snapshot() {
+            let saved = engine.store.call(move |c| store::save_measurements(c, &snapshot)).await;
+            if let Err(error) = saved {
+                tracing::error!("saving link and speed measurements: {error}");
+            }
+        }
     }
 }
 

@@ -3,11 +3,15 @@
 //! forwarded), the link into each host (from its input downloads, until a pair is
 //! measured), each host's speed at applying edits, unpacking meshes and re-running steps,
 //! and which plugins a host fetched for a replay. Every figure is its first sample, then a
-//! moving average; all is kept in memory: after a restart the defaults hold until the
-//! first transfers.
+//! moving average. The engine saves a [`Snapshot`] with its runs and restores it at start,
+//! so a restart does not fall back to the defaults; figures of hosts it forgets go too.
 
 use std::collections::{HashMap, HashSet};
 use std::sync::Mutex;
+
+use serde::{Deserialize, Serialize};
+
+use crate::limits::MAX_HOSTS;
 
 /// Weight of a new sample in the moving averages.
 const SMOOTHING: f64 = 0.3;
@@ -19,7 +23,14 @@ const DEFAULT_LINK: Link = Link { bytes_per_ms: 12_500.0, latency_ms: 2.0 };
 const DEFAULT_SPEED: HostSpeed =
     HostSpeed { apply_ms_per_edit: 0.000_5, unpack_ms_per_vertex: 0.000_6, replay_ratio: 1.2 };
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// At most this many host pairs are measured (every pair of the most hosts the engine
+/// keeps); a pair beyond it uses the link into its receiver.
+pub const MAX_MEASURED_PAIRS: usize = MAX_HOSTS * MAX_HOSTS;
+/// At most this many (host, plugin) fetches are remembered; beyond it a replay's estimate
+/// includes a download it may not need.
+pub const MAX_REMEMBERED_FETCHES: usize = 64 * MAX_HOSTS;
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Link {
     pub bytes_per_ms: f64,
     pub latency_ms: f64,
@@ -33,7 +44,7 @@ impl Link {
 }
 
 /// A link as learned, with how many samples made each of its figures.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 struct Learned {
     link: Link,
     bandwidth_samples: u32,
@@ -60,7 +71,7 @@ impl Learned {
     }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct HostSpeed {
     /// Replaying one edit of an edit log.
     pub apply_ms_per_edit: f64,
@@ -87,6 +98,15 @@ pub struct Measured {
     tables: Mutex<Tables>,
 }
 
+/// Everything measured, as saved in the engine's database.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Snapshot {
+    pairs: Vec<(String, String, Learned)>,
+    into: Vec<(String, Learned)>,
+    speeds: Vec<(String, HostSpeed, [u32; 3])>,
+    fetched: Vec<(String, String)>,
+}
+
 #[derive(Default)]
 struct Tables {
     /// By (producer, receiver) host URL.
@@ -97,11 +117,64 @@ struct Tables {
     speeds: HashMap<String, (HostSpeed, [u32; 3])>,
     /// (receiver, plugin digest): fetched there for a replay, so the next needs no download.
     fetched: HashSet<(String, String)>,
+    /// Something changed since the last [`Measured::take_snapshot`].
+    changed: bool,
 }
 
 impl Measured {
     fn tables(&self) -> std::sync::MutexGuard<'_, Tables> {
         self.tables.lock().expect("measurements lock")
+    }
+
+    /// Starts from what an earlier engine measured. Entries beyond the limits are dropped.
+    pub fn restore(snapshot: Snapshot) -> Self {
+        let measured = Measured::default();
+        {
+            let mut tables = measured.tables();
+            for (producer, receiver, learned) in snapshot.pairs.into_iter().take(MAX_MEASURED_PAIRS)
+            {
+                tables.pairs.insert((producer, receiver), learned);
+            }
+            tables.into = snapshot.into.into_iter().take(MAX_MEASURED_PAIRS).collect();
+            tables.speeds = snapshot
+                .speeds
+                .into_iter()
+                .take(MAX_MEASURED_PAIRS)
+                .map(|(host, speed, samples)| (host, (speed, samples)))
+                .collect();
+            tables.fetched = snapshot.fetched.into_iter().take(MAX_REMEMBERED_FETCHES).collect();
+        }
+        measured
+    }
+
+    /// What to save, if anything changed since the last call.
+    pub fn take_snapshot(&self) -> Option<Snapshot> {
+        let mut tables = self.tables();
+        if !std::mem::take(&mut tables.changed) {
+            return None;
+        }
+        let mut snapshot = Snapshot {
+            pairs: tables.pairs.iter().map(|((p, r), l)| (p.clone(), r.clone(), *l)).collect(),
+            into: tables.into.iter().map(|(r, l)| (r.clone(), *l)).collect(),
+            speeds: tables.speeds.iter().map(|(h, (s, n))| (h.clone(), *s, *n)).collect(),
+            fetched: tables.fetched.iter().cloned().collect(),
+        };
+        // In a stable order, so equal measurements save equal bytes.
+        snapshot.pairs.sort_by(|a, b| (&a.0, &a.1).cmp(&(&b.0, &b.1)));
+        snapshot.into.sort_by(|a, b| a.0.cmp(&b.0));
+        snapshot.speeds.sort_by(|a, b| a.0.cmp(&b.0));
+        snapshot.fetched.sort();
+        Some(snapshot)
+    }
+
+    /// Drops every figure about `host` (the registry forgot it).
+    pub fn forget_host(&self, host: &str) {
+        let mut tables = self.tables();
+        tables.pairs.retain(|(p, r), _| p != host && r != host);
+        tables.into.remove(host);
+        tables.speeds.remove(host);
+        tables.fetched.retain(|(r, _)| r != host);
+        tables.changed = true;
     }
 
     /// The link from `producer` to `receiver`: measured for the pair, else as measured
@@ -131,14 +204,28 @@ impl Measured {
     /// wherever the input lies (`None`).
     pub fn downloaded(&self, producer: Option<&str>, receiver: &str, bytes: u64, ms: f64) {
         let mut tables = self.tables();
+        tables.changed = true;
         // A pair starts from what the receiver's input downloads taught.
         let start = tables.into.get(receiver).map_or(DEFAULT_LINK, |l| l.link);
         let fresh = || Learned::starting_from(start);
+        let table_full = match producer {
+            Some(_) => tables.pairs.len() >= MAX_MEASURED_PAIRS,
+            None => tables.into.len() >= MAX_MEASURED_PAIRS,
+        };
         let learned = match producer {
             Some(p) => {
-                tables.pairs.entry((p.to_owned(), receiver.to_owned())).or_insert_with(fresh)
+                let pair = (p.to_owned(), receiver.to_owned());
+                if table_full && !tables.pairs.contains_key(&pair) {
+                    return;
+                }
+                tables.pairs.entry(pair).or_insert_with(fresh)
             }
-            None => tables.into.entry(receiver.to_owned()).or_insert_with(fresh),
+            None => {
+                if table_full && !tables.into.contains_key(receiver) {
+                    return;
+                }
+                tables.into.entry(receiver.to_owned()).or_insert_with(fresh)
+            }
         };
         learned.learn(bytes, ms);
     }
@@ -147,8 +234,12 @@ impl Measured {
     pub fn applied(&self, host: &str, digest: &str, applied: &Applied) {
         use meshflow_api::host::Transfer;
         let mut tables = self.tables();
-        if applied.via == Transfer::Replay {
+        tables.changed = true;
+        if applied.via == Transfer::Replay && tables.fetched.len() < MAX_REMEMBERED_FETCHES {
             tables.fetched.insert((host.to_owned(), digest.to_owned()));
+        }
+        if tables.speeds.len() >= MAX_MEASURED_PAIRS && !tables.speeds.contains_key(host) {
+            return;
         }
         let (speed, samples) =
             tables.speeds.entry(host.to_owned()).or_insert((DEFAULT_SPEED, [0; 3]));
@@ -240,5 +331,42 @@ mod tests {
         assert!((speed.replay_ratio - 1.5).abs() < 0.01, "{speed:?}");
         assert!((speed.apply_ms_per_edit - 0.000_2).abs() < 1e-5, "{speed:?}");
         assert_eq!(speed.unpack_ms_per_vertex, DEFAULT_SPEED.unpack_ms_per_vertex);
+    }
+
+    #[test]
+    fn a_snapshot_restores_every_figure_and_forgetting_a_host_drops_its_own() {
+        use meshflow_api::host::Transfer;
+        let measured = Measured::default();
+        assert_eq!(measured.take_snapshot(), None, "nothing measured, nothing to save");
+        measured.downloaded(None, "b", 5_000_000, 8_000.0);
+        measured.downloaded(Some("a"), "b", 1_000_000, 160.0);
+        measured.downloaded(Some("b"), "c", 1_000_000, 400.0);
+        let replay = Applied {
+            via: Transfer::Replay,
+            apply_ms: 150.0,
+            edits: 0,
+            vertices: 0,
+            producer_compute_ms: 100.0,
+            had_plugin: true,
+        };
+        measured.applied("b", "digest", &replay);
+        let snapshot = measured.take_snapshot().expect("changed");
+        assert_eq!(measured.take_snapshot(), None, "saved once until something changes");
+
+        let text = serde_json::to_string(&snapshot).unwrap();
+        let restored = Measured::restore(serde_json::from_str(&text).unwrap());
+        for (producer, receiver) in [("a", "b"), ("b", "c"), ("x", "b")] {
+            assert_eq!(restored.link(producer, receiver), measured.link(producer, receiver));
+        }
+        assert_eq!(restored.speed("b"), measured.speed("b"));
+        assert!(restored.has_fetched("b", "digest"));
+
+        restored.forget_host("b");
+        assert_eq!(restored.link("a", "b"), DEFAULT_LINK);
+        assert_eq!(restored.link("b", "c"), DEFAULT_LINK);
+        assert_eq!(restored.speed("b"), DEFAULT_SPEED);
+        assert!(!restored.has_fetched("b", "digest"));
+        let left = restored.take_snapshot().expect("forgetting is a change");
+        assert!(left.pairs.is_empty() && left.into.is_empty() && left.speeds.is_empty());
     }
 }

@@ -224,7 +224,14 @@ impl Registry {
         let access = ClusterAccess::new(cluster_token);
         access.set_peers(vec![own_origin.clone()]);
         let http = guarded_client().connect_timeout(CONNECT_TIMEOUT).build()?;
-        let measured = Measured::default();
+        // Measurements that do not read back (a file from another version) are re-learned.
+        let measured = match store.now(store::load_measurements) {
+            Ok(snapshot) => Measured::restore(snapshot.unwrap_or_default()),
+            Err(error) => {
+                tracing::warn!("starting from default link and speed figures: {error}");
+                Measured::default()
+            }
+        };
         Ok(Self { hosts: Mutex::default(), store, own_origin, access, http, measured })
     }
 
@@ -294,6 +301,7 @@ impl Registry {
         };
         for url in forgotten {
             tracing::info!("forgetting host {url}: down for over {age:?}");
+            self.measured.forget_host(&url);
             if let Err(error) = self.store.call(move |c| store::remove_host(c, &url)).await {
                 tracing::error!("{error}");
             }
@@ -444,6 +452,31 @@ mod tests {
         let urls: Vec<String> = registry.hosts().iter().map(|h| h.url.clone()).collect();
         assert_eq!(urls, ["http://127.0.0.1:9/b"]);
         assert_eq!(store.now(store::load_hosts).unwrap(), ["http://127.0.0.1:9/b"]);
+    }
+
+    #[tokio::test]
+    async fn measured_links_survive_a_restart_and_go_with_a_forgotten_host() {
+        let dir = tempfile::tempdir().unwrap();
+        let (registry, store) = registry(&dir);
+        let (kept, gone) = ("http://127.0.0.1:9/b", "http://127.0.0.1:9/a");
+        let unmeasured = registry.measured.link_into(kept);
+        // Both took 8 s to download a 5 MB input: 5 Mbit/s, not the default's 100.
+        for host in [kept, gone] {
+            registry.measured.downloaded(None, host, 5_000_000, 8_000.0);
+        }
+        let measured = registry.measured.link_into(kept);
+        assert_ne!(measured, unmeasured);
+        let snapshot = registry.measured.take_snapshot().expect("something was measured");
+        store.now(|c| store::save_measurements(c, &snapshot)).unwrap();
+        drop(registry);
+
+        let (restarted, _) = test_registry(dir.path());
+        assert_eq!(restarted.measured.link_into(kept), measured);
+        restarted.register(gone).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(20)).await;
+        restarted.forget_down_longer_than(Duration::from_millis(10)).await;
+        assert_eq!(restarted.measured.link_into(gone), unmeasured);
+        assert_eq!(restarted.measured.link_into(kept), measured);
     }
 
     #[test]

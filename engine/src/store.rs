@@ -11,6 +11,7 @@ use std::sync::{Arc, Mutex};
 
 use rusqlite::{Connection, OptionalExtension, params};
 
+use crate::measured::Snapshot;
 use crate::record::{BatchEntry, RunRecord, Status};
 use crate::run::Changes;
 
@@ -68,6 +69,10 @@ CREATE TABLE IF NOT EXISTS batch_entries (
 CREATE TABLE IF NOT EXISTS input_names (
     file TEXT PRIMARY KEY,
     name TEXT NOT NULL
+);
+CREATE TABLE IF NOT EXISTS measurements (
+    only INTEGER PRIMARY KEY CHECK (only = 1),
+    snapshot TEXT NOT NULL
 );
 ";
 
@@ -153,6 +158,26 @@ fn status_text(status: Status) -> String {
         .ok()
         .and_then(|v| v.as_str().map(str::to_owned))
         .unwrap_or_default()
+}
+
+/// Keeps what the cost model measured (links, host speeds), replacing the last.
+pub fn save_measurements(
+    connection: &mut Connection,
+    snapshot: &Snapshot,
+) -> Result<(), StoreError> {
+    connection.execute(
+        "INSERT OR REPLACE INTO measurements (only, snapshot) VALUES (1, ?1)",
+        params![serde_json::to_string(snapshot)?],
+    )?;
+    Ok(())
+}
+
+/// What the cost model measured before the last stop, if anything.
+pub fn load_measurements(connection: &mut Connection) -> Result<Option<Snapshot>, StoreError> {
+    let text: Option<String> = connection
+        .query_row("SELECT snapshot FROM measurements WHERE only = 1", [], |row| row.get(0))
+        .optional()?;
+    Ok(text.map(|text| serde_json::from_str(&text)).transpose()?)
 }
 
 pub fn insert_run(connection: &mut Connection, run: &StoredRun) -> Result<(), StoreError> {

@@ -57,18 +57,31 @@ impl BlobStore {
     /// session record names the blob. Taken only here, after any download, so no network
     /// transfer ever holds eviction (and with it every other writer) back.
     pub async fn put(&self, name: &str, bytes: Arc<Vec<u8>>) -> Result<Stored<'_>, BlobError> {
+        self.put_all(vec![(name.to_owned(), bytes)]).await
+    }
+
+    /// [`BlobStore::put`] for several blobs under one hold: a task must never take a second
+    /// hold while it keeps one, as that would queue behind a waiting eviction for ever.
+    pub async fn put_all(
+        &self,
+        blobs: Vec<(String, Arc<Vec<u8>>)>,
+    ) -> Result<Stored<'_>, BlobError> {
         let gate = self.gate.read().await;
-        let path = self.path(name);
-        let fail = |message: String| BlobError::Store { name: name.to_owned(), message };
+        let dir = self.dir.clone();
+        let names: Vec<String> = blobs.iter().map(|(name, _)| name.clone()).collect();
         tokio::task::spawn_blocking(move || {
-            if path.exists() {
-                return Ok(());
+            for (name, bytes) in blobs {
+                let path = dir.join(&name);
+                if path.exists() {
+                    continue;
+                }
+                io::write_file(&path, |out| out.write_all(&bytes))
+                    .map_err(|e| BlobError::Store { name, message: e.to_string() })?;
             }
-            io::write_file(&path, |out| out.write_all(&bytes))
+            Ok(())
         })
         .await
-        .map_err(|e| fail(e.to_string()))?
-        .map_err(|e| fail(e.to_string()))?;
+        .map_err(|e| BlobError::Store { name: names.join(", "), message: e.to_string() })??;
         Ok(Stored { _gate: gate })
     }
 

@@ -44,6 +44,10 @@ pub struct SessionRecord {
     /// The grid the session keeps its mesh on, as asked.
     #[serde(default)]
     pub grid: Option<GridSpec>,
+    /// Blobs this host made for other hosts to fetch (its steps' replays): kept as long
+    /// as the session is, though the session itself does not need them.
+    #[serde(default)]
+    pub offered: Vec<String>,
 }
 
 /// A session's mesh once loaded, with its content hash (computed once).
@@ -251,7 +255,7 @@ impl Sessions {
     pub fn needed_blobs(&self) -> HashSet<String> {
         let table = self.table();
         let records = table.values().map(|s| &s.record);
-        records.flat_map(|r| r.input.iter().chain(&r.steps).cloned()).collect()
+        records.flat_map(|r| r.input.iter().chain(&r.steps).chain(&r.offered).cloned()).collect()
     }
 
     /// A session's current mesh with this content hash, to pack on request.
@@ -285,12 +289,23 @@ pub struct BusyGuard<'a> {
 
 impl BusyGuard<'_> {
     /// The session's mesh becomes `next`, reached by applying blob `step`.
-    pub fn commit(mut self, next: CurrentMesh, step: String) -> Result<(), SessionError> {
+    pub fn commit(self, next: CurrentMesh, step: String) -> Result<(), SessionError> {
+        self.commit_offering(next, step, None)
+    }
+
+    /// [`BusyGuard::commit`], keeping blob `offered` for other hosts as long as the session.
+    pub fn commit_offering(
+        mut self,
+        next: CurrentMesh,
+        step: String,
+        offered: Option<String>,
+    ) -> Result<(), SessionError> {
         self.done = true;
         let mut table = self.sessions.table();
         // Deleted while busy: nothing to keep.
         let Some(session) = table.get_mut(&self.id) else { return Ok(()) };
         session.record.steps.push(step);
+        session.record.offered.extend(offered);
         session.current = Some(next);
         session.state = SessionState::Ready;
         session.last_used = Instant::now();

@@ -1,6 +1,8 @@
 //! A real meshflow system on 127.0.0.1 for end-to-end tests: an engine and hosts, each on
 //! its own port and data folder, talked to over HTTP as a user would.
 
+#![allow(dead_code)] // each test crate includes this module and uses its own subset
+
 pub mod local;
 pub mod process;
 

@@ -147,6 +147,25 @@ async function main(page) {
   assert.ok(sentCells.some((c) => c.includes(': full ')) && !sentCells.some((c) => c.includes(': correction ')), sentCells.join(' | '));
   await page.getByTestId('transfer').selectOption('auto');
 
+  // A grid and load-only placement go into the workflow; an impossible grid is refused by
+  // the engine by name; back at the defaults, both keys leave the workflow again.
+  const workflowJson = async () => JSON.parse(await page.getByTestId('workflow-json').inputValue());
+  await page.getByTestId('quantize').fill('30');
+  await page.getByTestId('validation').getByText('quantize').waitFor();
+  await page.getByTestId('quantize').fill('16');
+  await page.getByTestId('placement').selectOption('load');
+  await page.getByText('The engine accepts this workflow.').waitFor();
+  const keyed = await workflowJson();
+  assert.equal(keyed.quantize, 16);
+  assert.equal(keyed.placement, 'load');
+  await page.getByTestId('run').click();
+  await page.waitForFunction((last) => document.querySelector('[data-testid=run-status]')?.dataset.run !== last, runs.bunnyFull);
+  assert.equal(await finalStatus(page), 'completed');
+  await page.getByTestId('quantize').fill('');
+  await page.getByTestId('placement').selectOption('link');
+  const plain = await workflowJson();
+  assert.ok(!('quantize' in plain) && !('placement' in plain), JSON.stringify(plain));
+
   // repair.json from a file, on an uploaded scan; steps arrive while it runs.
   await page.getByTestId('clear-workflow').click();
   await page.getByTestId('workflow-file').setInputFiles(process.env.REPAIR);

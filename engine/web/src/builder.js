@@ -16,6 +16,8 @@ export const EXAMPLES = {
 };
 const OPS = ['<', '<=', '==', '!=', '>=', '>'];
 const TRANSFERS = ['auto', 'correction', 'replay', 'full'];
+/** How the engine picks hosts; `link` (the default) weighs measured links and load. */
+const PLACEMENTS = ['link', 'load'];
 /** Quiet time after the last keystroke before asking the engine to validate. */
 const VALIDATE_DELAY_MS = 250;
 
@@ -34,6 +36,12 @@ export class Builder {
     this.validation = el('div', { className: 'validation', testid: 'validation' });
     this.transfer = el('select', { testid: 'transfer', onchange: () => this.set('transfer', this.transfer.value) },
       TRANSFERS.map((mode) => el('option', { value: mode }, mode)));
+    // Both optional keys leave the workflow when set back to their default.
+    this.quantize = el('input', { type: 'number', min: 1, max: 24, step: 1, placeholder: 'off', testid: 'quantize',
+      oninput: () => this.setOptional('quantize', this.quantize.value === '' ? undefined : Number(this.quantize.value)) });
+    this.placement = el('select', { testid: 'placement',
+      onchange: () => this.setOptional('placement', this.placement.value === 'link' ? undefined : this.placement.value) },
+      PLACEMENTS.map((mode) => el('option', { value: mode }, mode)));
     const file = el('input', { type: 'file', accept: '.json,application/json', testid: 'workflow-file',
       onchange: () => file.files[0] && this.loadFile(file.files[0]) });
     fill(root,
@@ -46,7 +54,10 @@ export class Builder {
         el('button', { testid: 'clear-workflow', onclick: () => this.load({ steps: [], transfer: 'auto' }) }, 'Clear')),
       el('div', { className: 'builder-panes' },
         el('div', { className: 'pane' }, el('h3', {}, 'Steps'), this.cards,
-          el('label', {}, 'Transfer ', this.transfer)),
+          el('div', { className: 'run-options' },
+            el('label', {}, 'Transfer ', this.transfer),
+            el('label', { title: 'Keep every step on a grid of this many bits per coordinate (1–24); empty: off' }, 'Quantize (bits) ', this.quantize),
+            el('label', { title: 'link: weigh measured links and load; load: tasks in flight only' }, 'Placement ', this.placement))),
         el('div', { className: 'pane' }, el('h3', {}, 'JSON'), this.json, this.jsonNote)),
       this.validation);
     this.load(this.workflow);
@@ -80,6 +91,13 @@ export class Builder {
     this.changed();
   }
 
+  /** Sets `key`, or removes it for `undefined` (the engine's default). */
+  setOptional(key, value) {
+    if (value === undefined) delete this.workflow[key];
+    else this.workflow[key] = value;
+    this.changed();
+  }
+
   /** After an edit of the cards: the JSON view follows, the engine validates. */
   changed() {
     this.json.value = this.text();
@@ -95,6 +113,8 @@ export class Builder {
   drawCards() {
     const steps = Array.isArray(this.workflow.steps) ? this.workflow.steps : null;
     this.transfer.value = this.workflow.transfer ?? 'auto';
+    this.quantize.value = this.workflow.quantize ?? '';
+    this.placement.value = this.workflow.placement ?? 'link';
     fill(this.cards, steps ? this.stepList(steps, 'steps', true) : el('p', { className: 'error' }, '"steps" is not a list: edit the JSON'));
   }
 

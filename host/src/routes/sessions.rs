@@ -28,6 +28,7 @@ pub async fn create(
         steps: Vec::new(),
         peers,
         grid: request.grid,
+        offered: Vec::new(),
     };
     host.sessions.insert(&id, record.clone())?;
     tokio::spawn(rebuild::load(host.clone(), id.clone(), record));

@@ -258,18 +258,21 @@ pub async fn run(
     })
     .await?
     .map_err(|e| ApiError::internal(format!("encoding the correction: {e}")))?;
-    // The replay is stored first and not held: no session record names it, and a second
-    // hold taken while the correction's is held would queue behind a waiting eviction.
     let result_hash = ContentHash::from_hex(&next.hash)
         .ok_or_else(|| ApiError::internal("the result hash is not a hash".to_owned()))?;
     let named = replay::name(&ran.0, &info, &ran.1, base_hash, &next.mesh, result_hash)
         .map(|step| meshflow_codec::replay::encode(&step))
         .map_err(|e| ApiError::internal(format!("naming the step: {e}")))?;
     let (replay_name, replay_bytes) = (meshes::replay_name(&named), named.len() as u64);
-    drop(host.blobs.put(&replay_name, Arc::new(named)).await?);
     let correction_name = meshes::correction_name(&correction);
     let correction_bytes = correction.len() as u64;
-    let stored = host.blobs.put(&correction_name, Arc::new(correction)).await?;
+    let stored = host
+        .blobs
+        .put_all(vec![
+            (correction_name.clone(), Arc::new(correction)),
+            (replay_name.clone(), Arc::new(named)),
+        ])
+        .await?;
     let full_name = host.blobs.remember(next.mesh.clone(), &next.hash);
     let result = FilterResult {
         service,
@@ -287,7 +290,7 @@ pub async fn run(
         replay: BlobRef { url: host.blob_url(&replay_name), bytes: replay_bytes },
         full: FullRef { url: host.blob_url(&full_name), hash: next.hash.clone() },
     };
-    session.commit(next, correction_name)?;
+    session.commit_offering(next, correction_name, Some(replay_name))?;
     drop(stored);
     crate::eviction::enforce_budget(&host).await;
     Ok(Json(RunResult::Filter(result)))

@@ -12,11 +12,9 @@
 //! on the edge disappear, the end's other triangles turn to the start), so the recorded
 //! edges replay exactly; survivors are moved to their final positions at the end.
 
-use std::cmp::Ordering;
+use std::cmp::{Ordering, Reverse};
 
-// Four children per node: half the depth of a binary heap, and a node's children share a
-// cache line. Pops dominate on large meshes (most queued candidates go stale).
-use dary_heap::QuaternaryHeap as Heap;
+use radix_heap::RadixHeapMap;
 
 use crate::local::LocalMesh;
 use meshflow_plugin_sdk::geometry::{Vec3, add, cross, dot, norm, point, scale, sub};
@@ -63,30 +61,30 @@ pub struct Decimation {
 pub fn decimate(positions: &[f32], triangles: &[u32], settings: Settings) -> Decimation {
     let mut state = State::new(positions, triangles, settings);
     let before = state.live;
-    let mut heap = Heap::new();
+    let mut queue = Queue::new();
     for v in 0..state.pos.len() as u32 {
         for w in state.mesh.neighbours(v) {
             if v < w {
-                state.push(&mut heap, v, w);
+                state.push(&mut queue, v, w);
             }
         }
     }
     while state.live > settings.target_triangles {
-        let Some(entry) = heap.pop() else { break };
+        let Some((Reverse(key), entry)) = queue.pop() else { break };
         let Candidate { a, b, .. } = entry;
         if !state.is_current(&entry) {
             continue;
         }
         match state.evaluate(a, b) {
             None => continue,
-            Some(c) if c.cost as f32 > entry.cost => {
-                heap.push(Candidate { cost: c.cost as f32, ..entry });
+            Some(c) if cost_key(c.cost) > key => {
+                queue.push(Reverse(cost_key(c.cost)), entry);
                 continue;
             }
             Some(c) => {
                 let survivor = state.collapse(c);
                 for w in state.mesh.neighbours(survivor) {
-                    state.push(&mut heap, survivor, w);
+                    state.push(&mut queue, survivor, w);
                 }
             }
         }
@@ -149,38 +147,29 @@ impl Quadric {
     }
 }
 
+/// Collapses are taken cheapest first from a monotone radix heap: the queue holds millions of
+/// entries, most of which go stale, and a binary heap's pops (each a walk down the tree
+/// through cache misses) took half of all the time on a 1M-vertex scan. Keys are the costs'
+/// `f32` bits (ordered like the costs, as these are never negative). A collapse may make a
+/// neighbouring edge cheaper than the last one taken; it is queued at that last cost, so it
+/// is taken next.
+type Queue = RadixHeapMap<Reverse<u32>, Candidate>;
+
+fn cost_key(cost: f64) -> u32 {
+    let cost = cost as f32;
+    // Also maps -0 and NaN to the cheapest key.
+    if cost > 0.0 { cost.to_bits() } else { 0 }
+}
+
 /// A queued collapse of edge `a`–`b`, valid while both vertices keep their versions.
-/// Kept to 16 bytes, as millions are queued: the cost in `f32` only orders the queue (the
-/// collapse is evaluated again when popped), and versions wrap, which at worst lets a
-/// stale entry be evaluated again.
+/// Versions wrap, which at worst lets a stale entry be evaluated again (the collapse is
+/// evaluated afresh when popped).
 #[derive(Clone, Copy, Debug)]
 struct Candidate {
-    cost: f32,
     a: u32,
     b: u32,
     version_a: u16,
     version_b: u16,
-}
-
-impl PartialEq for Candidate {
-    fn eq(&self, other: &Self) -> bool {
-        self.cmp(other) == Ordering::Equal
-    }
-}
-
-impl Eq for Candidate {}
-
-impl PartialOrd for Candidate {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl Ord for Candidate {
-    /// Reversed, so the max-heap pops the cheapest; ties by vertex ids, for determinism.
-    fn cmp(&self, other: &Self) -> Ordering {
-        other.cost.total_cmp(&self.cost).then((other.a, other.b).cmp(&(self.a, self.b)))
-    }
 }
 
 /// A collapse that passed every test: keep `from`'s start, place it at `at`.
@@ -280,10 +269,20 @@ impl State {
         }
     }
 
-    fn push(&self, heap: &mut Heap<Candidate>, a: u32, b: u32) {
-        if let Some(c) = self.evaluate(a, b) {
+    /// Queues edge `a`–`b` by its cost. Whether it keeps the topology and folds nothing is
+    /// checked when it is popped: most queued entries go stale before that.
+    fn push(&self, queue: &mut Queue, a: u32, b: u32) {
+        let cost = if self.settings.quality_weight > 0.0 {
+            // The shape penalty needs the fan anyway.
+            self.evaluate(a, b).map(|c| c.cost)
+        } else {
+            self.placement(a, b).map(|(_, error)| error)
+        };
+        if let Some(cost) = cost {
             let (version_a, version_b) = (self.version[a as usize], self.version[b as usize]);
-            heap.push(Candidate { cost: c.cost as f32, a, b, version_a, version_b });
+            let last = queue.top().map_or(0, |Reverse(key)| key);
+            let key = cost_key(cost).max(last);
+            queue.push(Reverse(key), Candidate { a, b, version_a, version_b });
         }
     }
 
@@ -295,18 +294,13 @@ impl State {
             && self.version[b] == c.version_b
     }
 
-    /// Whether and how edge `a`–`b` may collapse, with its cost.
-    fn evaluate(&self, a: u32, b: u32) -> Option<Collapse> {
+    /// Where edge `a`–`b` would merge to and its quadric error there, if no end is locked
+    /// and a preserved boundary allows it.
+    fn placement(&self, a: u32, b: u32) -> Option<(Vec3, f64)> {
         if self.locked[a as usize] || self.locked[b as usize] {
             return None;
         }
-        let on_edge = self.mesh.collapse_keeps_topology(a, b)?;
         let (boundary_a, boundary_b) = (self.mesh.is_boundary(a), self.mesh.is_boundary(b));
-        let edge_on_boundary = on_edge.count() == 1;
-        // Two boundary vertices joined across the inside: collapsing would pinch the surface.
-        if boundary_a && boundary_b && !edge_on_boundary {
-            return None;
-        }
         // Which end a preserved boundary pins (the other merges into it).
         let keep = match (self.settings.preserve_boundary, boundary_a, boundary_b) {
             (false, _, _) | (true, false, false) => None,
@@ -321,9 +315,21 @@ impl State {
             None => self.best_point(&quadric, pa, pb),
         };
         let at = at.map(|x| x as f32 as f64);
+        Some((at, quadric.error(at).max(0.0)))
+    }
+
+    /// Whether and how edge `a`–`b` may collapse, with its cost.
+    fn evaluate(&self, a: u32, b: u32) -> Option<Collapse> {
+        let (at, error) = self.placement(a, b)?;
+        let on_edge = self.mesh.collapse_keeps_topology(a, b)?;
+        // Two boundary vertices joined across the inside: collapsing would pinch the surface.
+        let edge_on_boundary = on_edge.count() == 1;
+        if self.mesh.is_boundary(a) && self.mesh.is_boundary(b) && !edge_on_boundary {
+            return None;
+        }
         let worst_shape = self.check_fan(a, b, at)?;
         let penalty = 1.0 + self.settings.quality_weight * (1.0 - worst_shape);
-        let cost = quadric.error(at).max(0.0) * penalty;
+        let cost = error * penalty;
         let half_edge = on_edge.iter().find_map(|t| {
             let c = self.mesh.corners(t);
             (0..3)
