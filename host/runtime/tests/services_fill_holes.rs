@@ -10,6 +10,7 @@ use meshflow_topology::boundary::{BoundaryLoop, boundary_loops};
 use meshflow_topology::geometry::{corner_angles_degrees, norm, point};
 use meshflow_topology::halfedge::HalfEdges;
 use meshflow_topology::manifold::{is_edge_manifold, is_oriented};
+use meshflow_topology::shapes::uv_sphere;
 
 fn fill(mesh: &MeshData, params: &[(&str, Value)]) -> RunOutput {
     let runtime = Runtime::new(Limits::default(), None).expect("a runtime");
@@ -20,29 +21,9 @@ fn fill(mesh: &MeshData, params: &[(&str, Value)]) -> RunOutput {
     runtime.run(&plugin, "fill-holes", mesh.clone(), &params).expect("fill-holes runs")
 }
 
-/// A closed unit sphere of latitude rings (outward normals), poles included.
 fn sphere(rings: u32, segments: u32) -> MeshData {
-    let mut positions = vec![0.0, 0.0, 1.0];
-    for r in 1..rings {
-        let polar = std::f64::consts::PI * r as f64 / rings as f64;
-        for s in 0..segments {
-            let a = std::f64::consts::TAU * s as f64 / segments as f64;
-            positions.extend([polar.sin() * a.cos(), polar.sin() * a.sin(), polar.cos()]);
-        }
-    }
-    positions.extend([0.0, 0.0, -1.0]);
-    let ring = |r: u32, s: u32| 1 + (r - 1) * segments + s % segments;
-    let south = 1 + (rings - 1) * segments;
-    let mut triangles = Vec::new();
-    for s in 0..segments {
-        triangles.extend([0, ring(1, s), ring(1, s + 1)]);
-        triangles.extend([south, ring(rings - 1, s + 1), ring(rings - 1, s)]);
-        for r in 1..rings - 1 {
-            let (a, b, c, d) = (ring(r, s), ring(r + 1, s), ring(r + 1, s + 1), ring(r, s + 1));
-            triangles.extend([a, b, c, a, c, d]);
-        }
-    }
-    MeshData::new(positions.into_iter().map(|c| c as f32).collect(), triangles)
+    let (positions, triangles) = uv_sphere(rings, segments);
+    MeshData::new(positions, triangles)
 }
 
 /// Removes the triangles whose centroid is within `radius` of `centre`.

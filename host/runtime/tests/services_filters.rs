@@ -11,6 +11,7 @@ use meshflow_topology::boundary::{boundary_loops, boundary_vertices};
 use meshflow_topology::components::TriangleComponents;
 use meshflow_topology::geometry::{bounding_box, is_degenerate};
 use meshflow_topology::halfedge::HalfEdges;
+use meshflow_topology::shapes::{square_grid, triangular_sheet};
 
 fn runtime() -> Runtime {
     Runtime::new(Limits::default(), None).expect("a runtime")
@@ -119,26 +120,9 @@ fn smoothing_with_a_fixed_boundary_leaves_boundary_vertices_bit_identical() {
 
 /// A flat sheet of `n x n` vertices on a nearly equilateral lattice, lifted by `height`.
 fn sheet(n: u32, height: impl Fn(f32, f32) -> f32) -> MeshData {
-    let h = 3f32.sqrt() / 2.0;
-    let mut positions = Vec::new();
-    for j in 0..n {
-        for i in 0..n {
-            let (x, y) = (i as f32 + 0.5 * (j % 2) as f32, j as f32 * h);
-            positions.extend([x, y, height(x, y)]);
-        }
-    }
-    let v = |i: u32, j: u32| j * n + i;
-    let mut triangles = Vec::new();
-    for j in 0..n - 1 {
-        for i in 0..n - 1 {
-            if j % 2 == 0 {
-                triangles.extend([v(i, j), v(i + 1, j), v(i, j + 1)]);
-                triangles.extend([v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]);
-            } else {
-                triangles.extend([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
-                triangles.extend([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
-            }
-        }
+    let (mut positions, triangles) = triangular_sheet(n);
+    for p in positions.chunks_exact_mut(3) {
+        p[2] = height(p[0], p[1]);
     }
     MeshData::new(positions, triangles)
 }
@@ -211,19 +195,7 @@ fn noise_reproduces_by_seed_differs_by_seed_and_respects_the_amount() {
 /// a cap on the border, a cap inside, two needles on one edge, a duplicate and a triangle
 /// with a repeated vertex.
 fn damaged_grid() -> MeshData {
-    let mut positions = Vec::new();
-    for y in 0..5 {
-        for x in 0..5 {
-            positions.extend([x as f32, y as f32, 0.0]);
-        }
-    }
-    let mut triangles = Vec::new();
-    for y in 0..4 {
-        for x in 0..4 {
-            let v = y * 5 + x;
-            triangles.extend([v, v + 1, v + 6, v, v + 6, v + 5]);
-        }
-    }
+    let (mut positions, mut triangles) = square_grid(4);
     let mut place = |v: usize, x: f32, y: f32| positions[3 * v..3 * v + 2].copy_from_slice(&[x, y]);
     place(6, 0.5, 0.0); // (0, 1, 6) lies flat on the border edge 0-1
     place(17, 1.0, 2.5); // (11, 17, 16) lies flat on the interior edge 11-16

@@ -17,19 +17,7 @@ impl Fixture {
 /// The unit cube, 8 vertices (`x + 2y + 4z`), two right isosceles triangles per face,
 /// oriented outwards.
 pub fn cube() -> Fixture {
-    let mut positions = Vec::new();
-    for v in 0..8u32 {
-        positions.extend([v & 1, v >> 1 & 1, v >> 2 & 1].map(|c| c as f32));
-    }
-    #[rustfmt::skip]
-    let triangles = vec![
-        0, 2, 3, 0, 3, 1, // z = 0
-        4, 5, 7, 4, 7, 6, // z = 1
-        0, 1, 5, 0, 5, 4, // y = 0
-        2, 6, 7, 2, 7, 3, // y = 1
-        0, 4, 6, 0, 6, 2, // x = 0
-        1, 3, 7, 1, 7, 5, // x = 1
-    ];
+    let (positions, triangles) = meshflow_plugin_sdk::topology::shapes::unit_cube();
     Fixture { positions, triangles }
 }
 

@@ -283,19 +283,7 @@ mod tests {
     /// A 4x4 grid of unit squares: vertex `5y + x` at (x, y); square `v` (its lower left
     /// corner) is split into (v, v+1, v+6) and (v, v+6, v+5).
     fn grid() -> MeshData {
-        let mut positions = Vec::new();
-        for y in 0..5 {
-            for x in 0..5 {
-                positions.extend([x as f32, y as f32, 0.0]);
-            }
-        }
-        let mut triangles = Vec::new();
-        for y in 0..4 {
-            for x in 0..4 {
-                let v = y * 5 + x;
-                triangles.extend([v, v + 1, v + 6, v, v + 6, v + 5]);
-            }
-        }
+        let (positions, triangles) = meshflow_plugin_sdk::topology::shapes::square_grid(4);
         MeshData::new(positions, triangles)
     }
 

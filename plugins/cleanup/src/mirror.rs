@@ -13,6 +13,7 @@ use std::collections::BTreeMap;
 
 use meshflow_plugin_sdk::REMOVED;
 use meshflow_plugin_sdk::topology::adjacency::VertexTriangles;
+use meshflow_plugin_sdk::topology::edits::split_on_edge;
 use meshflow_plugin_sdk::topology::halfedge::next;
 
 /// One recorded edit, in the host's vocabulary.
@@ -145,18 +146,10 @@ impl MirrorMesh {
         self.vertex_removed.push(false);
         let mut halves = Vec::with_capacity(on_edge.len());
         for t in on_edge {
-            let corners = self.corners(t);
-            let j = (0..3)
-                .find(|&j| {
-                    let (x, y) = (corners[j], corners[(j + 1) % 3]);
-                    (x, y) == (a, b) || (x, y) == (b, a)
-                })
+            let (kept, appended) = split_on_edge(self.corners(t), a, b, v)
                 .expect("a triangle with distinct corners containing both ends has the edge");
-            let (y, o) = (corners[(j + 1) % 3], corners[(j + 2) % 3]);
-            let mut kept = corners;
-            kept[(j + 1) % 3] = v;
             self.set_corners(t, kept);
-            halves.push((t, self.push_triangle([v, y, o])));
+            halves.push((t, self.push_triangle(appended)));
         }
         self.edits.push(Edit::SplitEdge { edge, at, vertex: v });
         (v, halves)

@@ -66,23 +66,8 @@ fn signed_volume(positions: &[f32], triangles: &[u32], patch: &[u32], flip: &[bo
 mod tests {
     use super::*;
     use meshflow_plugin_sdk::topology::manifold::is_oriented;
+    use meshflow_plugin_sdk::topology::shapes::unit_cube as cube;
 
-    /// The unit cube, outward.
-    fn cube() -> (Vec<f32>, Vec<u32>) {
-        let positions = (0..8u32)
-            .flat_map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32])
-            .collect();
-        #[rustfmt::skip]
-        let triangles = vec![
-            0, 2, 1, 1, 2, 3, // z = 0
-            4, 5, 6, 5, 7, 6, // z = 1
-            0, 1, 4, 1, 5, 4, // y = 0
-            2, 6, 3, 3, 6, 7, // y = 1
-            0, 4, 2, 2, 4, 6, // x = 0
-            1, 3, 5, 3, 7, 5, // x = 1
-        ];
-        (positions, triangles)
-    }
 
     fn apply(triangles: &mut [u32], flips: &[u32]) {
         for &t in flips {

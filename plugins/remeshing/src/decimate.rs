@@ -431,7 +431,8 @@ fn shape(p: &[Vec3; 3]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fixtures::{self, sphere};
+    use crate::fixtures;
+    use meshflow_plugin_sdk::topology::shapes::{square_grid, uv_sphere};
     use crate::isotropic::Edit;
     use meshflow_plugin_sdk::topology::manifold::{is_manifold, is_oriented};
 
@@ -458,7 +459,7 @@ mod tests {
 
     #[test]
     fn a_sphere_reaches_the_target_and_stays_a_closed_oriented_sphere() {
-        let (p, t) = sphere(30, 60);
+        let (p, t) = uv_sphere(30, 60);
         let d = decimate(&p, &t, settings(500));
         assert!(d.triangles_after <= 500 && d.triangles_after >= 498, "{}", d.triangles_after);
         let (p2, t2) = replay(&p, &t, &d);
@@ -476,14 +477,7 @@ mod tests {
     #[test]
     fn a_flat_grid_keeps_its_boundary_and_stays_flat() {
         let n = 20u32;
-        let p: Vec<f32> = (0..n * n).flat_map(|i| [(i % n) as f32, (i / n) as f32, 0.0]).collect();
-        let mut t = Vec::new();
-        for y in 0..n - 1 {
-            for x in 0..n - 1 {
-                let v = y * n + x;
-                t.extend([v, v + 1, v + n + 1, v, v + n + 1, v + n]);
-            }
-        }
+        let (p, t) = square_grid(n - 1);
         let d = decimate(&p, &t, settings(100));
         let (p2, t2) = replay(&p, &t, &d);
         assert!(manifold_and_oriented(&p2, &t2));
@@ -512,7 +506,7 @@ mod tests {
         assert_eq!(d.triangles_after, 4);
 
         // A sphere with a fin on one edge and a degenerate triangle: both spots are locked.
-        let (mut p, mut t) = sphere(12, 24);
+        let (mut p, mut t) = uv_sphere(12, 24);
         let extra = (p.len() / 3) as u32;
         p.extend([3.0, 3.0, 3.0]);
         t.extend([t[0], t[1], extra, 5, 5, 6]);
@@ -525,7 +519,7 @@ mod tests {
 
     #[test]
     fn quality_weight_gives_better_shaped_triangles() {
-        let (p, t) = sphere(30, 60);
+        let (p, t) = uv_sphere(30, 60);
         let worst = |w: f64| {
             let d = decimate(&p, &t, Settings { quality_weight: w, ..settings(600) });
             let (p2, t2) = replay(&p, &t, &d);

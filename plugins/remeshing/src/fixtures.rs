@@ -1,4 +1,4 @@
-//! Test meshes, and the replay of recorded edits with the host store's rules, shared by
+//! The replay of recorded edits with the host store's rules, shared by
 //! the unit tests.
 
 use meshflow_plugin_sdk::topology::NONE;
@@ -74,31 +74,4 @@ pub fn replay(
     let t =
         tris.iter().filter(|c| c[0] != NONE).flat_map(|c| c.map(|v| new_id[v as usize])).collect();
     (out, t)
-}
-
-/// A closed UV sphere of radius 1, outward.
-pub fn sphere(rings: u32, segments: u32) -> (Vec<f32>, Vec<u32>) {
-    let mut positions = vec![0.0, 0.0, 1.0];
-    for r in 1..rings {
-        let polar = std::f64::consts::PI * r as f64 / rings as f64;
-        for s in 0..segments {
-            let a = std::f64::consts::TAU * s as f64 / segments as f64;
-            positions.extend(
-                [polar.sin() * a.cos(), polar.sin() * a.sin(), polar.cos()].map(|x| x as f32),
-            );
-        }
-    }
-    positions.extend([0.0, 0.0, -1.0]);
-    let ring = |r: u32, s: u32| 1 + (r - 1) * segments + s % segments;
-    let south = 1 + (rings - 1) * segments;
-    let mut triangles = Vec::new();
-    for s in 0..segments {
-        triangles.extend([0, ring(1, s), ring(1, s + 1)]);
-        triangles.extend([south, ring(rings - 1, s + 1), ring(rings - 1, s)]);
-        for r in 1..rings - 1 {
-            let (a, b, c, d) = (ring(r, s), ring(r + 1, s), ring(r + 1, s + 1), ring(r, s + 1));
-            triangles.extend([a, b, c, a, c, d]);
-        }
-    }
-    (positions, triangles)
 }

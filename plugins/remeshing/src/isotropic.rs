@@ -401,7 +401,8 @@ fn turns_little(old: Vec3, new: Vec3) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fixtures::{replay, sphere};
+    use crate::fixtures::replay;
+    use meshflow_plugin_sdk::topology::shapes::uv_sphere;
     use meshflow_plugin_sdk::geometry::corner_angles_degrees;
     use meshflow_plugin_sdk::topology::NONE;
     use meshflow_plugin_sdk::topology::manifold::{is_manifold, is_oriented};
@@ -449,7 +450,7 @@ mod tests {
 
     #[test]
     fn a_sphere_becomes_isotropic_at_the_target_length() {
-        let (p, t) = sphere(16, 24);
+        let (p, t) = uv_sphere(16, 24);
         let settings =
             Settings { target_length: 0.12, iterations: 10, feature_angle_degrees: 60.0 };
         let r = remesh(&p, &t, settings).unwrap();
@@ -520,7 +521,7 @@ mod tests {
             remesh(&p, &[0, 0, 1], s),
             Err(Refusal::Input(InputDefect::ImproperTriangles(1)))
         );
-        let (p, t) = sphere(8, 8);
+        let (p, t) = uv_sphere(8, 8);
         let tiny = Settings { target_length: 1e-5, ..s };
         assert!(matches!(remesh(&p, &t, tiny), Err(Refusal::TooFine { .. })));
     }

@@ -10,6 +10,7 @@
 
 use std::cell::RefCell;
 
+use meshflow_plugin_sdk::topology::edits::split_on_edge;
 use meshflow_plugin_sdk::topology::{NONE, is_proper_triangle};
 
 pub struct LocalMesh {
@@ -216,16 +217,15 @@ impl LocalMesh {
         let on_edge_count = on_edge.len();
         let mut apexes = Vec::with_capacity(on_edge_count);
         for t in on_edge {
-            let corners = self.corners(t);
-            let j = slot(corners);
-            let (y, o) = (corners[(j + 1) % 3], corners[(j + 2) % 3]);
+            let (kept, appended) = split_on_edge(self.corners(t), a, b, v).expect("on the edge");
+            let [_, y, o] = appended;
             apexes.push(o);
-            self.tris[t as usize][(j + 1) % 3] = v;
+            self.tris[t as usize] = kept;
             self.around[y as usize].retain(|&u| u != t);
             self.around[v as usize].push(t);
             let new = self.tris.len() as u32;
-            self.tris.push([v, y, o]);
-            for w in [v, y, o] {
+            self.tris.push(appended);
+            for w in appended {
                 self.around[w as usize].push(new);
             }
         }
@@ -322,7 +322,7 @@ impl EdgeTriangles {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fixtures::sphere;
+    use meshflow_plugin_sdk::topology::shapes::uv_sphere;
 
     /// The valence and boundary flags kept through edits, against the mesh rebuilt from its
     /// triangles after every edit.
@@ -340,7 +340,7 @@ mod tests {
     #[test]
     fn valence_and_boundary_stay_exact_through_splits_collapses_and_swaps() {
         // A sphere with a cap cut off: a closed part and a boundary loop.
-        let (p, mut t) = sphere(8, 16);
+        let (p, mut t) = uv_sphere(8, 16);
         let top = (0..p.len() / 3).filter(|&v| p[3 * v + 2] > 0.8).map(|v| v as u32);
         let cap: Vec<u32> = top.collect();
         for c in t.chunks_exact_mut(3) {

@@ -99,23 +99,12 @@ fn step(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use meshflow_plugin_sdk::topology::shapes::{square_grid, triangular_sheet};
 
     /// A 3x3 grid of vertices (one interior vertex, 4), 8 triangles.
     fn grid() -> (Vec<f32>, Vec<u32>) {
-        let mut positions = Vec::new();
-        for y in 0..3 {
-            for x in 0..3 {
-                positions.extend([x as f32, y as f32, 0.0]);
-            }
-        }
+        let (mut positions, triangles) = square_grid(2);
         positions[3 * 4 + 2] = 3.0; // lift the centre
-        let mut triangles = Vec::new();
-        for y in 0..2 {
-            for x in 0..2 {
-                let v = y * 3 + x;
-                triangles.extend([v, v + 1, v + 4, v, v + 4, v + 3]);
-            }
-        }
         (positions, triangles)
     }
 
@@ -149,29 +138,13 @@ mod tests {
     /// step) with a deterministic jitter of the interior vertices in the plane; `lift` gives
     /// each vertex a height from its (x, y).
     pub(crate) fn jittered_sheet(n: u32, lift: impl Fn(f32, f32) -> f32) -> (Vec<f32>, Vec<u32>) {
-        let h = 3f32.sqrt() / 2.0;
-        let mut positions = Vec::new();
-        for j in 0..n {
-            for i in 0..n {
-                let interior = i > 0 && j > 0 && i + 1 < n && j + 1 < n;
-                let jitter = if interior { 0.08 * ((17 * i + 31 * j) as f32).sin() } else { 0.0 };
-                let x = i as f32 + 0.5 * (j % 2) as f32 + jitter;
-                let y = j as f32 * h - jitter;
-                positions.extend([x, y, lift(x, y)]);
-            }
-        }
-        let v = |i: u32, j: u32| j * n + i;
-        let mut triangles = Vec::new();
-        for j in 0..n - 1 {
-            for i in 0..n - 1 {
-                if j % 2 == 0 {
-                    triangles.extend([v(i, j), v(i + 1, j), v(i, j + 1)]);
-                    triangles.extend([v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]);
-                } else {
-                    triangles.extend([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
-                    triangles.extend([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
-                }
-            }
+        let (mut positions, triangles) = triangular_sheet(n);
+        for (v, p) in (0..).zip(positions.chunks_exact_mut(3)) {
+            let (i, j) = (v % n, v / n);
+            let interior = i > 0 && j > 0 && i + 1 < n && j + 1 < n;
+            let jitter = if interior { 0.08 * ((17 * i + 31 * j) as f32).sin() } else { 0.0 };
+            let (x, y) = (p[0] + jitter, p[1] - jitter);
+            p.copy_from_slice(&[x, y, lift(x, y)]);
         }
         (positions, triangles)
     }

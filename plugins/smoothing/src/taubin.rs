@@ -43,34 +43,7 @@ mod tests {
     use crate::laplacian::{self, Pinning, Weights};
     use crate::noise::add_noise;
     use meshflow_plugin_sdk::topology::measure::closed_component_volumes;
-
-    /// A closed UV sphere of radius 1: `rings` latitude bands, `segments` around, wound
-    /// outward.
-    fn sphere(rings: u32, segments: u32) -> (Vec<f32>, Vec<u32>) {
-        use std::f64::consts::PI;
-        let mut positions = vec![0.0, 0.0, 1.0];
-        for r in 1..rings {
-            let theta = PI * r as f64 / rings as f64;
-            for s in 0..segments {
-                let phi = 2.0 * PI * s as f64 / segments as f64;
-                let p = [theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()];
-                positions.extend(p.map(|x| x as f32));
-            }
-        }
-        positions.extend([0.0, 0.0, -1.0]);
-        let south = 1 + (rings - 1) * segments;
-        let ring = |r: u32, s: u32| 1 + r * segments + s % segments;
-        let mut triangles = Vec::new();
-        for s in 0..segments {
-            triangles.extend([0, ring(0, s), ring(0, s + 1)]);
-            triangles.extend([south, ring(rings - 2, s + 1), ring(rings - 2, s)]);
-            for r in 0..rings - 2 {
-                triangles.extend([ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)]);
-                triangles.extend([ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)]);
-            }
-        }
-        (positions, triangles)
-    }
+    use meshflow_plugin_sdk::topology::shapes::uv_sphere;
 
     fn volume(positions: &[f32], triangles: &[u32]) -> f64 {
         closed_component_volumes(positions, triangles).iter().map(|c| c.volume).sum()
@@ -78,7 +51,7 @@ mod tests {
 
     #[test]
     fn taubin_keeps_the_volume_of_a_noised_sphere_where_laplacian_shrinks_it() {
-        let (clean, triangles) = sphere(40, 80);
+        let (clean, triangles) = uv_sphere(40, 80);
         let noised = add_noise(&clean, 0.02, 7);
         let before = volume(&noised, &triangles);
         assert!((before - 4.0 / 3.0 * std::f64::consts::PI).abs() < 0.05, "{before}");

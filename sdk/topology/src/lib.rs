@@ -42,12 +42,14 @@ pub mod boundary;
 pub mod components;
 mod csr;
 pub mod edges;
+pub mod edits;
 pub mod geometry;
 mod half_edge_ids;
 pub mod halfedge;
 pub mod laplacian;
 pub mod manifold;
 pub mod measure;
+pub mod shapes;
 pub mod transform;
 
 pub use adjacency::{VertexNeighbours, VertexTriangles, unreferenced_vertices};

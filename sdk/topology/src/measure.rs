@@ -54,15 +54,8 @@ mod tests {
 
     /// The unit cube, 12 triangles wound outward, shifted by `offset`.
     pub(crate) fn cube(offset: f32) -> (Vec<f32>, Vec<u32>) {
-        let mut positions = Vec::new();
-        for i in 0..8u32 {
-            positions.extend([i & 1, (i >> 1) & 1, (i >> 2) & 1].map(|b| b as f32 + offset));
-        }
-        let triangles = vec![
-            0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4, 2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4,
-            6, 1, 3, 5, 3, 7, 5,
-        ];
-        (positions, triangles)
+        let (positions, triangles) = crate::shapes::unit_cube();
+        (positions.into_iter().map(|c| c + offset).collect(), triangles)
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! Hand-built meshes with known answers for the topology and geometry helpers.
 
 use meshflow_topology::geometry::{self, Vec3};
+use meshflow_topology::shapes::{square_grid, unit_cube};
 use meshflow_topology::{
     self, EdgeKind, HalfEdges, NONE, TriangleComponents, VertexNeighbours, VertexTriangles,
     boundary_loops, boundary_vertices, has_duplicate_triangles, has_improper_triangles,
@@ -61,45 +62,17 @@ fn rep(edges: usize, loops: &[usize], components: usize, flags: [bool; 4]) -> Re
 
 const ALL: [bool; 4] = [true; 4];
 
-/// Unit cube, vertex `x + 2y + 4z`, 12 triangles with outward normals.
-fn cube_mesh() -> (Vec<f32>, Vec<u32>) {
-    let mut p = Vec::new();
-    for i in 0..8 {
-        p.extend([(i & 1) as f32, (i >> 1 & 1) as f32, (i >> 2 & 1) as f32]);
-    }
-    #[rustfmt::skip]
-    let t = vec![
-        0, 2, 3, 0, 3, 1, // -z
-        4, 5, 7, 4, 7, 6, // +z
-        0, 1, 5, 0, 5, 4, // -y
-        2, 6, 7, 2, 7, 3, // +y
-        0, 4, 6, 0, 6, 2, // -x
-        1, 3, 7, 1, 7, 5, // +x
-    ];
-    (p, t)
-}
 
 /// A grid of `n × n` unit quads in the xy plane, vertex `x + (n + 1) y`, two CCW triangles
 /// per quad, leaving out the quads in `holes` (given as `(x, y)`).
 fn grid(n: u32, holes: &[(u32, u32)]) -> (Vec<f32>, Vec<u32>) {
-    let mut p = Vec::new();
-    for y in 0..=n {
-        for x in 0..=n {
-            p.extend([x as f32, y as f32, 0.0]);
-        }
-    }
-    let mut t = Vec::new();
-    for y in 0..n {
-        for x in 0..n {
-            if holes.contains(&(x, y)) {
-                continue;
-            }
-            let v = x + (n + 1) * y;
-            let w = v + n + 1;
-            t.extend([v, v + 1, w + 1, v, w + 1, w]);
-        }
-    }
-    (p, t)
+    let (p, t) = square_grid(n);
+    // Square `x + n y` is triangles 2 (x + n y) and the next.
+    let kept = t.chunks_exact(6).enumerate().filter(|(s, _)| {
+        let (x, y) = (*s as u32 % n, *s as u32 / n);
+        !holes.contains(&(x, y))
+    });
+    (p, kept.flat_map(|(_, quad)| quad.iter().copied()).collect())
 }
 
 /// A Möbius strip of `n` quads: top vertices 0..n, bottom n..2n, the last quad glued with a
@@ -164,7 +137,7 @@ fn tetrahedron() {
 
 #[test]
 fn cube() {
-    let (p, t) = cube_mesh();
+    let (p, t) = unit_cube();
     assert_eq!(report(8, &t), rep(18, &[], 1, ALL));
     let he = HalfEdges::new(8, &t);
     assert_eq!(orientation_flips(&he), Some(vec![false; 12]));
@@ -200,7 +173,7 @@ fn cube() {
 
 #[test]
 fn cube_with_one_flipped_triangle() {
-    let (_, mut t) = cube_mesh();
+    let (_, mut t) = unit_cube();
     t.swap(4, 5); // triangle 1: (0, 3, 1) -> (0, 1, 3)
     assert_eq!(report(8, &t), rep(18, &[], 1, [true, true, false, true]));
     let he = HalfEdges::new(8, &t);
@@ -314,7 +287,7 @@ fn grid_with_holes_touching_at_a_vertex() {
 
 #[test]
 fn degenerate_triangles() {
-    let (p, mut t) = cube_mesh();
+    let (p, mut t) = unit_cube();
     // A repeated-index sliver on the cube edge 0-1, a point triangle, an out-of-range one.
     t.extend([0, 0, 1, 2, 2, 2, 0, 1, 99]);
     let he = HalfEdges::new(8, &t);
@@ -347,7 +320,7 @@ fn degenerate_triangles() {
 
 #[test]
 fn unreferenced_vertices_are_ignored() {
-    let (mut p, t) = cube_mesh();
+    let (mut p, t) = unit_cube();
     p.extend([5.0, 5.0, 5.0, -1.0, 0.0, 0.0, 0.5, 0.5, 0.5]);
     assert_eq!(report(11, &t), rep(18, &[], 1, ALL));
     assert_eq!(unreferenced_vertices(11, &t), [8, 9, 10]);

@@ -1,5 +1,7 @@
 //! Edge edits, addressed by half-edge id `3 * t + k` (corner k to corner (k+1) % 3).
 
+use meshflow_topology::edits::split_on_edge;
+
 use super::{EditError, EditErrorKind, MeshStore, check_finite};
 
 /// A validated half-edge: its triangle, corner, and end points.
@@ -59,18 +61,10 @@ impl MeshStore {
         let (pa, pb) = (self.point(a), self.point(b));
         let v = self.push_vertex(at.unwrap_or_else(|| midpoint(pa, pb)));
         for t in on_edge {
-            let corners = self.corners(t);
-            let j = (0..3)
-                .find(|&j| {
-                    let (x, y) = (corners[j], corners[(j + 1) % 3]);
-                    (x, y) == (a, b) || (x, y) == (b, a)
-                })
+            let (kept, appended) = split_on_edge(self.corners(t), a, b, v)
                 .expect("a non-degenerate triangle with both ends has the edge");
-            let (y, o) = (corners[(j + 1) % 3], corners[(j + 2) % 3]);
-            let mut kept = corners;
-            kept[(j + 1) % 3] = v;
             self.set_corners(t, kept);
-            self.push_triangle([v, y, o]);
+            self.push_triangle(appended);
         }
         Ok(v)
     }
