@@ -68,7 +68,6 @@ mod tests {
     use meshflow_plugin_sdk::topology::manifold::is_oriented;
     use meshflow_plugin_sdk::topology::shapes::unit_cube as cube;
 
-
     fn apply(triangles: &mut [u32], flips: &[u32]) {
         for &t in flips {
             triangles.swap(3 * t as usize + 1, 3 * t as usize + 2);

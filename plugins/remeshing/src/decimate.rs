@@ -432,9 +432,9 @@ fn shape(p: &[Vec3; 3]) -> f64 {
 mod tests {
     use super::*;
     use crate::fixtures;
-    use meshflow_plugin_sdk::topology::shapes::{square_grid, uv_sphere};
     use crate::isotropic::Edit;
     use meshflow_plugin_sdk::topology::manifold::{is_manifold, is_oriented};
+    use meshflow_plugin_sdk::topology::shapes::{square_grid, uv_sphere};
 
     /// The decimated mesh as the host holds it after the run.
     fn replay(positions: &[f32], triangles: &[u32], d: &Decimation) -> (Vec<f32>, Vec<u32>) {

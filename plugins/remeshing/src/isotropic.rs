@@ -402,10 +402,10 @@ fn turns_little(old: Vec3, new: Vec3) -> bool {
 mod tests {
     use super::*;
     use crate::fixtures::replay;
-    use meshflow_plugin_sdk::topology::shapes::uv_sphere;
     use meshflow_plugin_sdk::geometry::corner_angles_degrees;
     use meshflow_plugin_sdk::topology::NONE;
     use meshflow_plugin_sdk::topology::manifold::{is_manifold, is_oriented};
+    use meshflow_plugin_sdk::topology::shapes::uv_sphere;
 
     /// Edge lengths within ±25 % for 95 %, min angle ≥ 25° for 99 %, all vertices within
     /// `tolerance` of the input surface.

@@ -62,7 +62,6 @@ fn rep(edges: usize, loops: &[usize], components: usize, flags: [bool; 4]) -> Re
 
 const ALL: [bool; 4] = [true; 4];
 
-
 /// A grid of `n × n` unit quads in the xy plane, vertex `x + (n + 1) y`, two CCW triangles
 /// per quad, leaving out the quads in `holes` (given as `(x, y)`).
 fn grid(n: u32, holes: &[(u32, u32)]) -> (Vec<f32>, Vec<u32>) {
