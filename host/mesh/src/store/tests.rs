@@ -333,3 +333,34 @@ fn a_shared_mesh_is_read_in_place_and_copied_on_the_first_edit() {
     assert_eq!((smoothed.positions, smoothed.triangles), (moved, shared.triangles.clone()));
     assert_eq!(*shared, sample(), "the caller's mesh is untouched by set-positions");
 }
+
+#[test]
+fn triangles_around_read_the_same_scanned_as_from_the_index() {
+    // The sample with a triangle repeating vertex 2 (as raw input may have), then one removed.
+    let mut mesh = sample();
+    mesh.triangles.extend([2, 4, 2]);
+    let mut scanned = MeshStore::new(mesh.clone());
+    scanned.apply(Op::RemoveTriangles { ids: vec![1] }).unwrap();
+    let vertices = 0..mesh.vertex_count() as u32;
+    assert!(vertices.len() <= SCANS_BEFORE_INDEX, "every query below is a scan");
+    let by_scan: Vec<Vec<u32>> = vertices.clone().map(|v| scanned.triangles_around(v)).collect();
+    assert!(scanned.incidence.is_none());
+
+    let mut indexed = MeshStore::new(mesh);
+    indexed.apply(Op::RemoveTriangles { ids: vec![1] }).unwrap();
+    indexed.incidence();
+    let by_index: Vec<Vec<u32>> = vertices.map(|v| indexed.triangles_around(v)).collect();
+    assert_eq!(by_scan, by_index);
+    assert_eq!(
+        by_scan[2],
+        [0, 2, 4],
+        "the removed triangle is gone, the repeating one listed once"
+    );
+
+    // Past the limit the store builds the index and keeps answering the same.
+    for _ in 0..SCANS_BEFORE_INDEX {
+        scanned.triangles_around(0);
+    }
+    assert!(scanned.incidence.is_some());
+    assert_eq!(scanned.triangles_around(2), [0, 2, 4]);
+}

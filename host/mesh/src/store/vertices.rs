@@ -81,7 +81,7 @@ impl MeshStore {
         }
         check_distinct(ids, "remove-vertices")?;
         for &v in ids {
-            for t in self.incidence().around(v).to_vec() {
+            for t in self.triangles_around(v) {
                 self.kill_triangle(t);
             }
             self.kill_vertex(v);
