@@ -56,6 +56,7 @@ pub async fn start(
     layout: Layout,
     tokens: Tokens,
     allow_input_from: Vec<String>,
+    sandbox: crate::SandboxArgs,
 ) -> anyhow::Result<Embedded> {
     anyhow::ensure!(hosts > 0, "at least one host is needed");
     let (scratch, data) = match data {
@@ -73,6 +74,7 @@ pub async fn start(
             artefact_cache: crate::plugins::cache_dir(),
             cluster_token: Some(tokens.cluster.clone()),
             allow_input_from: allow_input_from.clone(),
+            limits: sandbox.limits(),
             ..HostConfig::new(data.join(format!("host-{index}")))
         };
         let listener = TcpListener::bind("127.0.0.1:0").await?;

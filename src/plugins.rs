@@ -4,14 +4,13 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use meshflow_runtime::Limits;
 use meshflow_runtime::{Catalog, Runtime};
 
 use crate::PluginArgs;
 
 pub fn load(args: &PluginArgs) -> anyhow::Result<(Runtime, Catalog)> {
     let cache = cache_dir();
-    let runtime = Runtime::new(Limits::default(), cache.as_deref())?;
+    let runtime = Runtime::new(args.sandbox.limits(), cache.as_deref())?;
     let mut catalog = Catalog::new();
     for path in &args.plugins {
         let bytes = read_plugin_file(path)?;

@@ -3,7 +3,6 @@
 //! openly without tokens. Real HTTP on 127.0.0.1, every wait bounded.
 
 // Shared with the other test binaries; this one uses part of it.
-#[allow(dead_code)]
 mod common;
 
 use std::sync::Arc;

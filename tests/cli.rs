@@ -142,6 +142,29 @@ fn a_replay_correction_names_the_step_and_reruns_to_the_same_mesh() {
 }
 
 #[test]
+fn an_operator_sets_how_long_a_plugin_run_may_take() {
+    let dir = tempfile::tempdir().unwrap();
+    let plugin = dir.path().join("hostile.wasm");
+    std::fs::write(&plugin, meshflow_builtin_plugins::fixture("hostile")).unwrap();
+    let (plugin, out) = (plugin.to_str().unwrap(), dir.path().join("out.ply"));
+    let run = |deadline: &str| {
+        let args = ["apply", "loop-forever", &bunny(), "-o", out.to_str().unwrap(), "--plugin"];
+        let started = std::time::Instant::now();
+        let error = failure(&[&args[..], &[plugin, "--run-deadline", deadline]].concat());
+        (error, started.elapsed())
+    };
+    let (error, took) = run("1");
+    assert!(error.contains("deadline of 1s"), "{error}");
+    // Well before the default deadline of a minute.
+    assert!(took < std::time::Duration::from_secs(30), "{took:?}");
+    for refused in ["0", "3601", "soon"] {
+        let (error, _) = run(refused);
+        assert!(error.contains("--run-deadline"), "{refused}: {error}");
+    }
+    assert!(!out.exists());
+}
+
+#[test]
 fn check_and_info_report_the_bunny() {
     assert_eq!(ok(&["check", "vertex-count", &bunny()]).trim(), "1839");
     let value = json(&ok(&["check", "triangle-count", &bunny(), "--json"]));

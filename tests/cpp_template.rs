@@ -3,7 +3,6 @@
 //! matches the Rust built-in, it runs on a host in a workflow with the built-ins, and
 //! componentize refuses what is not a meshflow core module, saying why.
 
-#[allow(dead_code)]
 mod common;
 
 use std::path::Path;

@@ -1,7 +1,6 @@
 //! Experiments (issue 16) end to end: plugin versions on a host, pinned steps, exact
 //! re-runs and batches, on an engine and in-process hosts over real HTTP.
 
-#[allow(dead_code)]
 mod common;
 
 use common::local::Local;

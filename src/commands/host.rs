@@ -52,6 +52,8 @@ pub struct HostArgs {
     /// default all. Hosts offering different services make a workflow cross hosts.
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]
     builtin: Option<Vec<String>>,
+    #[command(flatten)]
+    sandbox: crate::SandboxArgs,
 }
 
 pub fn run(args: HostArgs) -> anyhow::Result<()> {
@@ -67,6 +69,7 @@ pub fn run(args: HostArgs) -> anyhow::Result<()> {
         blob_budget_bytes: args.blob_budget_mib << 20,
         session_ttl: Duration::from_secs(args.session_ttl),
         max_download_bytes: args.max_download_mib << 20,
+        limits: args.sandbox.limits(),
         ..HostConfig::new(args.data)
     };
     tokio::runtime::Runtime::new()?.block_on(async {

@@ -47,6 +47,8 @@ pub struct RerunArgs {
     api_token: ApiTokenArgs,
     #[command(flatten)]
     cluster_token: ClusterTokenArgs,
+    #[command(flatten)]
+    sandbox: crate::SandboxArgs,
 }
 
 /// Exits 0 when the re-run is bit-identical to the record, else says where it diverged
@@ -84,6 +86,7 @@ pub fn run(args: RerunArgs) -> anyhow::Result<()> {
                     Layout::Spread,
                     tokens,
                     Vec::new(),
+                    args.sandbox,
                 )
                 .await?;
                 let client = EngineClient::new(&system.engine.url).with_token(&system.tokens.api);

@@ -43,6 +43,8 @@ pub struct RunArgs {
     api_token: ApiTokenArgs,
     #[command(flatten)]
     cluster_token: ClusterTokenArgs,
+    #[command(flatten)]
+    sandbox: crate::SandboxArgs,
 }
 
 pub fn run(args: RunArgs) -> anyhow::Result<()> {
@@ -50,9 +52,16 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
     check_shape(&inputs, args.output.is_some(), args.report.is_some(), &args.batch)?;
     let tokens = Tokens::given_or_fresh(args.api_token.get()?, args.cluster_token.get()?)?;
     tokio::runtime::Runtime::new()?.block_on(async {
-        let system =
-            embedded::start(args.hosts, "127.0.0.1:0", None, args.layout, tokens, Vec::new())
-                .await?;
+        let system = embedded::start(
+            args.hosts,
+            "127.0.0.1:0",
+            None,
+            args.layout,
+            tokens,
+            Vec::new(),
+            args.sandbox,
+        )
+        .await?;
         let submission = Submission {
             engine: EngineClient::new(&system.engine.url).with_token(&system.tokens.api),
             workflow: args.workflow,

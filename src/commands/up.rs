@@ -26,6 +26,8 @@ pub struct UpArgs {
     api_token: ApiTokenArgs,
     #[command(flatten)]
     cluster: ClusterArgs,
+    #[command(flatten)]
+    sandbox: crate::SandboxArgs,
 }
 
 pub fn run(args: UpArgs) -> anyhow::Result<()> {
@@ -39,6 +41,7 @@ pub fn run(args: UpArgs) -> anyhow::Result<()> {
             args.layout,
             tokens,
             args.cluster.allow_input_from,
+            args.sandbox,
         )
         .await?;
         let (url, tokens) = (&system.engine.url, &system.tokens);

@@ -78,7 +78,7 @@ fn read(path: &Path) -> anyhow::Result<String> {
 
 /// The names of the services the built-in plugins offer.
 fn offered_services() -> anyhow::Result<Vec<String>> {
-    let (_, catalog) = crate::plugins::load(&crate::PluginArgs { plugins: Vec::new() })?;
+    let (_, catalog) = crate::plugins::load(&crate::PluginArgs::default())?;
     Ok(catalog.services().iter().map(|(info, _)| info.name.clone()).collect())
 }
 

@@ -5,6 +5,8 @@ use wasmtime::ResourceLimiter;
 
 /// Wall-clock time a run may take before it is interrupted.
 pub const DEFAULT_DEADLINE: Duration = Duration::from_secs(60);
+/// The longest deadline an operator may set: an hour of one run.
+pub const MAX_DEADLINE: Duration = Duration::from_secs(3600);
 /// Linear memory a plugin may grow to. A 1M-vertex mesh with adjacency needs ~200 MB.
 pub const DEFAULT_MEMORY_BYTES: usize = 2 << 30;
 /// Captured stdout and stderr, each. Writing more traps the plugin.
