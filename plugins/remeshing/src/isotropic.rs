@@ -190,6 +190,11 @@ impl Local {
         }
     }
 
+    /// Both ends of a feature edge are fixed, so most edges are told apart without a lookup.
+    fn is_feature(&self, a: u32, b: u32) -> bool {
+        self.fixed[a as usize] && self.fixed[b as usize] && self.features.contains(&edge(a, b))
+    }
+
     fn length(&self, a: u32, b: u32) -> f64 {
         norm(sub(self.pos[a as usize], self.pos[b as usize]))
     }
@@ -223,8 +228,10 @@ impl Local {
         let (h, v) = self.mesh.split(a, b);
         self.pos.push(at);
         self.alive.push(true);
-        self.fixed.push(self.features.contains(&edge(a, b)));
-        if self.features.remove(&edge(a, b)) {
+        let feature = self.is_feature(a, b);
+        self.fixed.push(feature);
+        if feature {
+            self.features.remove(&edge(a, b));
             self.features.insert(edge(a, v));
             self.features.insert(edge(v, b));
         }
@@ -246,9 +253,7 @@ impl Local {
 
     /// The half-edge to collapse (its start survives) and where the survivor goes.
     fn collapsible(&self, a: u32, b: u32, long: f64) -> Option<(u32, Vec3)> {
-        if self.features.contains(&edge(a, b)) {
-            return None;
-        }
+        // A feature edge has both ends fixed, refused just below.
         let (keep, remove, at) = match (self.fixed[a as usize], self.fixed[b as usize]) {
             (true, true) => return None,
             (true, false) => (a, b, self.pos[a as usize]),
@@ -308,7 +313,7 @@ impl Local {
             .map(|v| if self.mesh.is_boundary(v) { 4 } else { 6 })
             .collect();
         for (a, b) in self.mesh.edges() {
-            if self.features.contains(&edge(a, b)) {
+            if self.is_feature(a, b) {
                 continue;
             }
             if self.mesh.on_edge(a, b).count() != 2 {
