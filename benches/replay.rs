@@ -24,6 +24,9 @@ use meshflow_runtime::{Catalog, Limits, Runtime};
 
 const RUNS: usize = 3;
 
+/// A step of the table: its short name, the service and its parameters.
+type Step = (&'static str, &'static str, Vec<(String, Value)>);
+
 /// The mesh with vertices and triangles in a fixed pseudo-random order.
 fn shuffled(mesh: &MeshData) -> MeshData {
     let mut state = 0x9e37_79b9_7f4a_7c15u64;
@@ -68,7 +71,7 @@ fn main() {
     let scan_1m = scan(&SCAN_1M);
     let interleaved = shuffled(&scan_1m);
     let meshes = [("bunny", bunny), ("scan 1M", scan_1m), ("scan 1M, shuffled", interleaved)];
-    let steps: [(&str, &str, Vec<(String, Value)>); 3] = [
+    let steps: [Step; 3] = [
         ("AN", "add-noise", vec![("seed".into(), Value::Integer(7))]),
         (
             "LS(cot)",

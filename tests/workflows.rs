@@ -510,7 +510,7 @@ async fn a_host_whose_answers_cannot_be_true_is_suspect_and_its_step_moves_to_a_
     assert_eq!(fake.runs(), 1, "the suspect host was asked again");
 
     // With no one else to turn to, the run fails, naming the host and what it claimed.
-    let alone = Cluster::start_with(&[], &[fake.url.clone()]).await;
+    let alone = Cluster::start_with(&[], std::slice::from_ref(&fake.url)).await;
     let record = alone.run(&workflow, &alone.upload(&input).await).await;
     let error = text(&record["error"]);
     assert_eq!(record["status"], "failed");
@@ -537,7 +537,8 @@ async fn submit_refuses_a_result_that_is_not_the_recorded_mesh_and_writes_nothin
     })
     .await;
     let never_fetched = "http://127.0.0.1:9".to_owned();
-    let cluster = Cluster::start_allowing(&[], &[fake.url.clone()], &[never_fetched]).await;
+    let cluster =
+        Cluster::start_allowing(&[], std::slice::from_ref(&fake.url), &[never_fetched]).await;
     let workflow = data.path().join("smooth.json");
     std::fs::write(&workflow, r#"[{"run": "laplacian-smoothing"}]"#).unwrap();
     let output = data.path().join("result.ply");

@@ -130,6 +130,19 @@ pub fn pick(
         .map(|(_, h)| h.clone())
 }
 
+/// The hosts that may run a task: with a pin, only those offering the service from that
+/// plugin; without one, all (the planner then looks at who offers the service at all).
+pub fn offering_pinned(
+    hosts: &[Arc<HostEntry>],
+    service: &str,
+    pin: Option<&str>,
+) -> Vec<Arc<HostEntry>> {
+    match pin {
+        None => hosts.to_vec(),
+        Some(pin) => hosts.iter().filter(|h| h.offers_plugin(service, pin)).cloned().collect(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -166,18 +179,5 @@ mod tests {
         let chosen = pick(&hosts, std::slice::from_ref(slow), "smooth", &[], measured).unwrap();
         assert_eq!(chosen.url, slow.url);
         assert!(pick(&hosts, &[], "other", &[], measured).is_none());
-    }
-}
-
-/// The hosts that may run a task: with a pin, only those offering the service from that
-/// plugin; without one, all (the planner then looks at who offers the service at all).
-pub fn offering_pinned(
-    hosts: &[Arc<HostEntry>],
-    service: &str,
-    pin: Option<&str>,
-) -> Vec<Arc<HostEntry>> {
-    match pin {
-        None => hosts.to_vec(),
-        Some(pin) => hosts.iter().filter(|h| h.offers_plugin(service, pin)).cloned().collect(),
     }
 }

@@ -40,9 +40,10 @@ fn weighted_laplacian(
     for v in 0..vertex_count {
         let mut sum = [0.0f64; 3];
         let mut total = 0.0f64;
-        for i in offsets[v] as usize..offsets[v + 1] as usize {
+        let ring = offsets[v] as usize..offsets[v + 1] as usize;
+        for (i, &item) in ring.clone().zip(&items[ring]) {
             let w = weight(i);
-            let j = 3 * items[i] as usize;
+            let j = 3 * item as usize;
             sum[0] += w * positions[j] as f64;
             sum[1] += w * positions[j + 1] as f64;
             sum[2] += w * positions[j + 2] as f64;
