@@ -480,6 +480,25 @@ mod tests {
     }
 
     #[test]
+    fn measurements_that_do_not_read_back_leave_the_defaults_and_the_engine_starts() {
+        let dir = tempfile::tempdir().unwrap();
+        let (registry, store) = registry(&dir);
+        let unmeasured = registry.measured.link_into("http://127.0.0.1:9/a");
+        drop(registry);
+        store
+            .now(|c| {
+                c.execute(
+                    "INSERT OR REPLACE INTO measurements (only, snapshot) VALUES (1, ?1)",
+                    ["{\"pairs\": \"not a list\""],
+                )?;
+                Ok(())
+            })
+            .unwrap();
+        let (restarted, _) = test_registry(dir.path());
+        assert_eq!(restarted.measured.link_into("http://127.0.0.1:9/a"), unmeasured);
+    }
+
+    #[test]
     fn host_urls_are_plain_http_bases() {
         assert_eq!(host_base_url("http://127.0.0.1:7101/").unwrap(), "http://127.0.0.1:7101");
         assert_eq!(
