@@ -290,7 +290,12 @@ pub struct StepRecord {
     pub vertices: Option<u64>,
     pub triangles: Option<u64>,
     pub edits: Option<u64>,
+    /// The step's edit log (`.mfc`): its size once some host downloaded it, else the
+    /// producer's estimate, as logs are encoded after the step is answered.
     pub correction_bytes: Option<u64>,
+    /// `correction_bytes` is the producer's estimate.
+    #[serde(default)]
+    pub correction_estimated: bool,
     /// The size of the step's replay correction (`.mfr`).
     #[serde(default)]
     pub replay_bytes: Option<u64>,
@@ -396,6 +401,7 @@ mod tests {
             triangles: Some(3674),
             edits: Some(1839),
             correction_bytes: Some(152),
+            correction_estimated: false,
             replay_bytes: Some(180),
             full_bytes: None,
             value: None,

@@ -221,6 +221,8 @@ pub struct FilterResult {
     /// Every parameter the plugin ran with, defaults filled in: what a re-run must send.
     #[serde(default)]
     pub resolved_params: serde_json::Map<String, serde_json::Value>,
+    /// The step's edit log (`.mfc`). It is encoded after this answer (DESIGN §4): its
+    /// `bytes` are the producer's estimate, and a GET of its URL waits until it is written.
     pub correction: BlobRef,
     /// The step named: plugin digest, service, resolved parameters, hashes (`.mfr`).
     pub replay: BlobRef,

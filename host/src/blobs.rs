@@ -52,36 +52,23 @@ impl BlobStore {
     }
 
     /// Stores `bytes` as `name`, atomically; a blob already present is left as it is
-    /// (names are hashes of the content).
+    /// (names are hashes of the content, or for an edit log of the step it encodes).
     /// The answer keeps the blob safe from eviction until it is dropped: hold it until a
     /// session record names the blob. Taken only here, after any download, so no network
     /// transfer ever holds eviction (and with it every other writer) back.
     pub async fn put(&self, name: &str, bytes: Arc<Vec<u8>>) -> Result<Stored<'_>, BlobError> {
-        self.put_all(vec![(name.to_owned(), bytes)]).await
-    }
-
-    /// [`BlobStore::put`] for several blobs under one hold: a task must never take a second
-    /// hold while it keeps one, as that would queue behind a waiting eviction for ever.
-    pub async fn put_all(
-        &self,
-        blobs: Vec<(String, Arc<Vec<u8>>)>,
-    ) -> Result<Stored<'_>, BlobError> {
         let gate = self.gate.read().await;
-        let dir = self.dir.clone();
-        let names: Vec<String> = blobs.iter().map(|(name, _)| name.clone()).collect();
+        let path = self.path(name);
+        let owned = name.to_owned();
         tokio::task::spawn_blocking(move || {
-            for (name, bytes) in blobs {
-                let path = dir.join(&name);
-                if path.exists() {
-                    continue;
-                }
-                io::write_file(&path, |out| out.write_all(&bytes))
-                    .map_err(|e| BlobError::Store { name, message: e.to_string() })?;
+            if path.exists() {
+                return Ok(());
             }
-            Ok(())
+            io::write_file(&path, |out| out.write_all(&bytes))
+                .map_err(|e| BlobError::Store { name: owned, message: e.to_string() })
         })
         .await
-        .map_err(|e| BlobError::Store { name: names.join(", "), message: e.to_string() })??;
+        .map_err(|e| BlobError::Store { name: name.to_owned(), message: e.to_string() })??;
         Ok(Stored { _gate: gate })
     }
 

@@ -27,6 +27,17 @@ pub const EVICTION_INTERVAL: Duration = Duration::from_secs(60);
 pub const LONG_POLL: Duration = Duration::from_secs(60);
 /// What a host answering 429 (every run slot taken, the queue full) asks callers to wait.
 pub const BUSY_RETRY_AFTER: Duration = Duration::from_secs(1);
+/// Edit logs encoded at once, after their steps were answered (`edit_logs.rs`).
+pub const MAX_ENCODING_EDIT_LOGS: usize = 4;
+/// How long a GET of an edit log still being encoded waits for it.
+pub const EDIT_LOG_WAIT: Duration = Duration::from_secs(300);
+/// An edit log's size before its plugin's first log is encoded here: a moved vertex costs
+/// 4-8 bytes on real scans.
+pub const DEFAULT_EDIT_LOG_BYTES_PER_EDIT: f64 = 6.0;
+/// No edit log is smaller than its header.
+pub const MIN_EDIT_LOG_BYTES: u64 = 100;
+/// Plugins whose bytes per edit are remembered for the estimate.
+pub const MAX_EDIT_LOG_ESTIMATES: usize = 1024;
 /// Attempts to register with the engine, and the pause between them.
 pub const REGISTER_ATTEMPTS: u32 = 5;
 pub const REGISTER_RETRY: Duration = Duration::from_secs(1);

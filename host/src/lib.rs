@@ -10,6 +10,7 @@
 
 mod blobs;
 mod config;
+mod edit_logs;
 mod eviction;
 mod meshes;
 mod plugins;
@@ -38,14 +39,17 @@ pub struct HostHandle {
     shutdown: tokio::sync::oneshot::Sender<()>,
     server: tokio::task::JoinHandle<std::io::Result<()>>,
     background: Vec<tokio::task::AbortHandle>,
+    host: Arc<Host>,
 }
 
 impl HostHandle {
-    /// Stops accepting requests, lets those in flight finish, and returns.
+    /// Stops accepting requests, lets those in flight finish and the edit logs of answered
+    /// steps be written, and returns.
     pub async fn shutdown(self) -> anyhow::Result<()> {
         let _ = self.shutdown.send(());
         self.background.iter().for_each(|task| task.abort());
         self.server.await.context("the host server task failed")??;
+        self.host.edit_logs.finish_all().await;
         Ok(())
     }
 }
@@ -96,7 +100,7 @@ pub async fn start(config: HostConfig, listener: TcpListener) -> anyhow::Result<
         background.push(tokio::spawn(registration).abort_handle());
     }
     tracing::info!("host listening on {address}, reached at {public_url}");
-    Ok(HostHandle { url: public_url, shutdown, server, background })
+    Ok(HostHandle { url: public_url, shutdown, server, background, host })
 }
 
 /// Serves until Ctrl-C.

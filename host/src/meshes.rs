@@ -2,7 +2,7 @@
 //! which, decode them, and the blob name they are kept under.
 
 use meshflow_codec::pack;
-use meshflow_mesh::MeshData;
+use meshflow_mesh::{ContentHash, MeshData};
 use meshflow_meshio::{self as io, Format};
 
 const PACKED_MAGIC: &[u8] = b"MFM\x1a";
@@ -97,6 +97,13 @@ pub fn full_mesh_name(content_hash: &str) -> String {
 
 pub fn correction_name(bytes: &[u8]) -> String {
     format!("{}.{CORRECTION}", blake3::hash(bytes).to_hex())
+}
+
+/// A step's own edit log, named before it is encoded: by the hashes it leads from and to.
+pub fn edit_log_name(base: ContentHash, result: ContentHash) -> String {
+    let mut hasher = blake3::Hasher::new();
+    hasher.update(b"meshflow edit log\0").update(&base.0).update(&result.0);
+    format!("{}.{CORRECTION}", hasher.finalize().to_hex())
 }
 
 pub fn replay_name(bytes: &[u8]) -> String {

@@ -5,6 +5,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::blobs::BlobStore;
+use super::edit_logs::EditLogs;
 use super::config::{
     DOWNLOAD_CONNECT_TIMEOUT, DOWNLOAD_READ_TIMEOUT, DOWNLOAD_TIMEOUT, HostConfig,
 };
@@ -23,6 +24,8 @@ pub struct Host {
     pub plugins: PluginSet,
     pub sessions: Sessions,
     pub blobs: BlobStore,
+    /// Edit logs being encoded after their steps were answered.
+    pub edit_logs: EditLogs,
     /// Plugins fetched from other hosts to replay their steps.
     pub replay_plugins: ReplayPlugins,
     /// For downloads: inputs, corrections and full meshes of other hosts.
@@ -78,6 +81,7 @@ impl Host {
                 config.blob_budget_bytes,
                 config.recent_outputs,
             ),
+            edit_logs: EditLogs::default(),
             replay_plugins: ReplayPlugins::new(dirs.replay_plugins.clone()),
             config,
             public_url,

@@ -314,7 +314,8 @@ fn step_line(step: &StepRecord) -> String {
     let mut line =
         format!("{} {} on {} — {:.0} ms", step.path, step.service, step.host, step.compute_ms);
     if let Some(bytes) = step.correction_bytes {
-        line.push_str(&format!(", correction {:.1} KB", bytes as f64 / 1024.0));
+        let about = if step.correction_estimated { "about " } else { "" };
+        line.push_str(&format!(", correction {about}{:.1} KB", bytes as f64 / 1024.0));
     }
     if let Some(value) = &step.value {
         line.push_str(&format!(", value {value}"));

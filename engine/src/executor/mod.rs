@@ -646,6 +646,7 @@ impl Executor {
             triangles: None,
             edits: None,
             correction_bytes: None,
+            correction_estimated: false,
             replay_bytes: None,
             full_bytes: None,
             value: None,
@@ -666,6 +667,7 @@ impl Executor {
                 record.triangles = Some(f.triangles as u64);
                 record.edits = Some(f.edits as u64);
                 record.correction_bytes = Some(f.correction.bytes);
+                record.correction_estimated = true;
                 record.replay_bytes = Some(f.replay.bytes);
             }
             RunResult::Check(c) => {

@@ -150,7 +150,7 @@ export class RunView {
       el('td', {}, ms(s.compute_ms)), el('td', {}, ms(s.wait_ms)), el('td', {}, ms(s.overhead_ms)),
       el('td', {}, s.transfers.length ? `${ms(transferMs)} / ${ms(applyMs)}` : '—'),
       el('td', {}, s.vertices != null ? `${s.vertices.toLocaleString('en')} v, ${s.triangles.toLocaleString('en')} t` : ''),
-      el('td', {}, s.kind === 'filter' ? `${bytes(s.correction_bytes)} vs ${bytes(s.full_bytes)}` : ''),
+      el('td', {}, s.kind === 'filter' ? `${s.correction_estimated ? '≈ ' : ''}${bytes(s.correction_bytes)} vs ${bytes(s.full_bytes)}` : ''),
       el('td', { className: 'sent' }, sent.length ? sent.map((line) => el('div', {}, line)) : '—'),
       el('td', { testid: 'step-value' }, value),
       el('td', {}, actions));

@@ -1,4 +1,5 @@
-//! `GET` and `HEAD /blobs/{name}`: a stored blob, or an output mesh packed on first request.
+//! `GET` and `HEAD /blobs/{name}`: a stored blob, an edit log once encoded, or an output mesh
+//! packed on first request.
 
 use std::sync::Arc;
 
@@ -23,6 +24,8 @@ pub async fn serve(
     if !meshes::is_blob_name(&name) {
         return Err(ApiError::not_found("blob", &name));
     }
+    // A step's edit log is written shortly after the step was answered.
+    host.edit_logs.wait_for(&name).await;
     let etag = format!("\"{name}\"");
     let path = host.blobs.path(&name);
     if !path.exists()

@@ -9,6 +9,7 @@ use axum::extract::{Path, State};
 
 use super::error::{ApiError, ApiJson};
 use crate::blobs::Stored;
+use crate::edit_logs::{EditLogs, StepLog};
 use crate::meshes::{self, MeshEncoding};
 use crate::rebuild::hashed;
 use crate::replay;
@@ -251,28 +252,26 @@ pub async fn run(
         None => (result, output.log),
     };
     let edits = log.iter().map(|op| op.edit_count()).sum();
-    let (next, correction) = tokio::task::spawn_blocking(move || {
-        correction::encode_known(input.mesh, base_hash, &log, &result).map(|(bytes, hash)| {
-            (CurrentMesh { mesh: Arc::new(result), hash: hash.to_hex() }, bytes)
-        })
-    })
-    .await?
-    .map_err(|e| ApiError::internal(format!("encoding the correction: {e}")))?;
-    let result_hash = ContentHash::from_hex(&next.hash)
-        .ok_or_else(|| ApiError::internal("the result hash is not a hash".to_owned()))?;
+    let result = Arc::new(result);
+    let hashing = result.clone();
+    let result_hash = tokio::task::spawn_blocking(move || hashing.content_hash()).await?;
+    let next = CurrentMesh { mesh: result.clone(), hash: result_hash.to_hex() };
     let named = replay::name(&ran.0, &info, &ran.1, base_hash, &next.mesh, result_hash)
         .map(|step| meshflow_codec::replay::encode(&step))
         .map_err(|e| ApiError::internal(format!("naming the step: {e}")))?;
     let (replay_name, replay_bytes) = (meshes::replay_name(&named), named.len() as u64);
-    let correction_name = meshes::correction_name(&correction);
-    let correction_bytes = correction.len() as u64;
-    let stored = host
-        .blobs
-        .put_all(vec![
-            (correction_name.clone(), Arc::new(correction)),
-            (replay_name.clone(), Arc::new(named)),
-        ])
-        .await?;
+    // Before the replay is stored: no eviction hold may be kept while waiting for a slot.
+    let step_log = StepLog {
+        plugin: plugin.clone(),
+        service: service.clone(),
+        base: input.mesh,
+        base_hash,
+        log,
+        result,
+        result_hash,
+    };
+    let (correction_name, correction_bytes) = EditLogs::encode_later(&host, step_log).await;
+    let stored = host.blobs.put(&replay_name, Arc::new(named)).await?;
     let full_name = host.blobs.remember(next.mesh.clone(), &next.hash);
     let result = FilterResult {
         service,

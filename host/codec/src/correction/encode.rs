@@ -20,36 +20,37 @@ use crate::quantize::Grid;
 /// predictions; a log that does not apply to `base`, or does not give `result`, is refused.
 pub fn encode(base: &MeshData, log: &[Op], result: &MeshData) -> Result<Vec<u8>, CorrectionError> {
     // The replay edits its own copy in place while the original is hashed.
-    encode_with(Arc::new(base.clone()), || base.content_hash(), log, result).map(|(bytes, _)| bytes)
+    let hashes = || (base.content_hash(), result.content_hash());
+    encode_with(Arc::new(base.clone()), hashes, log, result)
 }
 
 /// [`encode`] as a host calls it: the base is shared (the replay copies only what the log
-/// edits) and its hash already known, so only the result is hashed, once; that hash is
-/// returned with the bytes.
+/// edits) and both hashes are already known, so neither mesh is hashed again.
 pub fn encode_known(
     base: Arc<MeshData>,
     base_hash: ContentHash,
     log: &[Op],
     result: &MeshData,
-) -> Result<(Vec<u8>, ContentHash), CorrectionError> {
-    encode_with(base, move || base_hash, log, result)
+    result_hash: ContentHash,
+) -> Result<Vec<u8>, CorrectionError> {
+    encode_with(base, move || (base_hash, result_hash), log, result)
 }
 
 /// The replay owns `base` (no other reference is taken here, so a base no one else holds is
-/// edited in place rather than copied); `base_hash` runs on a second thread meanwhile.
+/// edited in place rather than copied); `hashes` runs on a second thread meanwhile.
 fn encode_with(
     base: Arc<MeshData>,
-    base_hash: impl FnOnce() -> ContentHash + Send,
+    hashes: impl FnOnce() -> (ContentHash, ContentHash) + Send,
     log: &[Op],
     result: &MeshData,
-) -> Result<(Vec<u8>, ContentHash), CorrectionError> {
+) -> Result<Vec<u8>, CorrectionError> {
     let (base_counts, result_counts) = (
         [base.vertex_count() as u64, base.triangle_count() as u64],
         [result.vertex_count() as u64, result.triangle_count() as u64],
     );
     // Hashing is a pass over each mesh: done on a second thread meanwhile.
     let (hashes, sections) = std::thread::scope(|s| {
-        let hashes = s.spawn(|| (base_hash(), result.content_hash()));
+        let hashes = s.spawn(hashes);
         let sections = encode_sections(base, log, result);
         (hashes.join().expect("hashing does not panic"), sections)
     });
@@ -71,7 +72,7 @@ fn encode_with(
         header_bytes: 0,
         section_bytes: [0; 4],
     };
-    Ok((header::write(&header, &sections), hashes.1))
+    Ok(header::write(&header, &sections))
 }
 
 /// Codes the log's ops into the four sections, replaying them; checks the replay ends at

@@ -1,0 +1,165 @@
+//! Edit logs encoded after their step is answered (DESIGN §4).
+//!
+//! Encoding a global step's log is the largest thing a host does after the plugin returns
+//! (about 45 ms per 200k moved vertices, with the codec's own prediction), yet receivers
+//! mostly take the step's replay or its full mesh. So a step is answered as soon as its
+//! result is hashed and named, and its log follows on a thread of its own. The log's name
+//! comes from the step's base and result hashes, so its URL is in the answer, and a GET of
+//! it waits until it is written (`routes/blobs.rs`).
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+use tokio::sync::{Semaphore, watch};
+
+use super::config::{
+    DEFAULT_EDIT_LOG_BYTES_PER_EDIT, EDIT_LOG_WAIT, MAX_EDIT_LOG_ESTIMATES, MAX_ENCODING_EDIT_LOGS,
+    MIN_EDIT_LOG_BYTES,
+};
+use super::meshes;
+use super::state::Host;
+use meshflow_codec::correction;
+use meshflow_mesh::store::Op;
+use meshflow_mesh::{ContentHash, MeshData};
+
+/// A step whose edit log is still to be encoded.
+pub struct StepLog {
+    /// The plugin's digest and the service: each keeps its own bytes per edit.
+    pub plugin: String,
+    pub service: String,
+    pub base: Arc<MeshData>,
+    pub base_hash: ContentHash,
+    pub log: Vec<Op>,
+    pub result: Arc<MeshData>,
+    pub result_hash: ContentHash,
+}
+
+pub struct EditLogs {
+    /// Names being encoded; each receiver closes once its log is written or has failed.
+    pending: Mutex<HashMap<String, watch::Receiver<()>>>,
+    /// Bytes per edit of each service's last encoded log, by plugin: the next estimate.
+    bytes_per_edit: Mutex<HashMap<String, f64>>,
+    /// Each encoding holds a base and a result mesh: a step waits for a slot before its
+    /// answer rather than letting them pile up.
+    slots: Arc<Semaphore>,
+}
+
+impl Default for EditLogs {
+    fn default() -> Self {
+        Self {
+            pending: Mutex::default(),
+            bytes_per_edit: Mutex::default(),
+            slots: Arc::new(Semaphore::new(MAX_ENCODING_EDIT_LOGS)),
+        }
+    }
+}
+
+/// Removes a name from the pending table however its encoding ends; dropping the sender
+/// then wakes everyone waiting for it.
+struct Encoding {
+    host: Arc<Host>,
+    name: String,
+    _done: watch::Sender<()>,
+}
+
+impl Drop for Encoding {
+    fn drop(&mut self) {
+        self.host.edit_logs.pending().remove(&self.name);
+    }
+}
+
+impl EditLogs {
+    fn pending(&self) -> std::sync::MutexGuard<'_, HashMap<String, watch::Receiver<()>>> {
+        self.pending.lock().expect("pending edit logs lock")
+    }
+
+    fn rates(&self) -> std::sync::MutexGuard<'_, HashMap<String, f64>> {
+        self.bytes_per_edit.lock().expect("edit log estimates lock")
+    }
+
+    /// Starts encoding `step`'s edit log in the background, once a slot is free. Returns
+    /// the log's blob name and its estimated size.
+    pub async fn encode_later(host: &Arc<Host>, step: StepLog) -> (String, u64) {
+        let permit = host.edit_logs.slots.clone().acquire_owned().await;
+        let name = meshes::edit_log_name(step.base_hash, step.result_hash);
+        let edits: usize = step.log.iter().map(Op::edit_count).sum();
+        let key = format!("{}/{}", step.plugin, step.service);
+        let estimate = host.edit_logs.estimate(&key, edits);
+        let (done, waiting) = watch::channel(());
+        host.edit_logs.pending().insert(name.clone(), waiting);
+        let encoding = Encoding { host: host.clone(), name: name.clone(), _done: done };
+        tokio::spawn(async move {
+            let _permit = permit;
+            let StepLog { base, base_hash, log, result, result_hash, .. } = step;
+            let encoded = tokio::task::spawn_blocking(move || {
+                correction::encode_known(base, base_hash, &log, &result, result_hash)
+            })
+            .await;
+            let host = encoding.host.clone();
+            let bytes = match encoded.map_err(|e| e.to_string()).map(|r| r.map_err(|e| e.to_string())) {
+                Ok(Ok(bytes)) => bytes,
+                Ok(Err(e)) | Err(e) => {
+                    // Receivers asking for it get a 404 and fall back to the full mesh.
+                    tracing::warn!("encoding edit log {}: {e}", encoding.name);
+                    return;
+                }
+            };
+            host.edit_logs.learn(&key, edits, bytes.len());
+            // The session record already names the log: nothing to hold against eviction.
+            match host.blobs.put(&encoding.name, Arc::new(bytes)).await {
+                Ok(stored) => drop(stored),
+                Err(e) => tracing::warn!("{e}"),
+            }
+        });
+        (name, estimate)
+    }
+
+    /// Waits, up to [`EDIT_LOG_WAIT`], until every edit log being encoded is written: a host
+    /// that stops must not leave a session record naming a log it never wrote.
+    pub async fn finish_all(&self) {
+        let all = self.slots.acquire_many(MAX_ENCODING_EDIT_LOGS as u32);
+        if tokio::time::timeout(EDIT_LOG_WAIT, all).await.is_err() {
+            tracing::warn!("stopping with edit logs still being encoded");
+        }
+    }
+
+    /// Waits, up to [`EDIT_LOG_WAIT`], for the edit log `name` if it is being encoded.
+    pub async fn wait_for(&self, name: &str) {
+        let Some(mut waiting) = self.pending().get(name).cloned() else { return };
+        // Only the sender's drop ends the wait: `changed` then reports it closed.
+        let _ = tokio::time::timeout(EDIT_LOG_WAIT, waiting.changed()).await;
+    }
+
+    /// The service's last bytes per edit, or a moved vertex's typical cost.
+    fn estimate(&self, key: &str, edits: usize) -> u64 {
+        let rate = self.rates().get(key).copied().unwrap_or(DEFAULT_EDIT_LOG_BYTES_PER_EDIT);
+        ((edits as f64 * rate) as u64).max(MIN_EDIT_LOG_BYTES)
+    }
+
+    fn learn(&self, key: &str, edits: usize, bytes: usize) {
+        let mut rates = self.rates();
+        if rates.len() >= MAX_EDIT_LOG_ESTIMATES && !rates.contains_key(key) {
+            rates.clear();
+        }
+        rates.insert(key.to_owned(), bytes as f64 / edits.max(1) as f64);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn estimates_follow_each_plugins_last_log_and_never_go_below_a_header() {
+        let logs = EditLogs::default();
+        assert_eq!(logs.estimate("a", 1000), (1000.0 * DEFAULT_EDIT_LOG_BYTES_PER_EDIT) as u64);
+        assert_eq!(logs.estimate("a", 0), MIN_EDIT_LOG_BYTES);
+        logs.learn("a", 1000, 250);
+        assert_eq!(logs.estimate("a", 4000), 1000);
+        assert_eq!(logs.estimate("b", 1000), (1000.0 * DEFAULT_EDIT_LOG_BYTES_PER_EDIT) as u64);
+        for i in 0..MAX_EDIT_LOG_ESTIMATES + 1 {
+            logs.learn(&i.to_string(), 1, 1);
+        }
+        assert!(logs.rates().len() <= MAX_EDIT_LOG_ESTIMATES);
+    }
+}
