@@ -9,6 +9,7 @@
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
 use tokio::sync::{Semaphore, watch};
 
@@ -35,8 +36,7 @@ pub struct StepLog {
 }
 
 pub struct EditLogs {
-    /// Names being encoded; each receiver closes once its log is written or has failed.
-    pending: Mutex<HashMap<String, watch::Receiver<()>>>,
+    pending: Pending,
     /// Bytes per edit of each service's last encoded log, by plugin: the next estimate.
     bytes_per_edit: Mutex<HashMap<String, f64>>,
     /// Each encoding holds a base and a result mesh: a step waits for a slot before its
@@ -47,32 +47,51 @@ pub struct EditLogs {
 impl Default for EditLogs {
     fn default() -> Self {
         Self {
-            pending: Mutex::default(),
+            pending: Pending::default(),
             bytes_per_edit: Mutex::default(),
             slots: Arc::new(Semaphore::new(MAX_ENCODING_EDIT_LOGS)),
         }
     }
 }
 
-/// Removes a name from the pending table however its encoding ends; dropping the sender
-/// then wakes everyone waiting for it.
+/// Names being encoded, each with a receiver that closes once its log is written or has
+/// failed.
+#[derive(Clone, Default)]
+struct Pending(Arc<Mutex<HashMap<String, watch::Receiver<()>>>>);
+
+/// A name being encoded: removed from the table however its encoding ends, and dropping
+/// the sender then wakes everyone waiting for it.
 struct Encoding {
-    host: Arc<Host>,
+    table: Pending,
     name: String,
     _done: watch::Sender<()>,
 }
 
 impl Drop for Encoding {
     fn drop(&mut self) {
-        self.host.edit_logs.pending().remove(&self.name);
+        self.table.lock().remove(&self.name);
+    }
+}
+
+impl Pending {
+    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<String, watch::Receiver<()>>> {
+        self.0.lock().expect("pending edit logs lock")
+    }
+
+    fn begin(&self, name: &str) -> Encoding {
+        let (done, waiting) = watch::channel(());
+        self.lock().insert(name.to_owned(), waiting);
+        Encoding { table: self.clone(), name: name.to_owned(), _done: done }
+    }
+
+    async fn wait_for(&self, name: &str, limit: Duration) {
+        let Some(mut waiting) = self.lock().get(name).cloned() else { return };
+        // Only the sender's drop ends the wait: `changed` then reports it closed.
+        let _ = tokio::time::timeout(limit, waiting.changed()).await;
     }
 }
 
 impl EditLogs {
-    fn pending(&self) -> std::sync::MutexGuard<'_, HashMap<String, watch::Receiver<()>>> {
-        self.pending.lock().expect("pending edit logs lock")
-    }
-
     fn rates(&self) -> std::sync::MutexGuard<'_, HashMap<String, f64>> {
         self.bytes_per_edit.lock().expect("edit log estimates lock")
     }
@@ -85,9 +104,8 @@ impl EditLogs {
         let edits: usize = step.log.iter().map(Op::edit_count).sum();
         let key = format!("{}/{}", step.plugin, step.service);
         let estimate = host.edit_logs.estimate(&key, edits);
-        let (done, waiting) = watch::channel(());
-        host.edit_logs.pending().insert(name.clone(), waiting);
-        let encoding = Encoding { host: host.clone(), name: name.clone(), _done: done };
+        let encoding = host.edit_logs.pending.begin(&name);
+        let host = host.clone();
         tokio::spawn(async move {
             let _permit = permit;
             let StepLog { base, base_hash, log, result, result_hash, .. } = step;
@@ -95,10 +113,10 @@ impl EditLogs {
                 correction::encode_known(base, base_hash, &log, &result, result_hash)
             })
             .await;
-            let host = encoding.host.clone();
-            let bytes = match encoded.map_err(|e| e.to_string()).map(|r| r.map_err(|e| e.to_string())) {
-                Ok(Ok(bytes)) => bytes,
-                Ok(Err(e)) | Err(e) => {
+            let encoded = encoded.map_err(|e| e.to_string());
+            let bytes = match encoded.and_then(|r| r.map_err(|e| e.to_string())) {
+                Ok(bytes) => bytes,
+                Err(e) => {
                     // Receivers asking for it get a 404 and fall back to the full mesh.
                     tracing::warn!("encoding edit log {}: {e}", encoding.name);
                     return;
@@ -125,9 +143,7 @@ impl EditLogs {
 
     /// Waits, up to [`EDIT_LOG_WAIT`], for the edit log `name` if it is being encoded.
     pub async fn wait_for(&self, name: &str) {
-        let Some(mut waiting) = self.pending().get(name).cloned() else { return };
-        // Only the sender's drop ends the wait: `changed` then reports it closed.
-        let _ = tokio::time::timeout(EDIT_LOG_WAIT, waiting.changed()).await;
+        self.pending.wait_for(name, EDIT_LOG_WAIT).await
     }
 
     /// The service's last bytes per edit, or a moved vertex's typical cost.
@@ -148,6 +164,24 @@ impl EditLogs {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[tokio::test]
+    async fn a_wait_for_a_log_being_encoded_ends_when_its_encoding_does() {
+        let pending = Pending::default();
+        let encoding = pending.begin("log.mfc");
+        let waiter = tokio::spawn({
+            let pending = pending.clone();
+            async move { pending.wait_for("log.mfc", Duration::from_secs(60)).await }
+        });
+        tokio::time::sleep(Duration::from_millis(50)).await;
+        assert!(!waiter.is_finished(), "the wait ended while the log was being encoded");
+        drop(encoding);
+        tokio::time::timeout(Duration::from_secs(10), waiter).await.unwrap().unwrap();
+        assert!(pending.lock().is_empty());
+        // A name nobody is encoding is not waited for.
+        let unknown = pending.wait_for("other.mfc", Duration::from_secs(60));
+        tokio::time::timeout(Duration::from_secs(10), unknown).await.unwrap();
+    }
 
     #[test]
     fn estimates_follow_each_plugins_last_log_and_never_go_below_a_header() {

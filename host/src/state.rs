@@ -5,10 +5,10 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::blobs::BlobStore;
-use super::edit_logs::EditLogs;
 use super::config::{
     DOWNLOAD_CONNECT_TIMEOUT, DOWNLOAD_READ_TIMEOUT, DOWNLOAD_TIMEOUT, HostConfig,
 };
+use super::edit_logs::EditLogs;
 use super::plugins::PluginSet;
 use super::replay::ReplayPlugins;
 use super::sessions::Sessions;
