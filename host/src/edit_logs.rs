@@ -25,9 +25,11 @@ use meshflow_mesh::{ContentHash, MeshData};
 
 /// A step whose edit log is still to be encoded.
 pub struct StepLog {
-    /// The plugin's digest and the service: each keeps its own bytes per edit.
+    /// The plugin's digest, the service and its resolved parameters as JSON: each such
+    /// step keeps its own bytes per edit (cotangent smoothing costs 40 times uniform).
     pub plugin: String,
     pub service: String,
+    pub params: String,
     pub base: Arc<MeshData>,
     pub base_hash: ContentHash,
     pub log: Vec<Op>,
@@ -37,7 +39,7 @@ pub struct StepLog {
 
 pub struct EditLogs {
     pending: Pending,
-    /// Bytes per edit of each service's last encoded log, by plugin: the next estimate.
+    /// Bytes per edit of each kind of step's last encoded log: the next estimate.
     bytes_per_edit: Mutex<HashMap<String, f64>>,
     /// Each encoding holds a base and a result mesh: a step waits for a slot before its
     /// answer rather than letting them pile up.
@@ -102,7 +104,8 @@ impl EditLogs {
         let permit = host.edit_logs.slots.clone().acquire_owned().await;
         let name = meshes::edit_log_name(step.base_hash, step.result_hash);
         let edits: usize = step.log.iter().map(Op::edit_count).sum();
-        let key = format!("{}/{}", step.plugin, step.service);
+        let params = blake3::hash(step.params.as_bytes()).to_hex();
+        let key = format!("{}/{}/{params}", step.plugin, step.service);
         let estimate = host.edit_logs.estimate(&key, edits);
         let encoding = host.edit_logs.pending.begin(&name);
         let host = host.clone();
@@ -146,7 +149,7 @@ impl EditLogs {
         self.pending.wait_for(name, EDIT_LOG_WAIT).await
     }
 
-    /// The service's last bytes per edit, or a moved vertex's typical cost.
+    /// The step's last bytes per edit, or a moved vertex's typical cost.
     fn estimate(&self, key: &str, edits: usize) -> u64 {
         let rate = self.rates().get(key).copied().unwrap_or(DEFAULT_EDIT_LOG_BYTES_PER_EDIT);
         ((edits as f64 * rate) as u64).max(MIN_EDIT_LOG_BYTES)

@@ -264,6 +264,7 @@ pub async fn run(
     let step_log = StepLog {
         plugin: plugin.clone(),
         service: service.clone(),
+        params: serde_json::Value::Object(resolved_params.clone()).to_string(),
         base: input.mesh,
         base_hash,
         log,
