@@ -21,7 +21,7 @@ pub const MIN_BANDWIDTH_SAMPLE_BYTES: u64 = 64 << 10;
 const DEFAULT_LINK: Link = Link { bytes_per_ms: 12_500.0, latency_ms: 2.0 };
 /// Until measured: what this machine kind does in release builds (2 cores).
 const DEFAULT_SPEED: HostSpeed =
-    HostSpeed { apply_ms_per_edit: 0.000_5, unpack_ms_per_vertex: 0.000_6, replay_ratio: 1.2 };
+    HostSpeed { apply_ms_per_element: 0.000_25, unpack_ms_per_vertex: 0.000_6, replay_ratio: 1.2 };
 
 /// At most this many host pairs are measured (every pair of the most hosts the engine
 /// keeps); a pair beyond it uses the link into its receiver.
@@ -73,8 +73,9 @@ impl Learned {
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct HostSpeed {
-    /// Replaying one edit of an edit log.
-    pub apply_ms_per_edit: f64,
+    /// Replaying an edit log, per edit and per vertex of the mesh: the result is hashed
+    /// whole, so a log of a few edits still costs a pass over a large mesh.
+    pub apply_ms_per_element: f64,
     /// Unpacking and hashing one vertex of a full mesh.
     pub unpack_ms_per_vertex: f64,
     /// A re-run's time here over the producer's compute time for the same step.
@@ -245,9 +246,10 @@ impl Measured {
             tables.speeds.entry(host.to_owned()).or_insert((DEFAULT_SPEED, [0; 3]));
         let ms = applied.apply_ms;
         match applied.via {
-            Transfer::Correction if applied.edits > 0 => {
-                let sample = ms / applied.edits as f64;
-                speed.apply_ms_per_edit = learned(speed.apply_ms_per_edit, sample, &mut samples[0]);
+            Transfer::Correction if applied.edits + applied.vertices > 0 => {
+                let sample = ms / (applied.edits + applied.vertices) as f64;
+                speed.apply_ms_per_element =
+                    learned(speed.apply_ms_per_element, sample, &mut samples[0]);
             }
             Transfer::Full if applied.vertices > 0 => {
                 let sample = ms / applied.vertices as f64;
@@ -329,8 +331,28 @@ mod tests {
         assert_eq!(measured.speed("g").replay_ratio, DEFAULT_SPEED.replay_ratio);
         let speed = measured.speed("h");
         assert!((speed.replay_ratio - 1.5).abs() < 0.01, "{speed:?}");
-        assert!((speed.apply_ms_per_edit - 0.000_2).abs() < 1e-5, "{speed:?}");
+        assert!((speed.apply_ms_per_element - 200.0 / 1_500_000.0).abs() < 1e-6, "{speed:?}");
         assert_eq!(speed.unpack_ms_per_vertex, DEFAULT_SPEED.unpack_ms_per_vertex);
+    }
+
+    #[test]
+    fn a_log_of_few_edits_on_a_large_mesh_does_not_make_every_edit_look_slow() {
+        use meshflow_api::host::Transfer;
+        let measured = Measured::default();
+        // Filling 100 holes' worth of edits in a 1M-vertex scan: the 150 ms are mostly the
+        // pass over the mesh. Counted per edit they made a global log look like hours.
+        let few = Applied {
+            via: Transfer::Correction,
+            apply_ms: 150.0,
+            edits: 100,
+            vertices: 1_000_000,
+            producer_compute_ms: 50.0,
+            had_plugin: true,
+        };
+        measured.applied("h", "p", &few);
+        let speed = measured.speed("h");
+        let global_ms = speed.apply_ms_per_element * (1_000_000 + 1_000_000) as f64;
+        assert!((200.0..400.0).contains(&global_ms), "{global_ms} ms for a global log");
     }
 
     #[test]

@@ -49,7 +49,7 @@ pub fn estimate(step: &StepOutput, receiver: &Receiver) -> TransferEstimates {
     };
     TransferEstimates {
         correction_ms: link.transfer_ms(step.correction_bytes)
-            + speed.apply_ms_per_edit * step.edits as f64,
+            + speed.apply_ms_per_element * (step.edits + step.vertices) as f64,
         replay_ms: link.transfer_ms(step.replay_bytes)
             + plugin_ms
             + compute_ms * f64::from(1 + load),
@@ -88,8 +88,11 @@ mod tests {
 
     const MBIT_5: Link = Link { bytes_per_ms: 625.0, latency_ms: 20.0 };
     const LAN: Link = Link { bytes_per_ms: 125_000.0, latency_ms: 0.2 };
-    const SPEED: HostSpeed =
-        HostSpeed { apply_ms_per_edit: 0.000_2, unpack_ms_per_vertex: 0.000_6, replay_ratio: 1.2 };
+    const SPEED: HostSpeed = HostSpeed {
+        apply_ms_per_element: 0.000_1,
+        unpack_ms_per_vertex: 0.000_6,
+        replay_ratio: 1.2,
+    };
 
     /// Cotangent smoothing of a 1M-vertex scan: a correction as large as the mesh, 300 ms
     /// of compute.
