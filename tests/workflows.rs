@@ -62,7 +62,7 @@ async fn run_in_modes(
 /// The input reached every host of the plan once; afterwards each filter's result went, as
 /// `mode` says (`full` mesh, `replay`, or in `auto` the way the cost model chose, whose
 /// estimates are recorded), to every other host that ran a later step, and to no host
-/// outside the plan.
+/// outside the plan. Every edit log's real size replaced the producer's estimate.
 fn assert_transfers(record: &Json, mode: &str) {
     let loads: Vec<&str> =
         record["broadcast"]["hosts"].as_array().unwrap().iter().map(|h| text(&h["host"])).collect();
@@ -96,7 +96,11 @@ fn assert_transfers(record: &Json, mode: &str) {
             }
             assert_eq!(transfer["via"], asked, "{}: {transfer}", step["path"]);
             assert_eq!((&transfer["error"], &transfer["fallback"]), (&Json::Null, &Json::Null));
+            if transfer["via"] == "correction" {
+                assert_eq!(transfer["bytes"], step["correction_bytes"], "{}", step["path"]);
+            }
         }
+        assert_eq!(step["correction_estimated"], false, "{step}");
         if mode == "full" && !transfers.is_empty() {
             assert!(step["full_bytes"].as_u64().unwrap() > 0, "{step}");
         }
@@ -109,7 +113,8 @@ async fn repair_gives_the_local_result_by_corrections_replays_or_full_meshes() {
     let (workflow, input) = (example("repair"), Input::bunny());
     let expected = locally(&workflow, &input);
     // Replays run each step again on hosts that lack its plugin: they fetch it.
-    run_in_modes(&cluster, &workflow, &input, &expected, &["auto", "replay", "full"]).await;
+    let modes = ["auto", "correction", "replay", "full"];
+    run_in_modes(&cluster, &workflow, &input, &expected, &modes).await;
 }
 
 /// `"quantize": 12` keeps the run on a grid over the input's bounding box: the hosts snap

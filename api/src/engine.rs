@@ -290,8 +290,8 @@ pub struct StepRecord {
     pub vertices: Option<u64>,
     pub triangles: Option<u64>,
     pub edits: Option<u64>,
-    /// The step's edit log (`.mfc`): its size once some host downloaded it, else the
-    /// producer's estimate, as logs are encoded after the step is answered.
+    /// The step's edit log (`.mfc`): the producer's estimate when the step is answered (logs
+    /// are encoded after), its real size once the producer has written it.
     pub correction_bytes: Option<u64>,
     /// `correction_bytes` is the producer's estimate.
     #[serde(default)]

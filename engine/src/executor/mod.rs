@@ -16,12 +16,12 @@ use std::time::Instant;
 
 pub(crate) use verify::full_mesh_url;
 
-use meshflow_api::ClientError;
 use meshflow_api::host::{
     CreateSession, FilterResult, FullRef, GridSpec, InputRef, RunRequest, RunResult, SessionState,
     Transfer as Use, Update,
 };
 use meshflow_api::params::ValueType;
+use meshflow_api::{ClientError, HostClient};
 use serde_json::{Value as Json, json};
 
 use crate::limits::MAX_STEPS_PER_RUN;
@@ -211,6 +211,9 @@ struct Executor {
     done: VecDeque<StepRecord>,
     /// Hosts that held the current mesh when the engine stopped (a resumed run).
     holders: Vec<String>,
+    /// Edit-log sizes asked of their producers, which encode the logs after answering;
+    /// awaited before the run's result is recorded.
+    log_sizes: Vec<tokio::task::JoinHandle<()>>,
 }
 
 /// An entry of the active task list: a step, and for a WHILE the rounds already done.
@@ -234,6 +237,7 @@ impl Executor {
             last_reply: Instant::now(),
             done: VecDeque::new(),
             holders: Vec::new(),
+            log_sizes: Vec::new(),
         }
     }
 
@@ -437,6 +441,8 @@ impl Executor {
                 task.path, task.service
             ));
         };
+        let url = filter.correction.url.clone();
+        self.log_sizes.push(record_log_size(self.run.clone(), host.client.clone(), index, url));
         self.advance(&filter, &host);
         self.history.push((task.clone(), filter.output_hash.clone()));
         let current = self.current.as_ref().expect("the input is loaded");
@@ -852,6 +858,9 @@ impl Executor {
     /// now, so the result outlives the run's sessions (and the host's memory of recent
     /// outputs).
     async fn finish(&mut self) -> Result<(), String> {
+        for asked in self.log_sizes.drain(..) {
+            let _ = asked.await;
+        }
         let current = self.current.as_ref().expect("the input is loaded");
         let bytes = match &current.producer {
             Some(host) => self.registry.client(host).packed_size(&current.full.url).await.ok(),
@@ -871,6 +880,25 @@ impl Executor {
         });
         Ok(())
     }
+}
+
+/// Replaces step `index`'s estimated edit-log size by the real one once its producer has
+/// written the log (a HEAD of it waits for that); an answer that does not come leaves the
+/// estimate.
+fn record_log_size(
+    run: Arc<Run>,
+    producer: HostClient,
+    index: usize,
+    url: String,
+) -> tokio::task::JoinHandle<()> {
+    tokio::spawn(async move {
+        let Ok(bytes) = producer.blob_size(&url).await else { return };
+        run.update_step("correction", index, |step| {
+            step.correction_bytes = Some(bytes);
+            step.correction_estimated = false;
+            json!({"step": index, "correction_bytes": bytes})
+        });
+    })
 }
 
 /// Opens a session on `host` from `url` (the run deletes it when it ends) and waits until

@@ -76,14 +76,9 @@ impl Replica {
             record.estimates = forwarded.estimates;
             run.update_step("transfer", step, |s| {
                 let json = serde_json::json!({"step": step, "transfer": record});
-                // A full-mesh download tells the step's full-mesh size…
+                // A full-mesh download tells the step's full-mesh size.
                 if record.via == "full" && record.error.is_none() {
                     s.full_bytes = Some(record.bytes);
-                }
-                // And an edit log's download its real size.
-                if record.via == "correction" && record.error.is_none() {
-                    s.correction_bytes = Some(record.bytes);
-                    s.correction_estimated = false;
                 }
                 s.transfers.push(record);
                 json

@@ -17,6 +17,10 @@ const PATCHES = {
   warning: (record, data) => { record.warnings.push(data); },
   step: (record, data) => { record.steps[data.index] = data; },
   transfer: (record, data) => { record.steps[data.step]?.transfers.push(data.transfer); },
+  correction: (record, data) => {
+    const step = record.steps[data.step];
+    if (step) Object.assign(step, { correction_bytes: data.correction_bytes, correction_estimated: false });
+  },
   condition: (record, data) => { if (record.steps[data.step]) record.steps[data.step].condition = data.condition; },
 };
 
