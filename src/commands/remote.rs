@@ -145,6 +145,10 @@ pub(super) async fn verified_result(
 }
 
 pub(super) async fn upload_input(engine: &EngineClient, path: &Path) -> anyhow::Result<String> {
+    // A missing or wrong token is told before any upload: the engine refuses an upload
+    // from its headers and closes the connection while a large body is still being sent,
+    // which can reset it before the client reads the refusal.
+    engine.services().await.with_context(|| format!("reaching {}", engine.base_url()))?;
     let bytes =
         tokio::fs::read(path).await.with_context(|| format!("reading {}", path.display()))?;
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("input");
