@@ -19,9 +19,14 @@ use crate::quantize::Grid;
 /// [`finish`](MeshStore::finish) returned them). The log is replayed to make the
 /// predictions; a log that does not apply to `base`, or does not give `result`, is refused.
 pub fn encode(base: &MeshData, log: &[Op], result: &MeshData) -> Result<Vec<u8>, CorrectionError> {
-    // The replay edits its own copy in place while the original is hashed.
-    let hashes = || (base.content_hash(), result.content_hash());
-    encode_with(Arc::new(base.clone()), hashes, log, result)
+    // Hashing is a pass over each mesh: done on a second thread while the replay edits its
+    // own copy of the base.
+    let (hashes, sections) = std::thread::scope(|s| {
+        let hashes = s.spawn(|| (base.content_hash(), result.content_hash()));
+        let sections = encode_sections(Arc::new(base.clone()), log, result);
+        (hashes.join().expect("hashing does not panic"), sections)
+    });
+    write(hashes, sections?, log, [counts(base), counts(result)])
 }
 
 /// [`encode`] as a host calls it: the base is shared (the replay copies only what the log
@@ -33,28 +38,19 @@ pub fn encode_known(
     result: &MeshData,
     result_hash: ContentHash,
 ) -> Result<Vec<u8>, CorrectionError> {
-    encode_with(base, move || (base_hash, result_hash), log, result)
+    // Counted before the replay takes the base: a base no one else holds is edited in place.
+    let base_counts = counts(&base);
+    let sections = encode_sections(base, log, result)?;
+    write((base_hash, result_hash), sections, log, [base_counts, counts(result)])
 }
 
-/// The replay owns `base` (no other reference is taken here, so a base no one else holds is
-/// edited in place rather than copied); `hashes` runs on a second thread meanwhile.
-fn encode_with(
-    base: Arc<MeshData>,
-    hashes: impl FnOnce() -> (ContentHash, ContentHash) + Send,
+/// The header (hashes, counts, grid, edits per kind) and the coded sections.
+fn write(
+    (base_hash, result_hash): (ContentHash, ContentHash),
+    (grid, sections): (Option<Grid>, [Vec<u8>; 4]),
     log: &[Op],
-    result: &MeshData,
+    [base_counts, result_counts]: [[u64; 2]; 2],
 ) -> Result<Vec<u8>, CorrectionError> {
-    let (base_counts, result_counts) = (
-        [base.vertex_count() as u64, base.triangle_count() as u64],
-        [result.vertex_count() as u64, result.triangle_count() as u64],
-    );
-    // Hashing is a pass over each mesh: done on a second thread meanwhile.
-    let (hashes, sections) = std::thread::scope(|s| {
-        let hashes = s.spawn(hashes);
-        let sections = encode_sections(base, log, result);
-        (hashes.join().expect("hashing does not panic"), sections)
-    });
-    let (grid, sections) = sections?;
     let mut kinds = [KindCount::default(); 16];
     for op in log {
         let count = &mut kinds[kind_index(op.kind())];
@@ -63,8 +59,8 @@ fn encode_with(
     }
     let header = Correction {
         version: header::VERSION,
-        base: hashes.0,
-        result: hashes.1,
+        base: base_hash,
+        result: result_hash,
         base_counts,
         result_counts,
         grid,
@@ -73,6 +69,10 @@ fn encode_with(
         section_bytes: [0; 4],
     };
     Ok(header::write(&header, &sections))
+}
+
+fn counts(mesh: &MeshData) -> [u64; 2] {
+    [mesh.vertex_count() as u64, mesh.triangle_count() as u64]
 }
 
 /// Codes the log's ops into the four sections, replaying them; checks the replay ends at
