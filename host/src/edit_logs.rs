@@ -66,12 +66,17 @@ struct Pending(Arc<Mutex<HashMap<String, watch::Receiver<()>>>>);
 struct Encoding {
     table: Pending,
     name: String,
-    _done: watch::Sender<()>,
+    done: watch::Sender<()>,
 }
 
 impl Drop for Encoding {
     fn drop(&mut self) {
-        self.table.lock().remove(&self.name);
+        // Two sessions taking the same step from the same mesh encode under one name: only
+        // this encoding's own entry goes.
+        let mut table = self.table.lock();
+        if table.get(&self.name).is_some_and(|r| r.same_channel(&self.done.subscribe())) {
+            table.remove(&self.name);
+        }
     }
 }
 
@@ -83,7 +88,7 @@ impl Pending {
     fn begin(&self, name: &str) -> Encoding {
         let (done, waiting) = watch::channel(());
         self.lock().insert(name.to_owned(), waiting);
-        Encoding { table: self.clone(), name: name.to_owned(), _done: done }
+        Encoding { table: self.clone(), name: name.to_owned(), done }
     }
 
     async fn wait_for(&self, name: &str, limit: Duration) {
@@ -101,7 +106,8 @@ impl EditLogs {
     /// Starts encoding `step`'s edit log in the background, once a slot is free. Returns
     /// the log's blob name and its estimated size.
     pub async fn encode_later(host: &Arc<Host>, step: StepLog) -> (String, u64) {
-        let permit = host.edit_logs.slots.clone().acquire_owned().await;
+        let slots = host.edit_logs.slots.clone();
+        let permit = slots.acquire_owned().await.expect("the slots are never closed");
         let name = meshes::edit_log_name(step.base_hash, step.result_hash);
         let edits: usize = step.log.iter().map(Op::edit_count).sum();
         let params = blake3::hash(step.params.as_bytes()).to_hex();
@@ -180,6 +186,12 @@ mod tests {
         assert!(!waiter.is_finished(), "the wait ended while the log was being encoded");
         drop(encoding);
         tokio::time::timeout(Duration::from_secs(10), waiter).await.unwrap().unwrap();
+        assert!(pending.lock().is_empty());
+        // The same step encoded for two sessions: the first to end leaves the other's wait.
+        let (first, second) = (pending.begin("same.mfc"), pending.begin("same.mfc"));
+        drop(first);
+        assert!(pending.lock().contains_key("same.mfc"));
+        drop(second);
         assert!(pending.lock().is_empty());
         // A name nobody is encoding is not waited for.
         let unknown = pending.wait_for("other.mfc", Duration::from_secs(60));
