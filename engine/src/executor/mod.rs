@@ -24,7 +24,7 @@ use meshflow_api::params::ValueType;
 use meshflow_api::{ClientError, HostClient};
 use serde_json::{Value as Json, json};
 
-use crate::limits::MAX_STEPS_PER_RUN;
+use crate::limits::{MAX_CORRECTION_BYTES, MAX_STEPS_PER_RUN};
 use crate::plan::{Plan, offering_pinned, pick, placed_by_link};
 use crate::record::{BroadcastRecord, HostLoad, InputRecord, ResultRecord, Status, StepRecord};
 use crate::registry::{HostEntry, Registry};
@@ -893,6 +893,11 @@ fn record_log_size(
 ) -> tokio::task::JoinHandle<()> {
     tokio::spawn(async move {
         let Ok(bytes) = producer.blob_size(&url).await else { return };
+        // A host's answer is a claim: a size no edit log can have leaves the estimate.
+        if bytes > MAX_CORRECTION_BYTES {
+            tracing::warn!("{url}: an edit log of {bytes} bytes is not believed");
+            return;
+        }
         run.update_step("correction", index, |step| {
             step.correction_bytes = Some(bytes);
             step.correction_estimated = false;
