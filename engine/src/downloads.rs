@@ -3,7 +3,8 @@
 //! the run record (a mismatch is never served), decoded and written as PLY, OBJ, OFF, STL,
 //! the packed `.mfm` itself, or `raw` arrays for the browser's viewer.
 //!
-//! The engine runs no plugins; it links only the pure-Rust codec and mesh file crates.
+//! The engine runs no plugins. It links the pure-Rust codec and mesh file crates for this,
+//! which DESIGN §1 does not allow (see docs/architecture.md).
 
 use std::sync::Arc;
 
