@@ -102,6 +102,9 @@ async fn host_routes_need_the_cluster_token_but_health() {
         anonymous.get(url("/sessions/x")),
         anonymous.post(url("/sessions/x/run")).json(&json!({"service": "is-manifold"})),
         anonymous.get(url("/blobs/x.mfm")),
+        anonymous
+            .post(url("/meshes/convert"))
+            .json(&json!({"hash": "0".repeat(64), "format": "ply"})),
         anonymous.get(url("/services")).bearer_auth(TOKEN),
         // The cluster token does not publish plugins: that takes the upload token.
         anonymous.post(url("/plugins")).bearer_auth(CLUSTER_TOKEN).body(vec![0u8; 16]),

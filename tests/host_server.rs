@@ -330,6 +330,55 @@ async fn blobs_have_a_length_and_an_etag_that_answers_304() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn meshes_are_written_in_a_users_format_only_as_the_mesh_their_hash_names() {
+    use meshflow_api::host::{ConvertMesh, MeshFileFormat};
+    const LIMIT: u64 = 1 << 30;
+    let (one, other) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let (_holder, holder) = start_host(config(one.path())).await;
+    let (_writer, writer) = start_host(config(other.path())).await;
+    let input = bunny_url().await;
+    let id = ready_session(&holder, &input).await;
+    let step = filter(&holder, &id, "add-noise", serde_json::json!({"seed": 1})).await;
+    let hash = step.output_hash.clone();
+    let ask = |hash: &str, from: Option<&str>, format| ConvertMesh {
+        hash: hash.to_owned(),
+        from: from.map(str::to_owned),
+        format,
+    };
+
+    // The holder writes the mesh it holds, in every format, as that very mesh.
+    let ply = holder.convert(ask(&hash, None, MeshFileFormat::Ply), LIMIT).await.unwrap();
+    assert_eq!(io::load_bytes(&ply, io::Format::Ply, "ply").unwrap().content_hash().to_hex(), hash);
+    let raw = holder.convert(ask(&hash, None, MeshFileFormat::Raw), LIMIT).await.unwrap();
+    assert_eq!(meshflow_api::raw_mesh::content_hash(&raw).unwrap(), hash);
+    let mfm = holder.convert(ask(&hash, None, MeshFileFormat::Mfm), LIMIT).await.unwrap();
+    assert_eq!(meshflow_codec::pack::decode(&mfm).unwrap().content_hash().to_hex(), hash);
+
+    // A host that does not hold it says so, unless told where to fetch it.
+    let (status, code, _) =
+        api_error(writer.convert(ask(&hash, None, MeshFileFormat::Obj), LIMIT).await);
+    assert_eq!((status, code.as_str()), (404, "not-found"));
+    let fetched = ask(&hash, Some(&step.full.url), MeshFileFormat::Obj);
+    let obj = writer.convert(fetched, LIMIT).await.unwrap();
+    assert_eq!(io::load_bytes(&obj, io::Format::Obj, "obj").unwrap().content_hash().to_hex(), hash);
+
+    // What is fetched must be the mesh the hash names; nonsense is refused before any fetch.
+    let (status, code, message) =
+        api_error(writer.convert(ask(&hash, Some(&input), MeshFileFormat::Ply), LIMIT).await);
+    assert_eq!((status, code.as_str()), (502, "hash-mismatch"), "{message}");
+    let (status, code, _) =
+        api_error(writer.convert(ask("../x", Some(&input), MeshFileFormat::Ply), LIMIT).await);
+    assert_eq!((status, code.as_str()), (400, "bad-hash"));
+    let (status, code, _) = api_error(
+        writer.convert(ask(&hash, Some("file:///etc/passwd"), MeshFileFormat::Ply), LIMIT).await,
+    );
+    assert_eq!((status, code.as_str()), (400, "url-not-allowed"));
+    // A client's limit holds, whatever the host would send.
+    let capped = holder.convert(ask(&hash, None, MeshFileFormat::Obj), 1000).await;
+    assert!(matches!(capped, Err(ClientError::TooLarge { .. })), "{capped:?}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_correction_that_does_not_apply_falls_back_to_the_full_mesh_and_says_why() {
     let dirs = [(); 2].map(|()| tempfile::tempdir().unwrap());
     let (_a, a) = start_host(config(dirs[0].path())).await;

@@ -1,5 +1,6 @@
 //! The engine routes the workbench stands on (issue 14), end to end over HTTP: downloads in
-//! the user's format named after the input and hash-checked, a step's output and the input
+//! the user's format (written by hosts: the engine links no codec) named after the input and
+//! hash-checked, a step's output and the input
 //! as the viewer's raw arrays, `POST /workflows/validate` answering as `POST /runs` would,
 //! a run's workflow for re-runs, and plugin upload forwarded to a registered host.
 
@@ -72,6 +73,14 @@ async fn results_steps_and_inputs_download_in_every_format_named_after_the_input
     let triangles = u32::from_le_bytes(raw[8..12].try_into().unwrap()) as usize;
     assert_eq!((vertices, triangles), (input.mesh.vertex_count(), input.mesh.triangle_count()));
     assert_eq!(raw.len(), 12 + vertices * 12 + triangles * 12);
+    let input_hash = text(&record["input"]["hash"]);
+    assert_eq!(meshflow_api::raw_mesh::content_hash(&raw).unwrap(), input_hash);
+    // The input in another format than it was uploaded in, written by a host of the run.
+    let (status, disposition, body) = get(&cluster, &format!("/runs/{id}/input?format=ply")).await;
+    assert_eq!(status, 200, "{}", String::from_utf8_lossy(&body));
+    assert_eq!(disposition, "attachment; filename=\"bunny-input.ply\"");
+    let mesh = io::load_bytes(&body, Format::Ply, "ply").unwrap();
+    assert_eq!(mesh.content_hash().to_hex(), input_hash);
 
     // What cannot be served says why.
     for (path, status, code) in [

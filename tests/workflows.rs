@@ -529,6 +529,7 @@ async fn submit_refuses_a_result_that_is_not_the_recorded_mesh_and_writes_nothin
     // A consistent liar: every claim well formed, but the mesh it serves is another one.
     let claimed = "b".repeat(64);
     let served = meshflow_codec::pack::encode(&Input::bunny().mesh).unwrap();
+    let raw = raw_of(&Input::bunny().mesh);
     let fake = FakeHost::start(|me| Script {
         services,
         session: ("a".repeat(64), 1839, 3674),
@@ -538,7 +539,7 @@ async fn submit_refuses_a_result_that_is_not_the_recorded_mesh_and_writes_nothin
             &format!("{me}/blobs/{claimed}.mfm"),
             &format!("{me}/blobs/{}.mfc", "c".repeat(64)),
         ),
-        blobs: [(format!("{claimed}.mfm"), served)].into(),
+        blobs: [(format!("{claimed}.mfm"), served.clone()), (format!("{claimed}.raw"), raw)].into(),
     })
     .await;
     let never_fetched = "http://127.0.0.1:9".to_owned();
@@ -567,8 +568,27 @@ async fn submit_refuses_a_result_that_is_not_the_recorded_mesh_and_writes_nothin
     .unwrap();
     let stderr = String::from_utf8_lossy(&ran.stderr);
     assert!(!ran.status.success(), "submit took the fake's mesh: {stderr}");
-    // The engine refuses to serve it (and the CLI would refuse it too).
-    assert!(stderr.contains("hash-mismatch") && stderr.contains(&claimed), "{stderr}");
+    // The fake writes the result itself (the engine decodes no mesh); the CLI checks it.
+    assert!(stderr.contains("not the recorded") && stderr.contains(&claimed), "{stderr}");
     assert!(!output.exists(), "a file was written");
     assert_eq!(fake.runs(), 1);
+    // The viewer's raw arrays the engine hashes itself, and refuses.
+    let runs: serde_json::Value =
+        cluster.http.get(cluster.url("/runs")).send().await.unwrap().json().await.unwrap();
+    let id = text(&runs[0]["id"]);
+    let answer = cluster.http.get(cluster.url(&format!("/runs/{id}/result?format=raw"))).send();
+    let answer = answer.await.unwrap();
+    assert_eq!(answer.status(), 502);
+    let body: serde_json::Value = answer.json().await.unwrap();
+    assert_eq!(body["error"]["code"], "hash-mismatch", "{body}");
+}
+
+/// A mesh as the `raw` format (`meshflow_api::raw_mesh`).
+fn raw_of(mesh: &meshflow_mesh::MeshData) -> Vec<u8> {
+    let mut raw = meshflow_api::raw_mesh::MAGIC.to_vec();
+    raw.extend((mesh.vertex_count() as u32).to_le_bytes());
+    raw.extend((mesh.triangle_count() as u32).to_le_bytes());
+    raw.extend(mesh.positions.iter().flat_map(|v| v.to_le_bytes()));
+    raw.extend(mesh.triangles.iter().flat_map(|v| v.to_le_bytes()));
+    raw
 }

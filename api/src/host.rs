@@ -90,6 +90,53 @@ pub struct InputRef {
     pub hash: Option<String>,
 }
 
+/// `POST /meshes/convert`: a mesh written in a file format by a host, which checks the mesh's
+/// content hash before it writes a byte of it.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ConvertMesh {
+    /// The content hash the mesh must have.
+    pub hash: String,
+    /// Where to fetch the mesh when the host does not hold it; without it, a mesh the host
+    /// does not hold is not found (404).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub from: Option<String>,
+    pub format: MeshFileFormat,
+}
+
+/// What a mesh is written as for people and other tools.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum MeshFileFormat {
+    Ply,
+    Obj,
+    Off,
+    Stl,
+    /// The packed mesh as hosts keep and send it.
+    Mfm,
+    /// Plain arrays for the browser's viewer ([`crate::raw_mesh`]).
+    Raw,
+}
+
+impl MeshFileFormat {
+    pub const ALL: [Self; 6] = [Self::Ply, Self::Obj, Self::Off, Self::Stl, Self::Mfm, Self::Raw];
+
+    /// By its extension, in lower case.
+    pub fn parse(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|format| format.extension() == name)
+    }
+
+    pub fn extension(self) -> &'static str {
+        match self {
+            Self::Ply => "ply",
+            Self::Obj => "obj",
+            Self::Off => "off",
+            Self::Stl => "stl",
+            Self::Mfm => "mfm",
+            Self::Raw => "raw",
+        }
+    }
+}
+
 /// `POST /sessions` answer.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct SessionCreated {

@@ -5,7 +5,7 @@ use std::sync::{Arc, RwLock};
 use reqwest::Method;
 
 use crate::host::{
-    CreateSession, Health, InputRef, PluginEntry, RunRequest, RunResult, ServiceEntry,
+    ConvertMesh, CreateSession, Health, InputRef, PluginEntry, RunRequest, RunResult, ServiceEntry,
     SessionCreated, SessionStatus, Update, Updated, UploadedPlugin, Vouched,
 };
 use crate::transport::{
@@ -180,6 +180,15 @@ impl HostClient {
     pub async fn delete_session(&self, id: &str) -> Result<(), ClientError> {
         let path = format!("/sessions/{id}");
         self.endpoint.empty(Method::DELETE, &path, |r| r.timeout(QUERY_TIMEOUT)).await
+    }
+
+    /// `POST /meshes/convert`: the mesh `request` names, written as it asks, at most `limit`
+    /// bytes.
+    pub async fn convert(&self, request: ConvertMesh, limit: u64) -> Result<Vec<u8>, ClientError> {
+        let url = format!("{}/meshes/convert", self.endpoint.base);
+        let body = Vouched { body: request, peers: self.access.peers() };
+        let request = self.endpoint.request(Method::POST, &url).timeout(WORK_TIMEOUT).json(&body);
+        read_capped(send(request, &url).await?, &url, limit).await
     }
 
     /// The size of a blob (any URL), by `HEAD`.

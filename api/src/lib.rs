@@ -13,6 +13,7 @@ mod engine_client;
 pub mod fetch_rules;
 pub mod host;
 mod host_client;
+pub mod raw_mesh;
 #[cfg(feature = "server")]
 pub mod server;
 mod transport;

@@ -17,7 +17,7 @@ use serde::Deserialize;
 use serde_json::{Value as Json_, json};
 use tokio_stream::wrappers::BroadcastStream;
 
-use crate::downloads::{DownloadError, MeshFormat, Which};
+use crate::downloads::{DownloadError, Which};
 use crate::inputs::InputError;
 use crate::limits::{MAX_PLUGIN_FORWARD_BYTES, MAX_REGISTER_BYTES, MAX_SUBMIT_BYTES, RETRY_AFTER};
 use crate::record::Status;
@@ -27,6 +27,7 @@ use meshflow_api::engine::{
     BatchStatus, Comparison, HostInfo, InputUploaded, RegisterHost, RerunRequest, RunSubmitted,
     RunSummary, ServiceOffer, SubmitBatch,
 };
+use meshflow_api::host::MeshFileFormat;
 
 pub fn router(engine: Arc<Engine>) -> Router {
     Router::new()
@@ -452,7 +453,7 @@ async fn mesh_download(
     format: Option<String>,
 ) -> ApiResult<Response> {
     let name = format.unwrap_or_else(|| "mfm".into());
-    let format = MeshFormat::parse(&name)
+    let format = MeshFileFormat::parse(&name)
         .ok_or_else(|| download_error(DownloadError::BadFormat(name.chars().take(16).collect())))?;
     let download = engine.download(record, which, format).await.map_err(download_error)?;
     let headers = [
@@ -472,11 +473,11 @@ fn download_error(error: DownloadError) -> ApiError {
             (StatusCode::NOT_FOUND, "not-found")
         }
         E::Gone { .. } => (StatusCode::GONE, "gone"),
-        E::Fetch(_) | E::UnknownHost(_) | E::Corrupt { .. } => {
+        E::Fetch { .. } | E::UnknownHost(_) | E::Corrupt { .. } => {
             (StatusCode::BAD_GATEWAY, "download-failed")
         }
+        E::NoHost => (StatusCode::SERVICE_UNAVAILABLE, "no-host"),
         E::HashMismatch { .. } => (StatusCode::BAD_GATEWAY, "hash-mismatch"),
-        E::Convert { .. } => (StatusCode::INTERNAL_SERVER_ERROR, "convert-failed"),
     };
     ApiError(status, code, error.to_string())
 }

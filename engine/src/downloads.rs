@@ -1,57 +1,18 @@
 //! Meshes leave the system in the user's format (DESIGN §6): a run's result, a step's output
-//! or its input, fetched packed from the host that holds it, checked against the hash in
-//! the run record (a mismatch is never served), decoded and written as PLY, OBJ, OFF, STL,
-//! the packed `.mfm` itself, or `raw` arrays for the browser's viewer.
-//!
-//! The engine runs no plugins. It links the pure-Rust codec and mesh file crates for this,
-//! which DESIGN §1 does not allow (see docs/architecture.md).
+//! or its input, written by a host, which checks the mesh against the run record's hash
+//! before it writes a byte (`POST /meshes/convert`). The `raw` arrays the viewer reads are
+//! checked again here, by hashing them. The engine links no mesh codec (DESIGN §1): a step's
+//! output and the result are written by the host that holds them, an input by a host of the
+//! run (else any host that is up), which fetches it from where the run read it.
 
 use std::sync::Arc;
 
-use meshflow_api::{ClientError, HostClient};
-use meshflow_mesh::{MeshData, as_le_bytes_f32};
-use meshflow_meshio::Format;
+use meshflow_api::host::{ConvertMesh, MeshFileFormat};
+use meshflow_api::{ClientError, HostClient, raw_mesh};
 use tokio::sync::Semaphore;
 
-use crate::limits::{
-    DOWNLOAD_FETCH_TIMEOUT, MAX_CONCURRENT_CONVERSIONS, MAX_DOWNLOAD_FETCH_BYTES,
-    MAX_INPUT_DECODE_BYTES,
-};
+use crate::limits::{DOWNLOAD_FETCH_TIMEOUT, MAX_CONCURRENT_DOWNLOADS, MAX_DOWNLOAD_FETCH_BYTES};
 use crate::record::{RunRecord, Status};
-
-/// What a download is written as.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum MeshFormat {
-    File(Format),
-    /// The packed mesh as the host holds it.
-    Mfm,
-    /// For the viewer: [`RAW_MAGIC`], vertex and triangle counts (u32 LE), then the
-    /// positions (f32 LE) and the triangles' corners (u32 LE). No text to parse, so a
-    /// million vertices reach the GPU in one copy.
-    Raw,
-}
-
-/// The first four bytes of a `raw` answer; its header is 12 bytes, so the arrays that follow
-/// are 4-byte aligned.
-pub const RAW_MAGIC: &[u8; 4] = b"MFR1";
-
-impl MeshFormat {
-    pub fn parse(name: &str) -> Option<Self> {
-        match name {
-            "mfm" => Some(Self::Mfm),
-            "raw" => Some(Self::Raw),
-            other => Format::from_name(other).map(Self::File),
-        }
-    }
-
-    pub fn extension(self) -> &'static str {
-        match self {
-            Self::File(format) => format.extension(),
-            Self::Mfm => "mfm",
-            Self::Raw => "raw",
-        }
-    }
-}
 
 /// Which mesh of a run.
 #[derive(Clone, Copy, Debug)]
@@ -81,19 +42,19 @@ pub enum DownloadError {
          meshes only while they hold its sessions and recent outputs): run the workflow again"
     )]
     Gone { index: usize, host: String },
-    #[error("fetching the mesh from its host failed: {0}")]
-    Fetch(ClientError),
-    #[error("{0}: not on a registered host")]
+    #[error("writing the mesh on {host} failed: {error}")]
+    Fetch { host: String, error: ClientError },
+    #[error("{0}: not a registered host")]
     UnknownHost(String),
+    #[error("no registered host is up to write the input")]
+    NoHost,
     #[error(
-        "the mesh from {url} has content hash {actual}, but the run record says {expected}: \
+        "the mesh from {host} has content hash {actual}, but the run record says {expected}: \
          not served"
     )]
-    HashMismatch { url: String, expected: String, actual: String },
-    #[error("the mesh from {url} does not decode: {message}")]
-    Corrupt { url: String, message: String },
-    #[error("writing the mesh as {format}: {message}")]
-    Convert { format: &'static str, message: String },
+    HashMismatch { host: String, expected: String, actual: String },
+    #[error("the mesh from {host} is not a raw mesh: {error}")]
+    Corrupt { host: String, error: raw_mesh::RawMeshError },
 }
 
 /// A converted mesh and the file name it is offered under.
@@ -102,111 +63,100 @@ pub struct Download {
     pub file_name: String,
 }
 
-/// Fetches and converts meshes, at most [`MAX_CONCURRENT_CONVERSIONS`] at a time.
+/// Asks hosts for meshes, at most [`MAX_CONCURRENT_DOWNLOADS`] at a time.
 pub struct Downloads {
     slots: Arc<Semaphore>,
 }
 
 impl Default for Downloads {
     fn default() -> Self {
-        Self { slots: Arc::new(Semaphore::new(MAX_CONCURRENT_CONVERSIONS)) }
+        Self { slots: Arc::new(Semaphore::new(MAX_CONCURRENT_DOWNLOADS)) }
     }
 }
 
-/// The client that may fetch a host's blob URL (the registered host's, with the cluster
-/// token), or none for a URL on no registered host.
-pub type HostClients<'a> = dyn Fn(&str) -> Option<HostClient> + Sync + 'a;
+/// The hosts a download may ask: by URL, a registered host's client (with the cluster
+/// token and origins); and the registered hosts that are up, for an input.
+pub trait Hosts: Sync {
+    fn registered(&self, url: &str) -> Option<HostClient>;
+    fn up(&self) -> Vec<HostClient>;
+}
 
 /// Where a mesh is and what hash it must have.
 struct Source {
-    location: Location,
+    /// The host holding it; for an input, none (any host fetches it from `from`).
+    holder: Option<String>,
+    from: Option<String>,
+    step: Option<usize>,
     hash: String,
     label: String,
 }
 
-enum Location {
-    /// A packed mesh on a host.
-    Host { url: String, step: Option<(usize, String)> },
-    /// An input stored by the engine.
-    Stored { path: std::path::PathBuf, format: Option<Format> },
-}
-
 impl Downloads {
-    /// The mesh `which` of the run `record` as `format`; `stem` names the download,
-    /// `stored_input` finds an input the engine stored by the file name in its URL.
+    /// The mesh `which` of the run `record` as `format`; `stem` names the download.
     pub async fn mesh(
         &self,
         record: &RunRecord,
         which: Which,
-        format: MeshFormat,
+        format: MeshFileFormat,
         stem: &str,
-        stored_input: &(dyn Fn(&str) -> Option<std::path::PathBuf> + Sync),
-        hosts: &HostClients<'_>,
+        hosts: &dyn Hosts,
     ) -> Result<Download, DownloadError> {
-        let source = locate(record, which, stored_input)?;
-        // A slot before the fetch: memory stays bounded by the slots, not the requests.
+        let source = locate(record, which)?;
+        let writer = match &source.holder {
+            Some(url) => {
+                hosts.registered(url).ok_or_else(|| DownloadError::UnknownHost(url.clone()))?
+            }
+            None => input_writer(record, hosts).ok_or(DownloadError::NoHost)?,
+        };
+        // A slot before the request: memory stays bounded by the slots, not the requests.
         let _slot = self.slots.acquire().await.expect("the semaphore is never closed");
-        let (mesh, packed) = match &source.location {
-            Location::Host { url, step } => {
-                let packed = fetch(hosts, url, step.as_ref()).await?;
-                let mesh = decode_packed(&packed, url)?;
-                (mesh, Some(packed))
+        let request = ConvertMesh { hash: source.hash.clone(), from: source.from.clone(), format };
+        let host = writer.base_url().to_owned();
+        let converted = tokio::time::timeout(
+            DOWNLOAD_FETCH_TIMEOUT,
+            writer.convert(request, MAX_DOWNLOAD_FETCH_BYTES),
+        )
+        .await
+        .unwrap_or_else(|_| {
+            let message = format!("no whole answer in {DOWNLOAD_FETCH_TIMEOUT:?}");
+            Err(ClientError::Timeout { url: host.clone(), message })
+        });
+        let bytes = converted.map_err(|error| match (error, source.step) {
+            (ClientError::Refused { status: 404, .. }, Some(index)) => {
+                DownloadError::Gone { index, host: host.clone() }
             }
-            Location::Stored { path, format } => {
-                let (path, format) = (path.clone(), *format);
-                let read = tokio::task::spawn_blocking(move || read_stored(&path, format));
-                read.await.expect("reading an input does not panic")?
+            (error, _) => DownloadError::Fetch { host: host.clone(), error },
+        })?;
+        if format == MeshFileFormat::Raw {
+            let actual = raw_mesh::content_hash(&bytes)
+                .map_err(|error| DownloadError::Corrupt { host: host.clone(), error })?;
+            if actual != source.hash {
+                return Err(DownloadError::HashMismatch { host, expected: source.hash, actual });
             }
-        };
-        let actual = mesh.content_hash().to_hex();
-        if actual != source.hash {
-            let url = match &source.location {
-                Location::Host { url, .. } => url.clone(),
-                Location::Stored { path, .. } => path.display().to_string(),
-            };
-            return Err(DownloadError::HashMismatch { url, expected: source.hash, actual });
         }
-        let bytes = match (format, packed) {
-            (MeshFormat::Mfm, Some(packed)) => packed,
-            _ => tokio::task::spawn_blocking(move || encode(&mesh, format))
-                .await
-                .expect("encoding a mesh does not panic")?,
-        };
         let file_name = format!("{stem}-{}.{}", source.label, format.extension());
         Ok(Download { bytes, file_name })
     }
 }
 
-/// A host's packed mesh, from a registered host only, bounded in size and time.
-async fn fetch(
-    hosts: &HostClients<'_>,
-    url: &str,
-    step: Option<&(usize, String)>,
-) -> Result<Vec<u8>, DownloadError> {
-    let client = hosts(url).ok_or_else(|| DownloadError::UnknownHost(url.to_owned()))?;
-    let download = client.download_at_most(url, MAX_DOWNLOAD_FETCH_BYTES);
-    let fetched =
-        tokio::time::timeout(DOWNLOAD_FETCH_TIMEOUT, download).await.unwrap_or_else(|_| {
-            let message = format!("no whole answer in {DOWNLOAD_FETCH_TIMEOUT:?}");
-            Err(ClientError::Timeout { url: url.to_owned(), message })
-        });
-    fetched.map_err(|e| match (e, step) {
-        (ClientError::Refused { status: 404, .. }, Some((index, host))) => {
-            DownloadError::Gone { index: *index, host: host.clone() }
-        }
-        (e, _) => DownloadError::Fetch(e),
-    })
+/// Who writes a run's input: a host the run used that is still up, else any host that is up.
+fn input_writer(record: &RunRecord, hosts: &dyn Hosts) -> Option<HostClient> {
+    let up = hosts.up();
+    let used = record
+        .steps
+        .iter()
+        .find_map(|step| up.iter().find(|client| client.base_url() == step.host.as_str()).cloned());
+    used.or_else(|| up.into_iter().next())
 }
 
-fn locate(
-    record: &RunRecord,
-    which: Which,
-    stored_input: &(dyn Fn(&str) -> Option<std::path::PathBuf> + Sync),
-) -> Result<Source, DownloadError> {
+fn locate(record: &RunRecord, which: Which) -> Result<Source, DownloadError> {
     match which {
         Which::Result => match (&record.result, record.status) {
             (Some(result), Status::Completed) => Ok(Source {
-                location: Location::Host { url: result.url.clone(), step: None },
+                // A blob URL of the host that holds it.
+                holder: Some(result.url.clone()),
+                from: None,
+                step: None,
                 hash: result.hash.clone(),
                 label: "result".into(),
             }),
@@ -226,9 +176,10 @@ fn locate(
                 index,
                 service: step.service.clone(),
             })?;
-            let url = format!("{}/blobs/{hash}.mfm", step.host.trim_end_matches('/'));
             Ok(Source {
-                location: Location::Host { url, step: Some((index, step.host.clone())) },
+                holder: Some(step.host.clone()),
+                from: None,
+                step: Some(index),
                 hash,
                 label: format!("step{index}-{}", step.service),
             })
@@ -237,76 +188,15 @@ fn locate(
             let input = record.input.as_ref().ok_or_else(|| {
                 DownloadError::NoInput(format!("run {} has not loaded its input yet", record.id))
             })?;
-            let file = input.url.rsplit_once("/inputs/").map(|(_, file)| file).unwrap_or("");
-            let path = stored_input(file).ok_or_else(|| {
-                DownloadError::NoInput(format!(
-                    "the input {} is not stored on this engine (only uploaded inputs are shown)",
-                    input.url
-                ))
-            })?;
-            let format = match file.rsplit_once('.').map(|(_, ext)| ext) {
-                Some("mfm") => None,
-                ext => Some(ext.and_then(Format::from_name).ok_or_else(|| {
-                    DownloadError::NoInput(format!("the input {file} has no mesh extension"))
-                })?),
-            };
             Ok(Source {
-                location: Location::Stored { path, format },
+                holder: None,
+                from: Some(input.url.clone()),
+                step: None,
                 hash: input.hash.clone(),
                 label: "input".into(),
             })
         }
     }
-}
-
-fn decode_packed(packed: &[u8], url: &str) -> Result<MeshData, DownloadError> {
-    meshflow_codec::pack::decode(packed)
-        .map_err(|e| DownloadError::Corrupt { url: url.to_owned(), message: e.to_string() })
-}
-
-/// An input stored by the engine, decoded (`format` `None`: packed), with its packed bytes
-/// when it is packed.
-fn read_stored(
-    path: &std::path::Path,
-    format: Option<Format>,
-) -> Result<(MeshData, Option<Vec<u8>>), DownloadError> {
-    let name = path.display().to_string();
-    let corrupt = |message: String| DownloadError::Corrupt { url: name.clone(), message };
-    let size = std::fs::metadata(path).map_err(|e| corrupt(e.to_string()))?.len();
-    if size > MAX_INPUT_DECODE_BYTES {
-        return Err(corrupt(format!("{size} bytes is over the limit of {MAX_INPUT_DECODE_BYTES}")));
-    }
-    let bytes = std::fs::read(path).map_err(|e| corrupt(e.to_string()))?;
-    match format {
-        Some(format) => meshflow_meshio::load_bytes(&bytes, format, &name)
-            .map(|mesh| (mesh, None))
-            .map_err(|e| corrupt(e.to_string())),
-        None => decode_packed(&bytes, &name).map(|mesh| (mesh, Some(bytes))),
-    }
-}
-
-fn encode(mesh: &MeshData, format: MeshFormat) -> Result<Vec<u8>, DownloadError> {
-    let failed = |message: String| DownloadError::Convert { format: format.extension(), message };
-    match format {
-        MeshFormat::File(file_format) => {
-            let mut bytes = Vec::new();
-            meshflow_meshio::write_to(&mut bytes, mesh, file_format)
-                .map_err(|e| failed(e.to_string()))?;
-            Ok(bytes)
-        }
-        MeshFormat::Mfm => meshflow_codec::pack::encode(mesh).map_err(|e| failed(e.to_string())),
-        MeshFormat::Raw => Ok(raw(mesh)),
-    }
-}
-
-fn raw(mesh: &MeshData) -> Vec<u8> {
-    let mut bytes = Vec::with_capacity(12 + 4 * (mesh.positions.len() + mesh.triangles.len()));
-    bytes.extend_from_slice(RAW_MAGIC);
-    bytes.extend_from_slice(&(mesh.vertex_count() as u32).to_le_bytes());
-    bytes.extend_from_slice(&(mesh.triangle_count() as u32).to_le_bytes());
-    bytes.extend_from_slice(&as_le_bytes_f32(&mesh.positions));
-    bytes.extend(mesh.triangles.iter().flat_map(|t| t.to_le_bytes()));
-    bytes
 }
 
 /// A file-name stem from an input's name: its stem, kept to letters, digits, `-`, `_` and
@@ -328,32 +218,63 @@ mod tests {
 
     #[test]
     fn formats_and_stems() {
-        assert_eq!(MeshFormat::parse("ply"), Some(MeshFormat::File(Format::Ply)));
-        assert_eq!(MeshFormat::parse("mfm"), Some(MeshFormat::Mfm));
-        assert_eq!(MeshFormat::parse("exe"), None);
+        assert_eq!(MeshFileFormat::parse("ply"), Some(MeshFileFormat::Ply));
+        assert_eq!(MeshFileFormat::parse("mfm"), Some(MeshFileFormat::Mfm));
+        assert_eq!(MeshFileFormat::parse("exe"), None);
         assert_eq!(stem_of("scans/bunny.obj"), "bunny");
         assert_eq!(stem_of("a b\"<x>.ply"), "abx");
         assert_eq!(stem_of("..."), "mesh");
     }
 
-    /// A stand-in host serving one packed mesh under any `.mfm` name but `missing.mfm`.
-    async fn host_serving(mesh: &MeshData) -> String {
-        use axum::extract::Path;
+    /// One triangle as a `raw` mesh, and its content hash.
+    fn triangle() -> (Vec<u8>, String) {
+        let mut raw = raw_mesh::MAGIC.to_vec();
+        raw.extend([3u32, 1].iter().flat_map(|v| v.to_le_bytes()));
+        raw.extend([0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|v| v.to_le_bytes()));
+        raw.extend([0u32, 1, 2].iter().flat_map(|v| v.to_le_bytes()));
+        let hash = raw_mesh::content_hash(&raw).unwrap();
+        (raw, hash)
+    }
+
+    /// A stand-in host: writes `raw` for any request but one naming `from` a URL ending in
+    /// `/missing`, and holds nothing it is not told where to fetch when `holds` is false;
+    /// each request it took is kept.
+    async fn host_serving(
+        raw: Vec<u8>,
+        holds: bool,
+    ) -> (String, Arc<std::sync::Mutex<Vec<ConvertMesh>>>) {
         use axum::http::StatusCode;
-        let packed = meshflow_codec::pack::encode(mesh).unwrap();
+        let seen = Arc::new(std::sync::Mutex::new(Vec::new()));
+        let log = seen.clone();
         let app = axum::Router::new().route(
-            "/blobs/{name}",
-            axum::routing::get(move |Path(name): Path<String>| async move {
-                match name.as_str() {
-                    "missing.mfm" => Err(StatusCode::NOT_FOUND),
-                    _ => Ok(packed.clone()),
+            "/meshes/convert",
+            axum::routing::post(move |axum::Json(request): axum::Json<ConvertMesh>| async move {
+                log.lock().unwrap().push(request.clone());
+                match (&request.from, holds) {
+                    (None, false) => Err(StatusCode::NOT_FOUND),
+                    (Some(from), _) if from.ends_with("/missing") => Err(StatusCode::BAD_GATEWAY),
+                    _ => Ok(raw.clone()),
                 }
             }),
         );
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
         let url = format!("http://{}", listener.local_addr().unwrap());
         tokio::spawn(async move { axum::serve(listener, app).await });
-        url
+        (url, seen)
+    }
+
+    /// Registered hosts, all up.
+    struct Cluster(Vec<String>);
+
+    impl Hosts for Cluster {
+        fn registered(&self, url: &str) -> Option<HostClient> {
+            let base = self.0.iter().find(|base| url.starts_with(base.as_str()))?;
+            Some(HostClient::new(base))
+        }
+
+        fn up(&self) -> Vec<HostClient> {
+            self.0.iter().map(|base| HostClient::new(base)).collect()
+        }
     }
 
     fn completed(url: String, hash: String) -> RunRecord {
@@ -369,56 +290,88 @@ mod tests {
         record
     }
 
-    #[tokio::test]
-    async fn a_mesh_whose_hash_is_not_the_records_is_never_served() {
-        let mesh = MeshData::new(vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], vec![0, 1, 2]);
-        let host = host_serving(&mesh).await;
-        let downloads = Downloads::default();
-        let none = |_: &str| None;
-        let any_host = |url: &str| Some(HostClient::new(url));
-        let good = completed(format!("{host}/blobs/a.mfm"), mesh.content_hash().to_hex());
-        let ply = MeshFormat::File(Format::Ply);
-        let served =
-            downloads.mesh(&good, Which::Result, ply, "tri", &none, &any_host).await.unwrap();
-        assert_eq!(served.file_name, "tri-result.ply");
-        let back = meshflow_meshio::load_bytes(&served.bytes, Format::Ply, "x").unwrap();
-        assert_eq!(back.content_hash(), mesh.content_hash());
+    fn step_on(host: &str, output_hash: &str) -> meshflow_api::engine::StepRecord {
+        serde_json::from_value(serde_json::json!({
+            "index": 0, "path": "steps[0]", "kind": "filter", "service": "fill-holes",
+            "host": host, "plugin": "p", "params": {}, "started_ms": 0.0, "finished_ms": 1.0,
+            "compute_ms": 1.0, "wait_ms": 0.0, "overhead_ms": 0.0, "input_hash": "i",
+            "output_hash": output_hash, "report": "", "failed_hosts": [], "transfers": []
+        }))
+        .unwrap()
+    }
 
-        let forged = completed(format!("{host}/blobs/a.mfm"), "00".repeat(32));
-        let refused = downloads.mesh(&forged, Which::Result, ply, "tri", &none, &any_host).await;
+    #[tokio::test]
+    async fn raw_arrays_whose_hash_is_not_the_records_are_never_served() {
+        let (raw, hash) = triangle();
+        let (host, seen) = host_serving(raw.clone(), true).await;
+        let cluster = Cluster(vec![host.clone()]);
+        let downloads = Downloads::default();
+        let good = completed(format!("{host}/blobs/{hash}.mfm"), hash.clone());
+        let raw_format = MeshFileFormat::Raw;
+        let served = downloads.mesh(&good, Which::Result, raw_format, "tri", &cluster).await;
+        let served = served.unwrap();
+        assert_eq!(served.file_name, "tri-result.raw");
+        assert_eq!(served.bytes, raw);
+        assert_eq!(
+            seen.lock().unwrap()[0],
+            ConvertMesh { hash: hash.clone(), from: None, format: raw_format }
+        );
+
+        let forged = completed(format!("{host}/blobs/{hash}.mfm"), "00".repeat(32));
+        let refused = downloads.mesh(&forged, Which::Result, raw_format, "tri", &cluster).await;
         assert!(matches!(refused, Err(DownloadError::HashMismatch { .. })), "{:?}", refused.err());
+
+        let elsewhere = completed(format!("http://127.0.0.1:9/blobs/{hash}.mfm"), hash);
+        let unknown = downloads.mesh(&elsewhere, Which::Result, raw_format, "tri", &cluster).await;
+        assert!(matches!(unknown, Err(DownloadError::UnknownHost(_))), "{:?}", unknown.err());
     }
 
     #[tokio::test]
     async fn a_step_output_its_host_no_longer_holds_is_gone() {
-        let mesh = MeshData::new(vec![0.0; 9], vec![0, 1, 2]);
-        let host = host_serving(&mesh).await;
-        let mut record = completed(format!("{host}/blobs/a.mfm"), mesh.content_hash().to_hex());
-        let step: meshflow_api::engine::StepRecord = serde_json::from_value(serde_json::json!({
-            "index": 0, "path": "steps[0]", "kind": "filter", "service": "fill-holes",
-            "host": host, "plugin": "p", "params": {}, "started_ms": 0.0, "finished_ms": 1.0,
-            "compute_ms": 1.0, "wait_ms": 0.0, "overhead_ms": 0.0, "input_hash": "i",
-            "output_hash": "missing", "report": "", "failed_hosts": [], "transfers": []
-        }))
-        .unwrap();
-        record.steps.push(step);
-        let none = |_: &str| None;
-        let any_host = |url: &str| Some(HostClient::new(url));
+        let (raw, hash) = triangle();
+        let (host, _) = host_serving(raw, false).await;
+        let mut record = completed(format!("{host}/blobs/{hash}.mfm"), hash.clone());
+        record.steps.push(step_on(&host, &hash));
+        let cluster = Cluster(vec![host]);
         let downloads = Downloads::default();
         let gone =
-            downloads.mesh(&record, Which::Step(0), MeshFormat::Raw, "m", &none, &any_host).await;
+            downloads.mesh(&record, Which::Step(0), MeshFileFormat::Ply, "m", &cluster).await;
         assert!(matches!(gone, Err(DownloadError::Gone { index: 0, .. })), "{:?}", gone.err());
     }
 
-    #[test]
-    fn raw_is_a_header_then_the_arrays() {
-        let mesh = MeshData::new(vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0], vec![0, 1, 2]);
-        let bytes = raw(&mesh);
-        assert_eq!(&bytes[..4], RAW_MAGIC);
-        assert_eq!(bytes[4..8], 3u32.to_le_bytes());
-        assert_eq!(bytes[8..12], 1u32.to_le_bytes());
-        assert_eq!(bytes[16..20], 1f32.to_le_bytes());
-        assert_eq!(bytes[bytes.len() - 4..], 2u32.to_le_bytes());
-        assert_eq!(bytes.len(), 12 + 9 * 4 + 3 * 4);
+    #[tokio::test]
+    async fn an_input_is_written_by_a_host_of_the_run_from_where_the_run_read_it() {
+        let (raw, hash) = triangle();
+        let (other, other_seen) = host_serving(raw.clone(), false).await;
+        let (used, used_seen) = host_serving(raw, false).await;
+        let mut record = completed(format!("{used}/blobs/{hash}.mfm"), hash.clone());
+        record.steps.push(step_on(&used, &hash));
+        let input_url = "http://127.0.0.1:7100/inputs/bunny.obj".to_owned();
+        record.input = Some(meshflow_api::engine::InputRecord {
+            url: input_url.clone(),
+            hash: hash.clone(),
+            vertices: 3,
+            triangles: 1,
+            grid: None,
+        });
+        let cluster = Cluster(vec![other, used]);
+        let downloads = Downloads::default();
+        let ply = MeshFileFormat::Ply;
+        let served = downloads.mesh(&record, Which::Input, ply, "bunny", &cluster).await.unwrap();
+        assert_eq!(served.file_name, "bunny-input.ply");
+        assert!(other_seen.lock().unwrap().is_empty());
+        let asked = used_seen.lock().unwrap().clone();
+        assert_eq!(
+            asked,
+            vec![ConvertMesh { hash: hash.clone(), from: Some(input_url), format: ply }]
+        );
+
+        record.input.as_mut().unwrap().url = "http://127.0.0.1:7100/inputs/missing".into();
+        let failed = downloads.mesh(&record, Which::Input, ply, "bunny", &cluster).await;
+        assert!(matches!(failed, Err(DownloadError::Fetch { .. })), "{:?}", failed.err());
+        assert!(matches!(
+            downloads.mesh(&record, Which::Input, ply, "bunny", &Cluster(vec![])).await,
+            Err(DownloadError::NoHost)
+        ));
     }
 }

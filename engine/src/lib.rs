@@ -3,9 +3,8 @@
 //! under the data folder, so a restart loses no run (DESIGN §10).
 //!
 //! This crate must not depend on wasmtime or the host server: it speaks to hosts only
-//! through `meshflow-api` (`cargo tree -p meshflow-engine -e normal` shows no wasmtime or
-//! cranelift). It links the pure-Rust codec and mesh-file crates only to hand users meshes
-//! in their format, checked against the record (`downloads.rs`).
+//! through `meshflow-api`, and handles no mesh bytes: hosts write downloads in the user's
+//! format (`downloads.rs`). `tests/layers.rs` holds it to that.
 
 mod admission;
 mod api;
@@ -270,12 +269,10 @@ impl Engine {
         &self,
         record: &RunRecord,
         which: downloads::Which,
-        format: downloads::MeshFormat,
+        format: meshflow_api::host::MeshFileFormat,
     ) -> Result<downloads::Download, downloads::DownloadError> {
         let stem = downloads::stem_of(&self.input_name(record).await);
-        let stored = |file: &str| self.inputs.path(file);
-        let hosts = |url: &str| self.registry.blob_client(url);
-        self.downloads.mesh(record, which, format, &stem, &stored, &hosts).await
+        self.downloads.mesh(record, which, format, &stem, &*self.registry).await
     }
 
     /// The name the run's input was uploaded under, else the last part of its URL.

@@ -68,16 +68,14 @@ pub const BUSY_MAX_PAUSE: Duration = Duration::from_secs(8);
 
 // ---- downloads in the user's format ----
 
-/// Largest packed mesh (`.mfm`) the engine fetches from a host to convert for a download.
+/// Largest mesh file the engine takes from a host for a download (`POST /meshes/convert`).
 pub const MAX_DOWNLOAD_FETCH_BYTES: u64 = 1 << 30;
-/// Largest stored input the engine decodes for the viewer (inputs are text formats too, so
-/// this is larger than a packed mesh of the same size).
-pub const MAX_INPUT_DECODE_BYTES: u64 = 2 << 30;
-/// Longest the engine waits for a host's packed mesh, connection to last byte.
-pub const DOWNLOAD_FETCH_TIMEOUT: Duration = Duration::from_secs(120);
-/// Conversions (fetch, decode, encode) running at once; more wait for a slot, so memory
-/// stays near this many meshes whatever the clients ask.
-pub const MAX_CONCURRENT_CONVERSIONS: usize = 2;
+/// Longest the engine waits for a host's written mesh, connection to last byte (a binary PLY
+/// of a million vertices is 37 MB: a minute at 5 Mbit/s).
+pub const DOWNLOAD_FETCH_TIMEOUT: Duration = Duration::from_secs(300);
+/// Downloads asked of hosts at once; more wait for a slot, so the engine's memory stays near
+/// this many mesh files whatever the clients ask.
+pub const MAX_CONCURRENT_DOWNLOADS: usize = 2;
 /// Largest `.wasm` the engine forwards to a host for `POST /plugins` (the host's own limit).
 pub const MAX_PLUGIN_FORWARD_BYTES: usize = 64 << 20;
 

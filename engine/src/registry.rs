@@ -240,13 +240,15 @@ impl Registry {
         HostClient::with_client(url, self.http.clone()).with_access(self.access.clone())
     }
 
-    /// A client for a blob URL a host gave, if it is on a registered host: the cluster
-    /// token goes to no other origin.
-    pub fn blob_client(&self, url: &str) -> Option<HostClient> {
-        let origin_of = |url: &str| reqwest::Url::parse(url).ok().map(|url| origin(&url));
-        let wanted = origin_of(url)?;
-        let known = self.hosts().iter().any(|host| origin_of(&host.url).as_ref() == Some(&wanted));
-        known.then(|| self.client_for(url))
+    /// The client of the registered host that `url` (its base or a URL under it, e.g. a blob
+    /// URL it gave) belongs to, if any: the cluster token goes to no other server.
+    pub fn registered(&self, url: &str) -> Option<HostClient> {
+        let under = |base: &str| {
+            url.strip_prefix(base).is_some_and(|rest| rest.is_empty() || rest.starts_with('/'))
+        };
+        let hosts = self.hosts.lock().unwrap();
+        let host = hosts.iter().filter(|h| under(&h.url)).max_by_key(|h| h.url.len());
+        host.map(|h| h.client.clone())
     }
 
     /// Adds a host (once per URL, at most [`MAX_HOSTS`]), records it, and asks it for its
@@ -427,6 +429,16 @@ impl HostEntry {
     }
 }
 
+impl crate::downloads::Hosts for Registry {
+    fn registered(&self, url: &str) -> Option<HostClient> {
+        Registry::registered(self, url)
+    }
+
+    fn up(&self) -> Vec<HostClient> {
+        self.hosts().iter().filter(|h| h.is_up()).map(|h| h.client.clone()).collect()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -520,13 +532,16 @@ mod tests {
     }
 
     #[tokio::test]
-    async fn blob_clients_are_only_for_registered_hosts() {
+    async fn clients_are_only_for_registered_hosts() {
         let dir = tempfile::tempdir().unwrap();
         let (registry, _) = registry(&dir);
         // Nobody listens on port 9: the host is registered, though down.
         registry.register("http://127.0.0.1:9").await.unwrap();
-        assert!(registry.blob_client("http://127.0.0.1:9/blobs/x.mfm").is_some());
-        assert!(registry.blob_client("http://127.0.0.1:10/blobs/x.mfm").is_none());
-        assert!(registry.blob_client("not a url").is_none());
+        let base = |url: &str| registry.registered(url).map(|c| c.base_url().to_owned());
+        assert_eq!(base("http://127.0.0.1:9/blobs/x.mfm").as_deref(), Some("http://127.0.0.1:9"));
+        assert_eq!(base("http://127.0.0.1:9").as_deref(), Some("http://127.0.0.1:9"));
+        assert!(base("http://127.0.0.1:90/blobs/x.mfm").is_none());
+        assert!(base("http://127.0.0.1:10/blobs/x.mfm").is_none());
+        assert!(base("not a url").is_none());
     }
 }

@@ -27,6 +27,9 @@ pub const EVICTION_INTERVAL: Duration = Duration::from_secs(60);
 pub const LONG_POLL: Duration = Duration::from_secs(60);
 /// What a host answering 429 (every run slot taken, the queue full) asks callers to wait.
 pub const BUSY_RETRY_AFTER: Duration = Duration::from_secs(1);
+/// Meshes written in a file format at once (`POST /meshes/convert`): each holds a decoded
+/// mesh and its file in memory.
+pub const MAX_CONCURRENT_CONVERSIONS: usize = 2;
 /// Edit logs encoded at once, after their steps were answered (`edit_logs.rs`).
 pub const MAX_ENCODING_EDIT_LOGS: usize = 4;
 /// How long a GET of an edit log still being encoded waits for it.

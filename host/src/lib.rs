@@ -5,11 +5,12 @@
 //! no HTTP and return typed errors: `config` (settings and limits), `state` (what handlers
 //! share), `plugins` (the plugin set), `sessions` (table and records), `rebuild` (loading
 //! and replaying a session), `replay` (naming a step, re-running a named one), `meshes`
-//! (formats and blob names), `blobs` (storage), `eviction`. Only `routes/` speaks HTTP: one file per resource, and `routes/error.rs`
+//! (formats and blob names), `conversions` (meshes written as files), `blobs` (storage), `eviction`. Only `routes/` speaks HTTP: one file per resource, and `routes/error.rs`
 //! maps every domain error to a status and code.
 
 mod blobs;
 mod config;
+mod conversions;
 mod edit_logs;
 mod eviction;
 mod meshes;

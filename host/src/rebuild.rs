@@ -8,6 +8,7 @@ use super::blobs::Stored;
 use super::meshes::{self, CORRECTION, MeshEncoding, REPLAY};
 use super::sessions::{CurrentMesh, LoadTimes, SessionRecord};
 use super::state::Host;
+use meshflow_api::fetch_rules::FetchScope;
 use meshflow_api::host::GridSpec;
 use meshflow_api::host::millis;
 use meshflow_codec::quantize::{self, Grid};
@@ -90,27 +91,17 @@ async fn download_input<'a>(
     host: &'a Host,
     record: &SessionRecord,
 ) -> Result<(String, CurrentMesh, LoadTimes, Stored<'a>), String> {
-    let url = record.input_url.clone();
     let started = Instant::now();
-    let bytes =
-        host.download(&url, &host.scope(&record.peers)?).await.map_err(|e| e.to_string())?;
-    let download_ms = millis(started.elapsed());
-    let input_bytes = bytes.len() as u64;
-    let started = Instant::now();
-    let encoding = MeshEncoding::detect(&url, &bytes)?;
-    let (current, bytes) = tokio::task::spawn_blocking(move || {
-        let mesh = meshes::decode(&bytes, encoding, &url)?;
-        let hash = mesh.content_hash().to_hex();
-        Ok::<_, String>((CurrentMesh { mesh: Arc::new(mesh), hash }, bytes))
-    })
-    .await
-    .map_err(|e| e.to_string())??;
+    let fetched = fetch_mesh(host, &record.input_url, &host.scope(&record.peers)?).await?;
+    let download_ms = fetched.download_ms;
+    let input_bytes = fetched.bytes.len() as u64;
+    let (current, bytes, encoding) = (fetched.mesh, fetched.bytes, fetched.encoding);
     let hash = &current.hash;
     // On a grid, the expected hash is the snapped mesh's: checked once it is snapped.
     if record.grid.is_none() {
         expect_hash(record, hash)?;
     }
-    let load_ms = millis(started.elapsed());
+    let load_ms = millis(started.elapsed()) - download_ms;
     let name = meshes::blob_name(&bytes, encoding, hash);
     let stored = host.blobs.put(&name, Arc::new(bytes)).await.map_err(|e| e.to_string())?;
     let times = LoadTimes {
@@ -121,8 +112,34 @@ async fn download_input<'a>(
     Ok((name, current, times, stored))
 }
 
+/// A mesh downloaded and decoded, with its content hash.
+pub struct FetchedMesh {
+    pub mesh: CurrentMesh,
+    /// As they came, and how they are encoded.
+    pub bytes: Vec<u8>,
+    pub encoding: MeshEncoding,
+    pub download_ms: f64,
+}
+
+/// Downloads `url` within `scope` and decodes it by its extension or its first bytes.
+pub async fn fetch_mesh(host: &Host, url: &str, scope: &FetchScope) -> Result<FetchedMesh, String> {
+    let started = Instant::now();
+    let bytes = host.download(url, scope).await.map_err(|e| e.to_string())?;
+    let download_ms = millis(started.elapsed());
+    let encoding = MeshEncoding::detect(url, &bytes)?;
+    let url = url.to_owned();
+    let (mesh, bytes) = tokio::task::spawn_blocking(move || {
+        let mesh = meshes::decode(&bytes, encoding, &url)?;
+        let hash = mesh.content_hash().to_hex();
+        Ok::<_, String>((CurrentMesh { mesh: Arc::new(mesh), hash }, bytes))
+    })
+    .await
+    .map_err(|e| e.to_string())??;
+    Ok(FetchedMesh { mesh, bytes, encoding, download_ms })
+}
+
 /// A stored mesh blob, decoded by its extension.
-async fn read_mesh_blob(host: &Host, name: &str) -> Result<MeshData, String> {
+pub async fn read_mesh_blob(host: &Host, name: &str) -> Result<MeshData, String> {
     let bytes = host.blobs.read(name).await?;
     let encoding = encoding_of(name)?;
     let name = name.to_owned();

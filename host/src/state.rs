@@ -7,6 +7,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use super::blobs::BlobStore;
 use super::config::{
     DOWNLOAD_CONNECT_TIMEOUT, DOWNLOAD_READ_TIMEOUT, DOWNLOAD_TIMEOUT, HostConfig,
+    MAX_CONCURRENT_CONVERSIONS,
 };
 use super::edit_logs::EditLogs;
 use super::plugins::PluginSet;
@@ -28,6 +29,8 @@ pub struct Host {
     pub edit_logs: EditLogs,
     /// Plugins fetched from other hosts to replay their steps.
     pub replay_plugins: ReplayPlugins,
+    /// Slots for meshes being written in a file format ([`MAX_CONCURRENT_CONVERSIONS`]).
+    pub conversions: tokio::sync::Semaphore,
     /// For downloads: inputs, corrections and full meshes of other hosts.
     pub http: reqwest::Client,
     /// What every download may reach before a request names its peers (see [`Host::scope`]).
@@ -83,6 +86,7 @@ impl Host {
             ),
             edit_logs: EditLogs::default(),
             replay_plugins: ReplayPlugins::new(dirs.replay_plugins.clone()),
+            conversions: tokio::sync::Semaphore::new(MAX_CONCURRENT_CONVERSIONS),
             config,
             public_url,
             runtime,

@@ -1,6 +1,7 @@
 //! A host that lies: it speaks enough of the host API for an engine to plan on it and send
 //! it steps, but never touches a mesh. It claims whatever session and run answers a test
-//! scripts, serves the blobs it is given, and counts the runs it is asked for.
+//! scripts, serves the blobs it is given (also as the meshes it is asked to write), and counts
+//! the runs it is asked for.
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -21,7 +22,8 @@ pub struct Script {
     pub session: (String, usize, usize),
     /// The answer to every `POST /sessions/{id}/run`.
     pub run: Json_,
-    /// Served as `/blobs/{name}`.
+    /// Served as `/blobs/{name}`, and `{hash}.{format}` as the answer to
+    /// `POST /meshes/convert`.
     pub blobs: HashMap<String, Vec<u8>>,
 }
 
@@ -58,6 +60,7 @@ impl FakeHost {
             .route("/sessions/{id}", get(session).delete(|| async { StatusCode::NO_CONTENT }))
             .route("/sessions/{id}/run", post(run))
             .route("/blobs/{name}", get(blob))
+            .route("/meshes/convert", post(convert))
             .with_state(shared);
         tokio::spawn(async move { axum::serve(listener, app).await });
         Self { url, runs }
@@ -89,5 +92,17 @@ async fn blob(
     State(shared): State<Arc<Shared>>,
     Path(name): Path<String>,
 ) -> Result<Vec<u8>, StatusCode> {
+    shared.script.blobs.get(&name).cloned().ok_or(StatusCode::NOT_FOUND)
+}
+
+async fn convert(
+    State(shared): State<Arc<Shared>>,
+    Json(request): Json<Json_>,
+) -> Result<Vec<u8>, StatusCode> {
+    let name = format!(
+        "{}.{}",
+        request["hash"].as_str().unwrap_or(""),
+        request["format"].as_str().unwrap_or("")
+    );
     shared.script.blobs.get(&name).cloned().ok_or(StatusCode::NOT_FOUND)
 }

@@ -96,7 +96,7 @@ pub fn as_le_bytes_f32(values: &[f32]) -> std::borrow::Cow<'_, [u8]> {
 }
 
 /// Little-endian bytes of a u32 slice, borrowed on little-endian machines.
-pub(crate) fn as_le_bytes_u32(values: &[u32]) -> std::borrow::Cow<'_, [u8]> {
+pub fn as_le_bytes_u32(values: &[u32]) -> std::borrow::Cow<'_, [u8]> {
     if cfg!(target_endian = "little") {
         // SAFETY: u32 has no padding and any byte is a valid u8.
         std::borrow::Cow::Borrowed(unsafe {

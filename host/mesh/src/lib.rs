@@ -8,4 +8,4 @@
 mod data;
 pub mod store;
 
-pub use data::{ContentHash, MeshData, as_le_bytes_f32};
+pub use data::{ContentHash, MeshData, as_le_bytes_f32, as_le_bytes_u32};

@@ -4,6 +4,7 @@
 mod auth;
 mod blobs;
 mod error;
+mod meshes;
 mod plugins;
 mod sessions;
 mod steps;
@@ -36,6 +37,7 @@ pub fn router(host: Arc<Host>) -> Router {
         .route("/sessions/{id}/update", post(steps::update))
         .route("/sessions/{id}/run", post(steps::run))
         .route("/blobs/{name}", get(blobs::serve).head(blobs::serve))
+        .route("/meshes/convert", post(meshes::convert))
         .fallback(|| async {
             ApiError::new(axum::http::StatusCode::NOT_FOUND, "not-found", "no such endpoint")
         })

@@ -1,0 +1,155 @@
+//! Meshes written for people and other tools (DESIGN §6): a mesh this host holds, or fetches
+//! where the request says, as PLY, OBJ, OFF, STL, packed or `raw`, its content hash checked
+//! before a byte is written. The engine serves its downloads from here: it links no mesh
+//! codec (DESIGN §1).
+
+use std::sync::Arc;
+
+use meshflow_api::fetch_rules::FetchScope;
+use meshflow_api::host::MeshFileFormat;
+use meshflow_api::raw_mesh;
+use meshflow_codec::pack;
+use meshflow_mesh::{MeshData, as_le_bytes_f32, as_le_bytes_u32};
+use meshflow_meshio::{self as io, Format};
+
+use crate::meshes::{self, MeshEncoding};
+use crate::rebuild;
+use crate::state::Host;
+
+/// Why a mesh cannot be written.
+#[derive(Debug, thiserror::Error)]
+pub enum ConvertError {
+    #[error("this host holds no mesh with content hash {0}")]
+    NotHeld(String),
+    #[error("fetching the mesh: {0}")]
+    Fetch(String),
+    #[error("the mesh from {url} has content hash {actual}, not {expected}")]
+    HashMismatch { url: String, expected: String, actual: String },
+    #[error("writing the mesh as {format}: {message}")]
+    Write { format: &'static str, message: String },
+}
+
+/// Mesh `hash` as `format`: from this host's outputs, sessions or packed blobs, else
+/// downloaded from `from` within `scope`.
+pub async fn convert(
+    host: &Host,
+    hash: &str,
+    from: Option<&str>,
+    scope: &FetchScope,
+    format: MeshFileFormat,
+) -> Result<Vec<u8>, ConvertError> {
+    // A slot before anything is read: memory stays bounded by the slots, not the requests.
+    let _slot = host.conversions.acquire().await.expect("the semaphore is never closed");
+    let (mesh, packed) = match held(host, hash).await {
+        Some(held) => held,
+        None => {
+            let url = from.ok_or_else(|| ConvertError::NotHeld(hash.to_owned()))?;
+            let fetched =
+                rebuild::fetch_mesh(host, url, scope).await.map_err(ConvertError::Fetch)?;
+            if fetched.mesh.hash != hash {
+                let (expected, actual) = (hash.to_owned(), fetched.mesh.hash);
+                return Err(ConvertError::HashMismatch { url: url.to_owned(), expected, actual });
+            }
+            let packed = (fetched.encoding == MeshEncoding::Packed).then_some(fetched.bytes);
+            (fetched.mesh.mesh, packed)
+        }
+    };
+    tokio::task::spawn_blocking(move || write(&mesh, packed, format))
+        .await
+        .expect("writing a mesh does not panic")
+}
+
+/// The mesh with content hash `hash` if this host has it: decoded in memory (a recent output
+/// or a session's mesh), or packed in its blob store, decoded and checked here.
+async fn held(host: &Host, hash: &str) -> Option<(Arc<MeshData>, Option<Vec<u8>>)> {
+    let name = meshes::full_mesh_name(hash);
+    if let Some(mesh) = host.blobs.recent(&name).or_else(|| host.sessions.mesh_with_hash(hash)) {
+        return Some((mesh, None));
+    }
+    let packed = host.blobs.read(&name).await.ok()?;
+    let expected = hash.to_owned();
+    let decoded = tokio::task::spawn_blocking(move || {
+        let mesh = pack::decode(&packed).ok()?;
+        // A blob's name is a claim like any other: a file changed on disk is not served.
+        (mesh.content_hash().to_hex() == expected).then(|| (Arc::new(mesh), Some(packed)))
+    });
+    decoded.await.ok().flatten()
+}
+
+/// `mesh` written as `format`; `packed` is its packed form when it came packed.
+fn write(
+    mesh: &MeshData,
+    packed: Option<Vec<u8>>,
+    format: MeshFileFormat,
+) -> Result<Vec<u8>, ConvertError> {
+    let failed = |message: String| ConvertError::Write { format: format.extension(), message };
+    let file = |format: Format| {
+        let mut bytes = Vec::new();
+        io::write_to(&mut bytes, mesh, format).map_err(|e| failed(e.to_string()))?;
+        Ok(bytes)
+    };
+    match format {
+        MeshFileFormat::Ply => file(Format::Ply),
+        MeshFileFormat::Obj => file(Format::Obj),
+        MeshFileFormat::Off => file(Format::Off),
+        MeshFileFormat::Stl => file(Format::Stl),
+        MeshFileFormat::Mfm => match packed {
+            Some(packed) => Ok(packed),
+            None => pack::encode(mesh).map_err(|e| failed(e.to_string())),
+        },
+        MeshFileFormat::Raw => Ok(raw(mesh)),
+    }
+}
+
+/// `mesh` in the `raw` format ([`raw_mesh`]).
+pub fn raw(mesh: &MeshData) -> Vec<u8> {
+    let arrays = 4 * (mesh.positions.len() + mesh.triangles.len());
+    let mut bytes = Vec::with_capacity(raw_mesh::HEADER_BYTES + arrays);
+    bytes.extend_from_slice(raw_mesh::MAGIC);
+    bytes.extend_from_slice(&(mesh.vertex_count() as u32).to_le_bytes());
+    bytes.extend_from_slice(&(mesh.triangle_count() as u32).to_le_bytes());
+    bytes.extend_from_slice(&as_le_bytes_f32(&mesh.positions));
+    bytes.extend_from_slice(&as_le_bytes_u32(&mesh.triangles));
+    bytes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn square() -> MeshData {
+        let positions = vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.5, 0.0, 1.0, -0.25];
+        MeshData::new(positions, vec![0, 1, 2, 0, 2, 3])
+    }
+
+    #[test]
+    fn a_raw_mesh_has_the_content_hash_of_the_mesh_it_holds() {
+        let mesh = square();
+        let raw = raw(&mesh);
+        assert_eq!(raw_mesh::counts(&raw), Ok((4, 2)));
+        assert_eq!(raw_mesh::content_hash(&raw).unwrap(), mesh.content_hash().to_hex());
+    }
+
+    #[test]
+    fn every_format_reads_back_as_the_same_mesh() {
+        let mesh = square();
+        for format in MeshFileFormat::ALL {
+            let bytes = write(&mesh, None, format).unwrap();
+            let back = match format {
+                MeshFileFormat::Raw => {
+                    assert_eq!(
+                        raw_mesh::content_hash(&bytes).unwrap(),
+                        mesh.content_hash().to_hex()
+                    );
+                    continue;
+                }
+                MeshFileFormat::Mfm => pack::decode(&bytes).unwrap(),
+                other => {
+                    let format = Format::from_name(other.extension()).unwrap();
+                    io::load_bytes(&bytes, format, "x").unwrap()
+                }
+            };
+            assert_eq!(back.content_hash(), mesh.content_hash(), "{format:?}");
+        }
+    }
+}

@@ -1,0 +1,46 @@
+//! `POST /meshes/convert`: a mesh this host holds or fetches, written in a file format.
+
+use std::sync::Arc;
+
+use axum::extract::State;
+use axum::http::{StatusCode, header};
+use axum::response::{IntoResponse, Response};
+
+use super::error::{ApiError, ApiJson};
+use crate::conversions::{self, ConvertError};
+use crate::meshes;
+use crate::state::Host;
+use meshflow_api::host::{ConvertMesh, Vouched};
+
+/// `POST /meshes/convert`.
+pub async fn convert(
+    State(host): State<Arc<Host>>,
+    ApiJson(Vouched { body: request, peers }): ApiJson<Vouched<ConvertMesh>>,
+) -> Result<Response, ApiError> {
+    if !meshes::is_blob_name(&meshes::full_mesh_name(&request.hash)) {
+        return Err(ApiError::bad_request("bad-hash", "hash: 64 lower-case hex digits"));
+    }
+    let from = match &request.from {
+        Some(url) => Some(super::allowed_url(&host, url, &peers)?),
+        None => None,
+    };
+    let scope = host.scope(&peers).map_err(|e| ApiError::bad_request("bad-peers", e))?;
+    let bytes =
+        conversions::convert(&host, &request.hash, from.as_deref(), &scope, request.format).await?;
+    let headers = [(header::CONTENT_TYPE, "application/octet-stream")];
+    Ok((headers, bytes).into_response())
+}
+
+impl From<ConvertError> for ApiError {
+    fn from(error: ConvertError) -> Self {
+        let message = error.to_string();
+        match error {
+            ConvertError::NotHeld(_) => Self::new(StatusCode::NOT_FOUND, "not-found", message),
+            ConvertError::Fetch(_) => Self::upstream(message),
+            ConvertError::HashMismatch { .. } => {
+                Self::new(StatusCode::BAD_GATEWAY, "hash-mismatch", message)
+            }
+            ConvertError::Write { .. } => Self::internal(message),
+        }
+    }
+}
