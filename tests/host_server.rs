@@ -583,6 +583,30 @@ async fn a_restarted_host_keeps_its_plugins_blobs_and_sessions() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_host_killed_before_writing_edit_logs_rebuilds_those_steps_from_their_replays() {
+    let dir = tempfile::tempdir().unwrap();
+    let (handle, client) = start_host(config(dir.path())).await;
+    let id = ready_session(&client, &bunny_url().await).await;
+    let first = filter(&client, &id, "add-noise", serde_json::json!({"seed": 3})).await;
+    let second = filter(&client, &id, "laplacian-smoothing", serde_json::json!({})).await;
+    handle.shutdown().await.unwrap();
+    // As if killed after answering both steps and before their logs reached the disk.
+    for step in [&first, &second] {
+        let log = step.correction.url.rsplit('/').next().unwrap();
+        std::fs::remove_file(dir.path().join("blobs").join(log)).unwrap();
+    }
+
+    let (_handle, client) = start_host(config(dir.path())).await;
+    let status = client.wait_ready(&id).await.unwrap();
+    assert_eq!(
+        (status.state, status.hash.as_deref(), status.error),
+        (SessionState::Ready, Some(second.output_hash.as_str()), None)
+    );
+    let next = filter(&client, &id, "laplacian-smoothing", serde_json::json!({})).await;
+    assert_eq!(next.input_hash, second.output_hash);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn blobs_over_the_budget_are_evicted_unless_a_session_needs_them() {
     let dir = tempfile::tempdir().unwrap();
     let (_handle, client) =

@@ -50,7 +50,11 @@ async fn build<'a>(host: &'a Host, record: &SessionRecord) -> Result<Built<'a>, 
         }
     };
     for step in &record.steps {
-        let mesh = apply_blob(host, Arc::unwrap_or_clone(current.mesh), step, grid).await?;
+        let step = match unwritten_log_replay(host, record, step).await {
+            Some(replay) => replay,
+            None => step.clone(),
+        };
+        let mesh = apply_blob(host, Arc::unwrap_or_clone(current.mesh), &step, grid).await?;
         current = hashed(mesh).await.map_err(|e| e.to_string())?;
     }
     Ok((input, current, grid, times, stored))
@@ -188,6 +192,26 @@ async fn rerun_blob(
     crate::replay::rerun_off_thread(host.runtime.clone(), plugin, step, Arc::new(mesh), grid)
         .await
         .map_err(|e| format!("replaying {name}: {e}"))
+}
+
+/// For a step whose edit log was never written (the host stopped between answering the step
+/// and encoding its log, DESIGN §10: a restart loses nothing), the replay this host made of
+/// the same step: the one it offered whose base and result hashes the log is named by.
+/// Re-running it must reach that result hash, as any replay must.
+async fn unwritten_log_replay(host: &Host, record: &SessionRecord, step: &str) -> Option<String> {
+    if !step.ends_with(&format!(".{CORRECTION}")) || host.blobs.path(step).exists() {
+        return None;
+    }
+    for offered in record.offered.iter().filter(|name| name.ends_with(&format!(".{REPLAY}"))) {
+        let Ok(bytes) = host.blobs.read(offered).await else { continue };
+        let names_step =
+            |named: replay::Replay| meshes::edit_log_name(named.base, named.result) == step;
+        if replay::decode(&bytes).is_ok_and(names_step) {
+            tracing::warn!("edit log {step} was never written: the step is re-run from {offered}");
+            return Some(offered.clone());
+        }
+    }
+    None
 }
 
 fn encoding_of(name: &str) -> Result<MeshEncoding, String> {
