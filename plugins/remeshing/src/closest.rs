@@ -105,9 +105,11 @@ impl Surface {
         }
     }
 
-    /// The closest point of the surface to `p`, or `None` for an empty surface.
+    /// The closest point of the surface to `p`, or `None` for an empty surface or a
+    /// non-finite `p`.
     pub fn closest(&self, p: Vec3) -> Option<Vec3> {
-        if self.triangles.is_empty() {
+        // A NaN distance never ends the search: it would walk every cell of the grid.
+        if self.triangles.is_empty() || !p.iter().all(|x| x.is_finite()) {
             return None;
         }
         let centre = self.cell_of(p);
@@ -129,7 +131,8 @@ impl Surface {
                     let corners = self.triangles[t as usize].map(|v| point(&self.positions, v));
                     let q = closest_point_on_triangle(p, corners);
                     let d = norm(sub(p, q));
-                    if best.is_none_or(|(bd, _)| d < bd) {
+                    // A triangle with a non-finite corner (NaN distance) is never taken.
+                    if d < best.map_or(f64::INFINITY, |(bd, _)| bd) {
                         best = Some((d, q));
                     }
                 }
@@ -198,5 +201,16 @@ mod tests {
             assert!((found - brute).abs() < 1e-12, "{p:?}: {found} vs {brute}");
         }
         assert!(Surface::new(&positions, Vec::new(), 1.0).closest([0.0; 3]).is_none());
+    }
+
+    #[test]
+    fn a_triangle_with_a_repeated_corner_or_a_nan_query_stops_nothing() {
+        // Triangle 0 has two corners at one spot (a scan's zero-area triangle) and is the
+        // first one tested; it once answered NaN, which no later triangle could beat.
+        let positions = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 2.0, 0.0];
+        let surface = Surface::new(&positions, vec![[0, 1, 2], [0, 2, 3]], 10.0);
+        assert_eq!(surface.closest([0.5, 0.5, 1.0]), Some([0.5, 0.5, 0.0]));
+        assert_eq!(surface.closest([1.5, -1.0, 0.0]), Some([1.5, 0.0, 0.0]));
+        assert_eq!(surface.closest([f64::NAN, 0.0, 0.0]), None);
     }
 }
