@@ -2,6 +2,7 @@
 //! searched in growing shells of cells around the query.
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
 use meshflow_plugin_sdk::geometry::{Vec3, closest_point_on_triangle, norm, point, sub};
 
@@ -19,7 +20,7 @@ pub struct Surface {
     origin: Vec3,
     cell: f64,
     /// The triangles of each cell, one run per cell in `triangles_by_cell`.
-    cells: HashMap<u64, (u32, u32)>,
+    cells: HashMap<u64, (u32, u32), BuildHasherDefault<CellHasher>>,
     triangles_by_cell: Vec<u32>,
     /// Cells per axis.
     extent: [i64; 3],
@@ -51,7 +52,7 @@ impl Surface {
             triangles,
             origin: lo,
             cell,
-            cells: HashMap::new(),
+            cells: HashMap::default(),
             triangles_by_cell: Vec::new(),
             extent,
         };
@@ -139,6 +140,28 @@ impl Surface {
             });
         }
         best.map(|(_, q)| q)
+    }
+}
+
+/// Cell keys need no protection from chosen collisions: a multiply and a fold mix them
+/// enough, where SipHash took a tenth of all remeshing time.
+#[derive(Default)]
+struct CellHasher(u64);
+
+impl Hasher for CellHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(self.0 ^ b as u64);
+        }
+    }
+
+    fn write_u64(&mut self, x: u64) {
+        let h = (self.0 ^ x).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        self.0 = h ^ (h >> 32);
+    }
+
+    fn finish(&self) -> u64 {
+        self.0
     }
 }
 

@@ -175,6 +175,8 @@ impl Local {
         for h in 0..half_edges.len() as u32 {
             let key = edge(origin(triangles, h), target(triangles, h));
             let sharp = match half_edges.kind(h) {
+                // Each interior edge once: from its lower half-edge.
+                EdgeKind::Interior if half_edges.opposite(h) < h => continue,
                 EdgeKind::Interior => {
                     let (n0, n1) = (normal(h / 3), normal(half_edges.opposite(h) / 3));
                     n0 != [0.0; 3] && n1 != [0.0; 3] && angle_between(n0, n1) > threshold

@@ -28,25 +28,26 @@ impl Renumbering {
     /// corners (`NONE` of removed triangles) stay out of range.
     pub fn spatial(positions: &[f32], triangles: &[u32]) -> (Self, Vec<f32>, Vec<u32>) {
         let n = positions.len() / 3;
-        let codes = morton_codes(positions);
-        let mut vertices: Vec<u32> = (0..n as u32).collect();
-        vertices.sort_unstable_by_key(|&v| (codes[v as usize], v));
+        let mut coded: Vec<(u64, u32)> = morton_codes(positions).into_iter().zip(0..).collect();
+        coded.sort_unstable();
+        let vertices: Vec<u32> = coded.into_iter().map(|(_, v)| v).collect();
         let mut working = vec![0; n];
         for (w, &v) in (0..).zip(&vertices) {
             working[v as usize] = w;
         }
         let rename = |v: u32| if (v as usize) < n { working[v as usize] } else { v };
         // By their corners' working ids, lowest first: the input's order only breaks ties.
-        let key = |t: u32| {
-            let mut c: [u32; 3] = std::array::from_fn(|k| {
-                let v = triangles[3 * t as usize + k];
-                if (v as usize) < n { working[v as usize] } else { NONE }
-            });
-            c.sort_unstable();
-            (c, t)
-        };
-        let mut order: Vec<u32> = (0..(triangles.len() / 3) as u32).collect();
-        order.sort_by_cached_key(|&t| key(t));
+        let mut keyed: Vec<([u32; 3], u32)> = (0..)
+            .zip(triangles.chunks_exact(3))
+            .map(|(t, c)| {
+                let mut c = [c[0], c[1], c[2]]
+                    .map(|v| if (v as usize) < n { working[v as usize] } else { NONE });
+                c.sort_unstable();
+                (c, t)
+            })
+            .collect();
+        keyed.sort_unstable();
+        let order: Vec<u32> = keyed.into_iter().map(|(_, t)| t).collect();
         let mut new_positions = Vec::with_capacity(3 * n);
         for &v in &vertices {
             new_positions.extend_from_slice(&positions[3 * v as usize..3 * v as usize + 3]);
