@@ -10,13 +10,15 @@
 //!
 //! Collapses follow the host store's rule (the start of the half-edge survives, triangles
 //! on the edge disappear, the end's other triangles turn to the start), so the recorded
-//! edges replay exactly; survivors are moved to their final positions at the end.
+//! edges replay exactly; survivors are moved to their final positions at the end. The work
+//! is done in spatially ordered ids ([`crate::renumber`]), translated back at the end.
 
 use std::cmp::{Ordering, Reverse};
 
 use radix_heap::RadixHeapMap;
 
 use crate::local::LocalMesh;
+use crate::renumber::Renumbering;
 use meshflow_plugin_sdk::geometry::{Vec3, add, cross, dot, norm, point, scale, sub};
 use meshflow_plugin_sdk::topology::halfedge::{EdgeKind, HalfEdges, origin, prev};
 use meshflow_plugin_sdk::topology::manifold::non_manifold_vertices;
@@ -59,6 +61,24 @@ pub struct Decimation {
 /// Collapses edges of `triangles` until at most `settings.target_triangles` remain or no
 /// allowed collapse is left. Removed triangles (all corners `NONE`) are skipped.
 pub fn decimate(positions: &[f32], triangles: &[u32], settings: Settings) -> Decimation {
+    let (ids, positions, triangles) = Renumbering::spatial(positions, triangles);
+    let d = decimate_in_place(&positions, &triangles, settings);
+    let mut order: Vec<usize> = (0..d.moved.len()).collect();
+    order.sort_unstable_by_key(|&i| ids.vertex(d.moved[i]));
+    Decimation {
+        collapses: d.collapses.iter().map(|&h| ids.half_edge(h)).collect(),
+        moved: order.iter().map(|&i| ids.vertex(d.moved[i])).collect(),
+        moved_positions: order
+            .iter()
+            .flat_map(|&i| &d.moved_positions[3 * i..3 * i + 3])
+            .copied()
+            .collect(),
+        ..d
+    }
+}
+
+/// [`decimate`] in the ids it is given.
+fn decimate_in_place(positions: &[f32], triangles: &[u32], settings: Settings) -> Decimation {
     let mut state = State::new(positions, triangles, settings);
     let before = state.live;
     let mut queue = Queue::new();

@@ -9,7 +9,8 @@
 //!
 //! Every split, collapse and flip is applied locally with the host store's exact id rules
 //! (host/mesh/src/store/edges.rs) and recorded, so the edits replay on the host with the
-//! same ids; the final positions follow as one move of all vertices.
+//! same ids; the final positions follow as one move of all vertices. The work is done in
+//! spatially ordered ids ([`crate::renumber`]), translated back to the host's at the end.
 
 use std::collections::HashSet;
 use std::fmt;
@@ -23,6 +24,7 @@ use meshflow_plugin_sdk::topology::manifold::non_manifold_vertices;
 use crate::closest::Surface;
 use crate::input::{InputDefect, manifold_edges};
 use crate::local::{LocalMesh, edge};
+use crate::renumber::Renumbering;
 
 /// Split passes per iteration at most: each halves the longest edges, so a coarse input
 /// reaches the target within a few.
@@ -87,6 +89,8 @@ pub fn remesh(
     settings: Settings,
 ) -> Result<Remeshed, Refusal> {
     let n = positions.len() / 3;
+    let (ids, positions, triangles) = Renumbering::spatial(positions, triangles);
+    let (positions, triangles) = (&positions[..], &triangles[..]);
     let half_edges = manifold_edges(n, triangles).map_err(Refusal::Input)?;
     let area: f64 = triangles
         .chunks_exact(3)
@@ -103,7 +107,8 @@ pub fn remesh(
         return Err(Refusal::TooFine { vertices: needed as usize });
     }
 
-    let mut mesh = Local::new(positions, triangles, &half_edges, settings.feature_angle_degrees);
+    let mut mesh =
+        Local::new(positions, triangles, &half_edges, settings.feature_angle_degrees, ids);
     let corners: Vec<[u32; 3]> = triangles.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     let surface = Surface::new(positions, corners, settings.target_length);
     let long = 4.0 / 3.0 * settings.target_length;
@@ -118,20 +123,27 @@ pub fn remesh(
         mesh.flip_toward_valence_six();
         mesh.relax_and_project(&surface);
     }
-    let positions = mesh.pos.iter().flat_map(|p| p.map(|x| x as f32)).collect();
+    let positions: Vec<f32> = mesh.pos.iter().flat_map(|p| p.map(|x| x as f32)).collect();
+    let ids = &mesh.ids;
+    let edits = mesh.edits.iter().map(|edit| match *edit {
+        Edit::SplitEdge { edge, at } => Edit::SplitEdge { edge: ids.half_edge(edge), at },
+        Edit::CollapseEdge { edge } => Edit::CollapseEdge { edge: ids.half_edge(edge) },
+        Edit::SwapEdge { edge } => Edit::SwapEdge { edge: ids.half_edge(edge) },
+    });
     Ok(Remeshed {
-        edits: mesh.edits,
-        positions,
+        edits: edits.collect(),
+        positions: ids.positions_to_host(&positions),
         splits: mesh.splits,
         collapses: mesh.collapses,
         flips: mesh.flips,
     })
 }
 
-/// The mesh being remeshed, with the store's id rules.
+/// The mesh being remeshed, with the store's id rules, in working ids.
 struct Local {
     pos: Vec<Vec3>,
     mesh: LocalMesh,
+    ids: Renumbering,
     alive: Vec<bool>,
     /// Vertices that never move or disappear.
     fixed: Vec<bool>,
@@ -149,6 +161,7 @@ impl Local {
         triangles: &[u32],
         half_edges: &HalfEdges,
         feature_angle: f64,
+        ids: Renumbering,
     ) -> Self {
         let n = positions.len() / 3;
         let mesh = LocalMesh::new(n, triangles);
@@ -162,6 +175,8 @@ impl Local {
         for h in 0..half_edges.len() as u32 {
             let key = edge(origin(triangles, h), target(triangles, h));
             let sharp = match half_edges.kind(h) {
+                // Each interior edge once: from its lower half-edge.
+                EdgeKind::Interior if half_edges.opposite(h) < h => continue,
                 EdgeKind::Interior => {
                     let (n0, n1) = (normal(h / 3), normal(half_edges.opposite(h) / 3));
                     n0 != [0.0; 3] && n1 != [0.0; 3] && angle_between(n0, n1) > threshold
@@ -180,6 +195,7 @@ impl Local {
         Local {
             pos: (0..n as u32).map(|v| point(positions, v)).collect(),
             mesh,
+            ids,
             alive: vec![true; n],
             fixed,
             features,
@@ -225,7 +241,9 @@ impl Local {
     fn split(&mut self, a: u32, b: u32) {
         let at =
             scale(add(self.pos[a as usize], self.pos[b as usize]), 0.5).map(|x| x as f32 as f64);
+        let parents: Vec<u32> = self.mesh.on_edge(a, b).collect();
         let (h, v) = self.mesh.split(a, b);
+        self.ids.split(&parents);
         self.pos.push(at);
         self.alive.push(true);
         let feature = self.is_feature(a, b);

@@ -11,6 +11,7 @@ pub mod input;
 pub mod isotropic;
 pub mod local;
 pub mod loop_subdivision;
+pub mod renumber;
 
 use meshflow_plugin_sdk::geometry::bounding_box;
 use meshflow_plugin_sdk::{Error, Mesh, ParamSpec, Params, Result, Service};

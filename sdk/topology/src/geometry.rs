@@ -69,10 +69,19 @@ pub fn larger(a: f64, b: f64) -> f64 {
 }
 
 /// The point of triangle `abc` closest to `p` (Ericson, *Real-Time Collision Detection*,
-/// 5.1.5: by the Voronoi region of `p`). A flat triangle answers with a point on it. O(1).
+/// 5.1.5: by the Voronoi region of `p`). A flat triangle answers with the closest point of
+/// its sides. O(1).
 pub fn closest_point_on_triangle(p: Vec3, [a, b, c]: [Vec3; 3]) -> Vec3 {
     let along = |o: Vec3, d: Vec3, t: f64| add(o, scale(d, t));
     let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
+    if cross(ab, ac) == [0.0; 3] {
+        // The regions below divide by the sides' squared lengths: NaN at a repeated corner.
+        return [(a, b), (b, c), (c, a)]
+            .map(|(s, e)| closest_point_on_segment(p, s, e))
+            .into_iter()
+            .min_by(|x, y| distance(p, *x).total_cmp(&distance(p, *y)))
+            .expect("three sides");
+    }
     let (d1, d2) = (dot(ab, ap), dot(ac, ap));
     if d1 <= 0.0 && d2 <= 0.0 {
         return a;
@@ -104,6 +113,17 @@ pub fn closest_point_on_triangle(p: Vec3, [a, b, c]: [Vec3; 3]) -> Vec3 {
         return a;
     }
     add(a, add(scale(ab, vb / denom), scale(ac, vc / denom)))
+}
+
+/// The point of segment `s`–`e` closest to `p`; `s` if the segment is a point. O(1).
+pub fn closest_point_on_segment(p: Vec3, s: Vec3, e: Vec3) -> Vec3 {
+    let d = sub(e, s);
+    let length_squared = dot(d, d);
+    if length_squared == 0.0 {
+        return s;
+    }
+    let t = (dot(sub(p, s), d) / length_squared).clamp(0.0, 1.0);
+    add(s, scale(d, t))
 }
 
 /// Distance between two points.
@@ -588,8 +608,15 @@ mod tests {
             let q = closest_point_on_triangle(p, t);
             assert!(distance(q, expected) < EPS, "{p:?}: {q:?}");
         }
-        // A flat triangle still answers with one of its points.
+        // A flat triangle answers with the closest point of its sides, even with a corner
+        // repeated (which made the region tests divide zero by zero) or all three at one spot.
         let flat = [[0., 0., 0.], [1., 0., 0.], [2., 0., 0.]];
-        assert!(closest_point_on_triangle([1.0, 1.0, 0.0], flat)[1] == 0.0);
+        assert_eq!(closest_point_on_triangle([1.0, 1.0, 0.0], flat), [1.0, 0.0, 0.0]);
+        assert_eq!(closest_point_on_triangle([3.0, 1.0, 0.0], flat), [2.0, 0.0, 0.0]);
+        let repeated = [[0., 0., 0.], [0., 0., 0.], [2., 0., 0.]];
+        for corners in [repeated, [repeated[2], repeated[0], repeated[1]]] {
+            assert_eq!(closest_point_on_triangle([1.5, 1.0, 0.0], corners), [1.5, 0.0, 0.0]);
+        }
+        assert_eq!(closest_point_on_triangle([1.0, 1.0, 1.0], [[0.5; 3]; 3]), [0.5; 3]);
     }
 }
