@@ -5,7 +5,7 @@
 
 use meshflow_plugin_sdk::topology::boundary::boundary_vertices;
 use meshflow_plugin_sdk::topology::halfedge::HalfEdges;
-use meshflow_plugin_sdk::topology::{VertexNeighbours, uniform_laplacian};
+use meshflow_plugin_sdk::topology::{VertexNeighbours, visit_uniform_laplacian};
 
 /// `iterations` λ|μ steps over `positions` (x y z per vertex). Boundary vertices stay, so
 /// borders and holes keep their shape; vertices without neighbours never move. The Laplacian
@@ -23,15 +23,21 @@ pub fn smooth(
     let neighbours = VertexNeighbours::new(vertex_count, triangles);
     let pinned =
         boundary_vertices(vertex_count, triangles, &HalfEdges::new(vertex_count, triangles));
+    // Two buffers, each half-step writing one from the other: pinned vertices and those
+    // without neighbours are never written, so they stay the same in both.
     let mut current = positions.to_vec();
+    let mut next = current.clone();
     for _ in 0..iterations {
         for factor in [lambda, mu] {
-            let laplacian = uniform_laplacian(&current, &neighbours);
-            for (v, _) in pinned.iter().enumerate().filter(|(_, pinned)| !**pinned) {
-                for i in 3 * v..3 * v + 3 {
-                    current[i] = (current[i] as f64 + factor * laplacian[i]) as f32;
+            visit_uniform_laplacian(&current, &neighbours, |v, laplacian| {
+                if !pinned[v] {
+                    for (k, step) in laplacian.iter().enumerate() {
+                        let i = 3 * v + k;
+                        next[i] = (current[i] as f64 + factor * step) as f32;
+                    }
                 }
-            }
+            });
+            std::mem::swap(&mut current, &mut next);
         }
     }
     current
