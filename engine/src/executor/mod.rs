@@ -858,14 +858,17 @@ impl Executor {
     /// now, so the result outlives the run's sessions (and the host's memory of recent
     /// outputs).
     async fn finish(&mut self) -> Result<(), String> {
-        for asked in self.log_sizes.drain(..) {
-            let _ = asked.await;
-        }
         let current = self.current.as_ref().expect("the input is loaded");
-        let bytes = match &current.producer {
-            Some(host) => self.registry.client(host).packed_size(&current.full.url).await.ok(),
-            None => None,
+        // The result is packed while the last edit logs are still being written: both are
+        // the hosts' work at the end of a run, and neither needs the other.
+        let packed = async {
+            match &current.producer {
+                Some(host) => self.registry.client(host).packed_size(&current.full.url).await.ok(),
+                None => None,
+            }
         };
+        let log_sizes = futures_util::future::join_all(self.log_sizes.drain(..));
+        let (bytes, _) = tokio::join!(packed, log_sizes);
         let result = ResultRecord {
             url: current.full.url.clone(),
             hash: current.hash.clone(),
