@@ -4,6 +4,7 @@ use meshflow_plugin_sdk::geometry::{cotangent_weights, larger};
 use meshflow_plugin_sdk::topology::adjacency::VertexNeighbours;
 use meshflow_plugin_sdk::topology::boundary::boundary_vertices;
 use meshflow_plugin_sdk::topology::halfedge::HalfEdges;
+use meshflow_plugin_sdk::topology::visit_weighted_mean;
 
 /// Which vertices stay where they are.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -62,7 +63,7 @@ pub fn smooth(
 }
 
 /// One Jacobi step from `current` into `next`; `weight(i)` is the weight of entry `i` of
-/// the neighbour CSR.
+/// the neighbour CSR. Pinned vertices, and those whose weights sum to zero or less, stay.
 fn step(
     current: &[f32],
     next: &mut [f32],
@@ -70,30 +71,14 @@ fn step(
     pinned: &[bool],
     weight: impl Fn(usize) -> f64,
 ) {
-    let (offsets, items) = (neighbours.offsets(), neighbours.neighbours());
-    for v in 0..neighbours.vertex_count() {
-        let own = 3 * v..3 * v + 3;
-        let row = offsets[v] as usize..offsets[v + 1] as usize;
-        let mut sum = [0.0f64; 3];
-        let mut total = 0.0f64;
+    next.copy_from_slice(current);
+    visit_weighted_mean(current, neighbours, weight, |v, mean| {
         if !pinned[v] {
-            for i in row {
-                let w = weight(i);
-                let p = &current[3 * items[i] as usize..3 * items[i] as usize + 3];
-                sum[0] += w * p[0] as f64;
-                sum[1] += w * p[1] as f64;
-                sum[2] += w * p[2] as f64;
-                total += w;
+            for (k, m) in mean.into_iter().enumerate() {
+                next[3 * v + k] = m as f32;
             }
         }
-        if total > 0.0 {
-            for k in 0..3 {
-                next[3 * v + k] = (sum[k] / total) as f32;
-            }
-        } else {
-            next[own.clone()].copy_from_slice(&current[own]);
-        }
-    }
+    });
 }
 
 #[cfg(test)]

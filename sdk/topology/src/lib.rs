@@ -58,7 +58,9 @@ pub use components::{TriangleComponents, UnionFind};
 pub use csr::Csr;
 pub use edges::{EdgeBuckets, Members};
 pub use halfedge::{EdgeKind, EdgeLookup, HalfEdges};
-pub use laplacian::{cotangent_laplacian, uniform_laplacian, visit_uniform_laplacian};
+pub use laplacian::{
+    cotangent_laplacian, uniform_laplacian, visit_uniform_laplacian, visit_weighted_mean,
+};
 pub use manifold::{
     has_duplicate_triangles, has_improper_triangles, is_edge_manifold, is_manifold, is_orientable,
     is_oriented, is_vertex_manifold, non_manifold_vertices, orientation_flips, orientation_patches,
