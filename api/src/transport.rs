@@ -66,6 +66,9 @@ pub(crate) fn default_client() -> reqwest::Client {
         .expect("a client with only a connect timeout builds")
 }
 
+/// The pause before an idempotent request whose connection was dropped is sent once more.
+pub const DROPPED_RETRY_PAUSE: Duration = Duration::from_millis(100);
+
 /// Error bodies are read up to this size; the rest is not kept.
 pub const MAX_ERROR_BODY_BYTES: usize = 16 << 10;
 
@@ -157,7 +160,21 @@ pub(crate) fn authorized(request: RequestBuilder, token: Option<&str>) -> Reques
 /// [`ClientError::Refused`] or [`ClientError::Server`] with the host's code and message (or the start of the body's
 /// text when it is not a host error).
 pub(crate) async fn send(request: RequestBuilder, url: &str) -> Result<Response, ClientError> {
-    let response = request.send().await.map_err(|e| ClientError::transport(url, e))?;
+    let (client, request) = request.build_split();
+    let request = request.map_err(|e| ClientError::transport(url, e))?;
+    let idempotent = matches!(*request.method(), Method::GET | Method::HEAD | Method::DELETE);
+    let again = if idempotent { request.try_clone() } else { None };
+    let response = match (client.execute(request).await, again) {
+        // The connection was dropped under the request (reset, closed before an answer):
+        // servers do that under load or as they restart, and asking an idempotent request
+        // once more is what a browser does. Not after a timeout or a refused connection.
+        (Err(e), Some(again)) if e.is_request() && !e.is_connect() && !e.is_timeout() => {
+            tokio::time::sleep(DROPPED_RETRY_PAUSE).await;
+            client.execute(again).await
+        }
+        (first, _) => first,
+    };
+    let response = response.map_err(|e| ClientError::transport(url, e))?;
     let status = response.status();
     if status.is_success() {
         return Ok(response);
@@ -284,4 +301,58 @@ pub(crate) async fn read_capped(
         bytes.extend_from_slice(&chunk);
     }
     Ok(bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+
+    /// A server that resets its first `drops` connections after reading their request, then
+    /// answers `200 ok`; the number of connections it saw.
+    async fn dropping_server(
+        drops: usize,
+    ) -> (String, std::sync::Arc<std::sync::atomic::AtomicUsize>) {
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let url = format!("http://{}/x", listener.local_addr().unwrap());
+        let seen = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+        let count = seen.clone();
+        tokio::spawn(async move {
+            loop {
+                let (mut socket, _) = listener.accept().await.unwrap();
+                let n = count.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                let mut head = [0u8; 4096];
+                let _ = socket.read(&mut head).await;
+                if n < drops {
+                    // Deprecated for blocking on drop; a zero linger resets at once instead.
+                    #[allow(deprecated)]
+                    socket.set_linger(Some(Duration::ZERO)).unwrap();
+                    drop(socket);
+                } else {
+                    let answer =
+                        "HTTP/1.1 200 OK\r\ncontent-length: 2\r\nconnection: close\r\n\r\nok";
+                    socket.write_all(answer.as_bytes()).await.unwrap();
+                }
+            }
+        });
+        (url, seen)
+    }
+
+    #[tokio::test]
+    async fn an_idempotent_request_whose_connection_is_reset_is_sent_once_more() {
+        use std::sync::atomic::Ordering::SeqCst;
+        let http = default_client();
+        let (url, seen) = dropping_server(1).await;
+        let answer = send(http.get(&url), &url).await.unwrap();
+        assert_eq!(answer.text().await.unwrap(), "ok");
+        assert_eq!(seen.load(SeqCst), 2);
+
+        // Not a request that may have had an effect, and only once.
+        let (url, seen) = dropping_server(1).await;
+        assert!(send(http.post(&url).body("x"), &url).await.is_err());
+        assert_eq!(seen.load(SeqCst), 1);
+        let (url, seen) = dropping_server(2).await;
+        assert!(send(http.get(&url), &url).await.is_err());
+        assert_eq!(seen.load(SeqCst), 2);
+    }
 }
