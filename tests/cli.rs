@@ -433,13 +433,11 @@ fn up_prints_the_ui_address_with_its_token_and_submit_needs_that_token() {
     // Read what `up` prints until the submit hint, in bounded time.
     let stdout = up.0.stdout.take().unwrap();
     let (lines, printed) = std::sync::mpsc::channel();
+    // Read to the end: a reader that stopped would close the pipe, and `up` dies of the
+    // broken pipe at the next line it prints (which made this test flaky).
     std::thread::spawn(move || {
         for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
-            let last = line.contains("MESHFLOW_API_TOKEN");
             let _ = lines.send(line);
-            if last {
-                break;
-            }
         }
     });
     let mut text = String::new();
