@@ -376,6 +376,31 @@ async fn meshes_are_written_in_a_users_format_only_as_the_mesh_their_hash_names(
     // A client's limit holds, whatever the host would send.
     let capped = holder.convert(ask(&hash, None, MeshFileFormat::Obj), 1000).await;
     assert!(matches!(capped, Err(ClientError::TooLarge { .. })), "{capped:?}");
+
+    // Once packed, the `.mfm` is the stored blob itself, not packed again.
+    let blob = holder.download(&step.full.url).await.unwrap();
+    let mfm = holder.convert(ask(&hash, None, MeshFileFormat::Mfm), LIMIT).await.unwrap();
+    assert_eq!(mfm, blob);
+
+    // Sources that drip hold no conversion slot: more of them than slots stall nobody else.
+    let mut drips = Vec::new();
+    for _ in 0..3 {
+        let (slow, drip) = dripping_url(Duration::from_secs(40)).await;
+        let request = ask(&"0".repeat(64), Some(&slow), MeshFileFormat::Ply);
+        let writer = writer.clone();
+        drips.push((tokio::spawn(async move { writer.convert(request, LIMIT).await }), drip));
+    }
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let quick = holder.convert(ask(&hash, None, MeshFileFormat::Raw), LIMIT);
+    let quick = tokio::time::timeout(Duration::from_secs(20), quick).await;
+    assert!(quick.is_ok_and(|r| r.is_ok()), "a conversion waited for the dripping ones");
+    let fetched = ask(&hash, Some(&step.full.url), MeshFileFormat::Off);
+    let other = tokio::time::timeout(Duration::from_secs(20), writer.convert(fetched, LIMIT)).await;
+    assert!(other.is_ok_and(|r| r.is_ok()), "a conversion waited for the dripping ones");
+    for (call, drip) in drips {
+        call.abort();
+        drip.abort();
+    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -38,14 +38,27 @@ pub async fn convert(
     scope: &FetchScope,
     format: MeshFileFormat,
 ) -> Result<Vec<u8>, ConvertError> {
-    // A slot before anything is read: memory stays bounded by the slots, not the requests.
+    // The packed blob as stored, not packed again (a run's result is packed as the run
+    // ends): its sealed header states the hash, which every reader's decode holds it to.
+    if format == MeshFileFormat::Mfm
+        && let Some(packed) = stored_packed(host, hash).await
+    {
+        return Ok(packed);
+    }
+    // No slot is held over a download: a slow source must not stall other conversions.
+    let on_disk = host.blobs.path(&meshes::full_mesh_name(hash)).exists();
+    let fetched = match from {
+        Some(url) if !on_disk && held_in_memory(host, hash).is_none() => {
+            Some((url, host.download(url, scope).await))
+        }
+        _ => None,
+    };
+    // A slot before decoding and writing: memory stays bounded by the slots.
     let _slot = host.conversions.acquire().await.expect("the semaphore is never closed");
-    let (mesh, packed) = match held(host, hash).await {
-        Some(held) => held,
-        None => {
-            let url = from.ok_or_else(|| ConvertError::NotHeld(hash.to_owned()))?;
-            let fetched =
-                rebuild::fetch_mesh(host, url, scope).await.map_err(ConvertError::Fetch)?;
+    let (mesh, packed) = match fetched {
+        Some((url, bytes)) => {
+            let bytes = bytes.map_err(|e| ConvertError::Fetch(e.to_string()))?;
+            let fetched = rebuild::decode_fetched(url, bytes).await.map_err(ConvertError::Fetch)?;
             if fetched.mesh.hash != hash {
                 let (expected, actual) = (hash.to_owned(), fetched.mesh.hash);
                 return Err(ConvertError::HashMismatch { url: url.to_owned(), expected, actual });
@@ -53,25 +66,36 @@ pub async fn convert(
             let packed = (fetched.encoding == MeshEncoding::Packed).then_some(fetched.bytes);
             (fetched.mesh.mesh, packed)
         }
+        None => held(host, hash).await.ok_or_else(|| ConvertError::NotHeld(hash.to_owned()))?,
     };
     tokio::task::spawn_blocking(move || write(&mesh, packed, format))
         .await
         .expect("writing a mesh does not panic")
 }
 
-/// The mesh with content hash `hash` if this host has it: decoded in memory (a recent output
-/// or a session's mesh), or packed in its blob store, decoded and checked here.
-async fn held(host: &Host, hash: &str) -> Option<(Arc<MeshData>, Option<Vec<u8>>)> {
+/// The mesh with content hash `hash` decoded in memory here: a recent output or a session's.
+fn held_in_memory(host: &Host, hash: &str) -> Option<Arc<MeshData>> {
     let name = meshes::full_mesh_name(hash);
-    if let Some(mesh) = host.blobs.recent(&name).or_else(|| host.sessions.mesh_with_hash(hash)) {
+    host.blobs.recent(&name).or_else(|| host.sessions.mesh_with_hash(hash))
+}
+
+/// This host's packed blob of mesh `hash`, if its header states that hash.
+async fn stored_packed(host: &Host, hash: &str) -> Option<Vec<u8>> {
+    let packed = host.blobs.read(&meshes::full_mesh_name(hash)).await.ok()?;
+    let stated = pack::stated_hash(&packed).ok()?;
+    (stated.to_hex() == hash).then_some(packed)
+}
+
+/// The mesh with content hash `hash` if this host has it: in memory, or packed in its blob
+/// store, decoded (which checks the hash) here.
+async fn held(host: &Host, hash: &str) -> Option<(Arc<MeshData>, Option<Vec<u8>>)> {
+    if let Some(mesh) = held_in_memory(host, hash) {
         return Some((mesh, None));
     }
-    let packed = host.blobs.read(&name).await.ok()?;
-    let expected = hash.to_owned();
+    let packed = stored_packed(host, hash).await?;
     let decoded = tokio::task::spawn_blocking(move || {
         let mesh = pack::decode(&packed).ok()?;
-        // A blob's name is a claim like any other: a file changed on disk is not served.
-        (mesh.content_hash().to_hex() == expected).then(|| (Arc::new(mesh), Some(packed)))
+        Some((Arc::new(mesh), Some(packed)))
     });
     decoded.await.ok().flatten()
 }

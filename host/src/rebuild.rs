@@ -130,6 +130,11 @@ pub async fn fetch_mesh(host: &Host, url: &str, scope: &FetchScope) -> Result<Fe
     let started = Instant::now();
     let bytes = host.download(url, scope).await.map_err(|e| e.to_string())?;
     let download_ms = millis(started.elapsed());
+    Ok(FetchedMesh { download_ms, ..decode_fetched(url, bytes).await? })
+}
+
+/// Decodes mesh bytes downloaded from `url` by its extension or their first bytes.
+pub async fn decode_fetched(url: &str, bytes: Vec<u8>) -> Result<FetchedMesh, String> {
     let encoding = MeshEncoding::detect(url, &bytes)?;
     let url = url.to_owned();
     let (mesh, bytes) = tokio::task::spawn_blocking(move || {
@@ -139,7 +144,7 @@ pub async fn fetch_mesh(host: &Host, url: &str, scope: &FetchScope) -> Result<Fe
     })
     .await
     .map_err(|e| e.to_string())??;
-    Ok(FetchedMesh { mesh, bytes, encoding, download_ms })
+    Ok(FetchedMesh { mesh, bytes, encoding, download_ms: 0.0 })
 }
 
 /// A stored mesh blob, decoded by its extension.
