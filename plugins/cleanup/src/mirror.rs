@@ -9,10 +9,10 @@
 //! `(v, y, o)`; `collapse-edge` from `a` to `b` removes the triangles having both and turns
 //! every other `b` into `a`, then removes `b`; removed triangles read `REMOVED`.
 
-use std::collections::BTreeMap;
+use std::collections::HashMap;
 
 use meshflow_plugin_sdk::REMOVED;
-use meshflow_plugin_sdk::topology::adjacency::VertexTriangles;
+use meshflow_plugin_sdk::geometry::{Vec3, point};
 use meshflow_plugin_sdk::topology::edits::split_on_edge;
 use meshflow_plugin_sdk::topology::halfedge::next;
 
@@ -31,58 +31,82 @@ pub enum Edit {
     },
 }
 
-/// The mesh with the triangles around each vertex. The around-lists of the input are one
-/// CSR built at the start; a vertex whose list changes gets its own copy (copy on write),
-/// so edits cost nothing for the untouched rest of a large mesh.
+/// The mesh, with the triangles around the vertices an algorithm works at.
+///
+/// Repairs touch a few spots of a large mesh, so nothing is built for the rest of it: the
+/// around-list of a vertex exists once [`index`](Self::index) was asked for it (one pass
+/// over the triangles for any number of vertices) and is kept current by every edit after
+/// that. Elements that edits append live in small arrays of their own, so the input arrays
+/// are never reallocated (growing a 24 MB array took longer than the whole repair).
 pub struct MirrorMesh {
+    /// The input's positions and triangle slots; triangles are edited in place.
     positions: Vec<f32>,
     triangles: Vec<u32>,
-    vertex_removed: Vec<bool>,
-    base: VertexTriangles,
-    /// Rows changed since the start, ascending triangle ids.
-    patched: BTreeMap<u32, Vec<u32>>,
+    /// Appended vertices and triangles, ids following the input's.
+    added_positions: Vec<f32>,
+    added_triangles: Vec<u32>,
+    /// Live triangles around each indexed vertex, ascending.
+    rows: HashMap<u32, Vec<u32>>,
     edits: Vec<Edit>,
 }
 
 impl MirrorMesh {
     /// Starts from a compact mesh as a run receives it (every triangle live, ids in range).
+    /// No vertex is indexed yet.
     pub fn new(positions: Vec<f32>, triangles: Vec<u32>) -> Self {
-        let vertex_count = positions.len() / 3;
-        let base = VertexTriangles::new(vertex_count, &triangles);
         Self {
             positions,
             triangles,
-            vertex_removed: vec![false; vertex_count],
-            base,
-            patched: BTreeMap::new(),
+            added_positions: Vec::new(),
+            added_triangles: Vec::new(),
+            rows: HashMap::new(),
             edits: Vec::new(),
         }
     }
 
-    pub fn positions(&self) -> &[f32] {
-        &self.positions
+    fn input_vertices(&self) -> u32 {
+        (self.positions.len() / 3) as u32
     }
 
-    /// `a b c` per triangle slot; removed triangles read [`REMOVED`].
-    pub fn triangles(&self) -> &[u32] {
-        &self.triangles
-    }
-
-    pub fn triangle_slots(&self) -> u32 {
+    fn input_slots(&self) -> u32 {
         (self.triangles.len() / 3) as u32
     }
 
-    pub fn is_vertex_live(&self, v: u32) -> bool {
-        self.vertex_removed.get(v as usize) == Some(&false)
+    pub fn triangle_slots(&self) -> u32 {
+        self.input_slots() + (self.added_triangles.len() / 3) as u32
     }
 
     pub fn is_triangle_live(&self, t: u32) -> bool {
-        self.triangles.get(3 * t as usize).is_some_and(|&a| a != REMOVED)
+        t < self.triangle_slots() && self.corners(t)[0] != REMOVED
     }
 
+    /// Corners of slot `t`; a removed triangle reads [`REMOVED`] three times.
     pub fn corners(&self, t: u32) -> [u32; 3] {
-        let i = 3 * t as usize;
-        [self.triangles[i], self.triangles[i + 1], self.triangles[i + 2]]
+        let (array, i) = match t.checked_sub(self.input_slots()) {
+            None => (&self.triangles, 3 * t as usize),
+            Some(added) => (&self.added_triangles, 3 * added as usize),
+        };
+        [array[i], array[i + 1], array[i + 2]]
+    }
+
+    pub fn point(&self, v: u32) -> Vec3 {
+        match v.checked_sub(self.input_vertices()) {
+            None => point(&self.positions, v),
+            Some(added) => point(&self.added_positions, added),
+        }
+    }
+
+    /// The corners' positions of live triangle `t`.
+    pub fn triangle_points(&self, t: u32) -> [Vec3; 3] {
+        self.corners(t).map(|v| self.point(v))
+    }
+
+    /// Positions and triangle slots as the host's store holds them after the same edits.
+    pub fn to_arrays(&self) -> (Vec<f32>, Vec<u32>) {
+        (
+            [&self.positions[..], &self.added_positions].concat(),
+            [&self.triangles[..], &self.added_triangles].concat(),
+        )
     }
 
     /// The edits applied so far, consecutive removals merged.
@@ -90,21 +114,60 @@ impl MirrorMesh {
         self.edits
     }
 
-    /// Live triangles having `v` as a corner, ascending.
-    pub fn around(&self, v: u32) -> &[u32] {
-        match self.patched.get(&v) {
-            Some(row) => row,
-            None if (v as usize) < self.base.vertex_count() => self.base.of(v),
-            None => &[],
+    // ---- around-lists --------------------------------------------------------------------
+
+    /// Builds the around-lists of those of `vertices` that have none, in one pass over the
+    /// triangles (none if all have one).
+    pub fn index(&mut self, vertices: impl IntoIterator<Item = u32>) {
+        let mut wanted = vec![false; self.input_vertices() as usize];
+        let mut any = false;
+        for v in vertices {
+            if !self.rows.contains_key(&v) {
+                // Appended vertices get their list when they are made.
+                wanted[v as usize] = true;
+                any = true;
+            }
+        }
+        if !any {
+            return;
+        }
+        // REMOVED and appended vertices are out of range: they match nothing.
+        let is_wanted = |v: u32| wanted.get(v as usize) == Some(&true);
+        let input = self.triangles.chunks_exact(3);
+        for (t, c) in (0u32..).zip(input.chain(self.added_triangles.chunks_exact(3))) {
+            // `|`, not `||`: no branch per corner in the one loop that sees every triangle.
+            if !(is_wanted(c[0]) | is_wanted(c[1]) | is_wanted(c[2])) {
+                continue;
+            }
+            for (k, &v) in c.iter().enumerate() {
+                if is_wanted(v) && !c[..k].contains(&v) {
+                    self.rows.entry(v).or_default().push(t);
+                }
+            }
+        }
+        for (v, &w) in wanted.iter().enumerate() {
+            if w {
+                // An unreferenced vertex has an empty list.
+                self.rows.entry(v as u32).or_default();
+            }
         }
     }
 
-    /// Live triangles having both `a` and `b` as corners, ascending.
+    pub fn is_indexed(&self, v: u32) -> bool {
+        self.rows.contains_key(&v)
+    }
+
+    /// Live triangles having `v` as a corner, ascending. Panics unless `v` is indexed.
+    pub fn around(&self, v: u32) -> &[u32] {
+        self.rows.get(&v).unwrap_or_else(|| panic!("vertex {v} was never indexed"))
+    }
+
+    /// Live triangles having both `a` and `b` as corners, ascending (`a` indexed).
     pub fn triangles_on_edge(&self, a: u32, b: u32) -> Vec<u32> {
         self.around(a).iter().copied().filter(|&t| self.corners(t).contains(&b)).collect()
     }
 
-    /// The vertices sharing a live triangle with `v`, ascending.
+    /// The vertices sharing a live triangle with indexed `v`, ascending.
     pub fn neighbours(&self, v: u32) -> Vec<u32> {
         let mut out: Vec<u32> =
             self.around(v).iter().flat_map(|&t| self.corners(t)).filter(|&w| w != v).collect();
@@ -113,7 +176,7 @@ impl MirrorMesh {
         out
     }
 
-    /// Whether some edge at `v` does not have exactly two triangles (a boundary or
+    /// Whether some edge at indexed `v` does not have exactly two triangles (a boundary or
     /// non-manifold edge).
     pub fn is_border_vertex(&self, v: u32) -> bool {
         self.neighbours(v).into_iter().any(|w| self.triangles_on_edge(v, w).len() != 2)
@@ -127,7 +190,7 @@ impl MirrorMesh {
             return;
         }
         for &t in ids {
-            self.kill_triangle(t);
+            self.set_corners(t, [REMOVED; 3]);
         }
         match self.edits.last_mut() {
             Some(Edit::RemoveTriangles(previous)) => previous.extend_from_slice(ids),
@@ -136,91 +199,80 @@ impl MirrorMesh {
     }
 
     /// Splits the edge of half-edge `edge` (of a live triangle, no triangle with a repeated
-    /// corner on the edge) at `at`. Returns the new vertex and, per triangle that was on the
-    /// edge, `(that triangle, the triangle appended for its other half)`.
+    /// corner on the edge, its start indexed) at `at`. Returns the new vertex and, per
+    /// triangle that was on the edge, `(that triangle, the triangle appended for its other
+    /// half)`.
     pub fn split_edge_at(&mut self, edge: u32, at: [f32; 3]) -> (u32, Vec<(u32, u32)>) {
         let (a, b) = self.ends(edge);
         let on_edge = self.triangles_on_edge(a, b);
-        let v = (self.positions.len() / 3) as u32;
-        self.positions.extend_from_slice(&at);
-        self.vertex_removed.push(false);
+        let v = self.input_vertices() + (self.added_positions.len() / 3) as u32;
+        self.added_positions.extend_from_slice(&at);
+        self.rows.insert(v, Vec::new());
         let mut halves = Vec::with_capacity(on_edge.len());
         for t in on_edge {
             let (kept, appended) = split_on_edge(self.corners(t), a, b, v)
                 .expect("a triangle with distinct corners containing both ends has the edge");
             self.set_corners(t, kept);
-            halves.push((t, self.push_triangle(appended)));
+            let added = self.triangle_slots();
+            self.added_triangles.extend_from_slice(&appended);
+            self.link(added, appended);
+            halves.push((t, added));
         }
         self.edits.push(Edit::SplitEdge { edge, at, vertex: v });
         (v, halves)
     }
 
-    /// Merges the end of half-edge `edge` into its start.
+    /// Merges the end of half-edge `edge` into its start (the end indexed).
     pub fn collapse_edge(&mut self, edge: u32) {
         let (a, b) = self.ends(edge);
         for t in self.around(b).to_vec() {
             let corners = self.corners(t);
-            if corners.contains(&a) {
-                self.kill_triangle(t);
+            let merged = if corners.contains(&a) {
+                [REMOVED; 3]
             } else {
-                self.set_corners(t, corners.map(|v| if v == b { a } else { v }));
-            }
+                corners.map(|v| if v == b { a } else { v })
+            };
+            self.set_corners(t, merged);
         }
-        self.vertex_removed[b as usize] = true;
         self.edits.push(Edit::CollapseEdge { edge });
     }
 
     fn ends(&self, edge: u32) -> (u32, u32) {
-        (self.triangles[edge as usize], self.triangles[next(edge) as usize])
+        let c = self.corners(edge / 3);
+        (c[(edge % 3) as usize], c[(next(edge) % 3) as usize])
     }
 
-    fn row_mut(&mut self, v: u32) -> &mut Vec<u32> {
-        let base = &self.base;
-        self.patched.entry(v).or_insert_with(|| {
-            if (v as usize) < base.vertex_count() { base.of(v).to_vec() } else { Vec::new() }
-        })
+    /// Rewrites slot `t` (`REMOVED` corners remove it), keeping the indexed lists current.
+    fn set_corners(&mut self, t: u32, corners: [u32; 3]) {
+        self.unlink(t, self.corners(t));
+        if corners[0] != REMOVED {
+            self.link(t, corners);
+        }
+        let (array, i) = match t.checked_sub(self.input_slots()) {
+            None => (&mut self.triangles, 3 * t as usize),
+            Some(added) => (&mut self.added_triangles, 3 * added as usize),
+        };
+        array[i..i + 3].copy_from_slice(&corners);
     }
 
     fn unlink(&mut self, t: u32, corners: [u32; 3]) {
-        for (k, &v) in corners.iter().enumerate() {
-            if !corners[..k].contains(&v) {
-                let row = self.row_mut(v);
-                if let Ok(i) = row.binary_search(&t) {
-                    row.remove(i);
-                }
+        for v in corners {
+            if let Some(row) = self.rows.get_mut(&v)
+                && let Ok(i) = row.binary_search(&t)
+            {
+                row.remove(i);
             }
         }
     }
 
     fn link(&mut self, t: u32, corners: [u32; 3]) {
-        for (k, &v) in corners.iter().enumerate() {
-            if !corners[..k].contains(&v) {
-                let row = self.row_mut(v);
-                if let Err(i) = row.binary_search(&t) {
-                    row.insert(i, t);
-                }
+        for v in corners {
+            if let Some(row) = self.rows.get_mut(&v)
+                && let Err(i) = row.binary_search(&t)
+            {
+                row.insert(i, t);
             }
         }
-    }
-
-    fn set_corners(&mut self, t: u32, corners: [u32; 3]) {
-        self.unlink(t, self.corners(t));
-        self.link(t, corners);
-        let i = 3 * t as usize;
-        self.triangles[i..i + 3].copy_from_slice(&corners);
-    }
-
-    fn push_triangle(&mut self, corners: [u32; 3]) -> u32 {
-        let t = self.triangle_slots();
-        self.triangles.extend_from_slice(&corners);
-        self.link(t, corners);
-        t
-    }
-
-    fn kill_triangle(&mut self, t: u32) {
-        self.unlink(t, self.corners(t));
-        let i = 3 * t as usize;
-        self.triangles[i..i + 3].fill(REMOVED);
     }
 }
 
@@ -233,7 +285,7 @@ pub(crate) mod tests {
     /// Replays the recorded edits through the host's store and checks that every slot of
     /// the result matches the mirror's.
     pub(crate) fn assert_store_agrees(start: &MeshData, mirror: MirrorMesh) {
-        let (positions, triangles) = (mirror.positions.clone(), mirror.triangles.clone());
+        let (positions, triangles) = mirror.to_arrays();
         let mut store = MeshStore::new(start.clone());
         for edit in mirror.into_edits() {
             let op = match edit {
@@ -259,6 +311,8 @@ pub(crate) mod tests {
     fn splits_collapses_and_removals_match_the_store() {
         let start = mesh();
         let mut mirror = MirrorMesh::new(start.positions.clone(), start.triangles.clone());
+        mirror.index([0, 1]);
+        assert!(mirror.is_indexed(0) && !mirror.is_indexed(2));
         let (v, halves) = mirror.split_edge_at(1, [0.5, 0.5, 0.0]);
         assert_eq!((v, halves), (5, vec![(0, 3), (1, 4)]));
         assert_eq!(mirror.around(5), [0, 1, 3, 4]);
@@ -267,11 +321,14 @@ pub(crate) mod tests {
         // Merge vertex 5 into 0: corner 2 of triangle 3 (5, 2, 0) runs 0 -> 5.
         assert_eq!(mirror.corners(3), [5, 2, 0]);
         mirror.collapse_edge(3 * 3 + 2);
-        assert!(!mirror.is_vertex_live(5));
-        assert_eq!(mirror.triangles_on_edge(0, 3), [1, 4]);
+        assert!(mirror.around(5).is_empty());
+        // Vertex 3 was not indexed before the edits: its list comes from the edited slots.
+        mirror.index([3]);
+        assert_eq!(mirror.triangles_on_edge(3, 0), [1, 4]);
         mirror.remove_triangles(&[2]);
         mirror.remove_triangles(&[4]);
         assert_eq!(mirror.around(0), [1]);
+        assert_eq!(mirror.around(3), [1]);
         assert_store_agrees(&start, mirror);
     }
 }

@@ -3,22 +3,44 @@
 use super::REMOVED;
 use crate::MeshData;
 
-pub(super) fn compact(positions: &[f32], triangles: &[u32], vertex_removed: &[bool]) -> MeshData {
-    let mut new_id = vec![REMOVED; vertex_removed.len()];
-    let mut kept_positions = Vec::with_capacity(positions.len());
-    let mut next = 0u32;
-    for (v, removed) in vertex_removed.iter().enumerate() {
-        if !removed {
-            new_id[v] = next;
+/// Compacts `mesh` in place: its arrays are the store's own by now, and writing survivors
+/// forward into them costs no second allocation of the mesh (whose fresh pages alone took
+/// longer than the move).
+pub(super) fn compact(mut mesh: MeshData, vertex_removed: &[bool]) -> MeshData {
+    let new_id = renumber_vertices(&mut mesh.positions, vertex_removed);
+    let triangles = &mut mesh.triangles;
+    let mut kept = 0;
+    for t in 0..triangles.len() / 3 {
+        let i = 3 * t;
+        if triangles[i] == REMOVED {
+            continue;
+        }
+        for k in 0..3 {
+            // The store removes a vertex's triangles with it, so every corner maps.
+            let v = triangles[i + k];
+            triangles[kept + k] = new_id.as_ref().map_or(v, |ids| ids[v as usize]);
+        }
+        kept += 3;
+    }
+    triangles.truncate(kept);
+    debug_assert!(!triangles.contains(&REMOVED));
+    mesh
+}
+
+/// Moves the live vertices' positions forward; returns the new id of every old one, or
+/// `None` if no vertex was removed (every id stays).
+fn renumber_vertices(positions: &mut Vec<f32>, vertex_removed: &[bool]) -> Option<Vec<u32>> {
+    let first_removed = vertex_removed.iter().position(|&removed| removed)?;
+    let mut new_id: Vec<u32> = (0..first_removed as u32).collect();
+    new_id.resize(vertex_removed.len(), REMOVED);
+    let mut next = first_removed;
+    for v in first_removed..vertex_removed.len() {
+        if !vertex_removed[v] {
+            new_id[v] = next as u32;
+            positions.copy_within(3 * v..3 * v + 3, 3 * next);
             next += 1;
-            kept_positions.extend_from_slice(&positions[3 * v..3 * v + 3]);
         }
     }
-    let mut kept_triangles = Vec::with_capacity(triangles.len());
-    for corners in triangles.chunks_exact(3).filter(|c| c[0] != REMOVED) {
-        // The store removes a vertex's triangles with it, so every corner maps.
-        kept_triangles.extend(corners.iter().map(|&v| new_id[v as usize]));
-    }
-    debug_assert!(!kept_triangles.contains(&REMOVED));
-    MeshData::new(kept_positions, kept_triangles)
+    positions.truncate(3 * next);
+    Some(new_id)
 }

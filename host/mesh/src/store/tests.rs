@@ -364,3 +364,21 @@ fn triangles_around_read_the_same_scanned_as_from_the_index() {
     assert!(scanned.incidence.is_some());
     assert_eq!(scanned.triangles_around(2), [0, 2, 4]);
 }
+
+#[test]
+fn a_scan_of_a_large_mesh_finds_what_the_index_finds() {
+    // 162 triangles: ten whole blocks of the scan and two triangles after them, the last
+    // repeating a vertex, and one removed inside a block.
+    let (positions, mut triangles) = meshflow_topology::shapes::square_grid(9);
+    triangles.extend([40, 41, 40]);
+    let mesh = MeshData::new(positions, triangles);
+    let mut scanned = MeshStore::new(mesh.clone());
+    scanned.apply(Op::RemoveTriangles { ids: vec![17] }).unwrap();
+    let mut indexed = MeshStore::new(mesh.clone());
+    indexed.apply(Op::RemoveTriangles { ids: vec![17] }).unwrap();
+    indexed.incidence();
+    for v in 0..mesh.vertex_count() as u32 {
+        assert_eq!(scan_around(scanned.triangles(), v), indexed.triangles_around(v), "vertex {v}");
+    }
+    assert_eq!(scan_around(scanned.triangles(), 40).last(), Some(&162));
+}

@@ -66,7 +66,7 @@ impl MeshStore {
             }
             return Ok(());
         }
-        let positions = &mut Arc::make_mut(&mut self.mesh).positions;
+        let positions = &mut super::owned(&mut self.mesh).positions;
         for (v, p) in xyz.chunks_exact(3).enumerate() {
             if !self.vertex_removed[v] {
                 positions[3 * v..3 * v + 3].copy_from_slice(p);
