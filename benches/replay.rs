@@ -14,11 +14,10 @@ mod common;
 use std::path::Path;
 use std::sync::Arc;
 
-use common::{SCAN_1M, best, ms};
+use common::{SCAN_1M, best, ms, shuffled};
 
 use meshflow_codec::{correction, pack, replay};
 use meshflow_generate::scan;
-use meshflow_mesh::MeshData;
 use meshflow_params::Value;
 use meshflow_runtime::{Catalog, Limits, Runtime};
 
@@ -26,36 +25,6 @@ const RUNS: usize = 3;
 
 /// A step of the table: its short name, the service and its parameters.
 type Step = (&'static str, &'static str, Vec<(String, Value)>);
-
-/// The mesh with vertices and triangles in a fixed pseudo-random order.
-fn shuffled(mesh: &MeshData) -> MeshData {
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    let mut next = |n: usize| {
-        state =
-            state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-        ((state >> 33) as usize) % n
-    };
-    let vertices = mesh.vertex_count();
-    let mut order: Vec<usize> = (0..vertices).collect();
-    for i in (1..vertices).rev() {
-        order.swap(i, next(i + 1));
-    }
-    let mut new_id = vec![0u32; vertices];
-    let mut positions = vec![0.0; 3 * vertices];
-    for (new, &old) in order.iter().enumerate() {
-        positions[3 * new..3 * new + 3].copy_from_slice(&mesh.positions[3 * old..3 * old + 3]);
-        new_id[old] = new as u32;
-    }
-    let mut faces: Vec<[u32; 3]> = mesh
-        .triangles
-        .chunks_exact(3)
-        .map(|t| [new_id[t[0] as usize], new_id[t[1] as usize], new_id[t[2] as usize]])
-        .collect();
-    for i in (1..faces.len()).rev() {
-        faces.swap(i, next(i + 1));
-    }
-    MeshData::new(positions, faces.concat())
-}
 
 fn main() {
     let cache = Path::new(env!("CARGO_TARGET_TMPDIR")).join("bench-components");
