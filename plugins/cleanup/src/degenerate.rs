@@ -198,51 +198,59 @@ fn scan_input(positions: &[f32], triangles: &[u32], epsilon: f64) -> InputScan {
 }
 
 /// Proper triangles whose vertex set a proper triangle of smaller id has (either
-/// orientation), ascending. Duplicates share their smallest corner, so triangles are
-/// bucketed by it (a counting sort, one slot per triangle) and compared within a bucket.
-/// O(T) for buckets of bounded size, O(T log T) at worst (fans are sorted).
+/// orientation), ascending. Duplicates share their smallest corner, so the other two corners
+/// of each triangle are bucketed by it (a counting sort) and compared within a bucket, in
+/// bucket order: no read of the triangles out of order, which costs a cache miss per
+/// triangle on a mesh whose ids come in no particular order. Ids are not stored: only the
+/// rare repeated vertex sets are looked up again, in one more pass. O(T) for buckets of
+/// bounded size, O(T log T) at worst (fans are sorted).
 fn duplicates(triangles: &[u32], mut starts: Vec<u32>) -> Vec<u32> {
     let vertex_count = starts.len() - 1;
-    let mut bucketed = vec![0u32; starts[vertex_count] as usize];
+    let mut bucketed = vec![[0u32; 2]; starts[vertex_count] as usize];
     // starts[v] is the write cursor of bucket v; afterwards it is where bucket v + 1 starts.
-    for (t, c) in (0u32..).zip(triangles.chunks_exact(3)) {
+    for c in triangles.chunks_exact(3) {
         let [a, b, c] = sorted_corners(c);
         if a != b && b != c {
             let slot = &mut starts[a as usize];
-            bucketed[*slot as usize] = t;
+            bucketed[*slot as usize] = [b, c];
             *slot += 1;
         }
     }
-    // A bucketed triangle's two larger corners. Read again rather than stored with the
-    // ids: three times the memory written for a pass that reads mostly nearby triangles.
-    let key = |t: u32| {
-        let [_, b, c] = sorted_corners(&triangles[3 * t as usize..3 * t as usize + 3]);
-        (u64::from(b) << 32) | u64::from(c)
-    };
-    let mut found = Vec::new();
+    let mut repeated: Vec<[u32; 3]> = Vec::new();
     let mut start = 0;
-    for &end in &starts[..vertex_count] {
+    for (a, &end) in (0u32..).zip(&starts[..vertex_count]) {
         let bucket = &bucketed[start as usize..end as usize];
         start = end;
         if bucket.len() < 2 {
             continue;
         }
         if bucket.len() <= PAIRWISE_BUCKET {
-            let mut keys = [0u64; PAIRWISE_BUCKET];
-            for (i, &t) in bucket.iter().enumerate() {
-                keys[i] = key(t);
-                // Ids ascend in a bucket: a duplicate has the key of an earlier triangle.
-                if keys[..i].contains(&keys[i]) {
-                    found.push(t);
+            for (i, &[b, c]) in bucket.iter().enumerate().skip(1) {
+                if bucket[..i].contains(&[b, c]) {
+                    repeated.push([a, b, c]);
                 }
             }
         } else {
-            let mut keyed: Vec<(u64, u32)> = bucket.iter().map(|&t| (key(t), t)).collect();
-            keyed.sort_unstable();
-            found.extend(keyed.windows(2).filter(|w| w[0].0 == w[1].0).map(|w| w[1].1));
+            let mut sorted = bucket.to_vec();
+            sorted.sort_unstable();
+            let twins = sorted.windows(2).filter(|w| w[0] == w[1]);
+            repeated.extend(twins.map(|w| [a, w[0][0], w[0][1]]));
         }
     }
-    found.sort_unstable();
+    if repeated.is_empty() {
+        return Vec::new();
+    }
+    repeated.sort_unstable();
+    repeated.dedup();
+    // Every triangle with a repeated set but the first (ids ascend in this pass).
+    let mut first_seen = std::collections::HashSet::new();
+    let mut found = Vec::new();
+    for (t, c) in (0u32..).zip(triangles.chunks_exact(3)) {
+        let set = sorted_corners(c);
+        if repeated.binary_search(&set).is_ok() && !first_seen.insert(set) {
+            found.push(t);
+        }
+    }
     found
 }
 

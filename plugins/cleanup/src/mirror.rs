@@ -119,20 +119,27 @@ impl MirrorMesh {
     /// Builds the around-lists of those of `vertices` that have none, in one pass over the
     /// triangles (none if all have one).
     pub fn index(&mut self, vertices: impl IntoIterator<Item = u32>) {
-        let mut wanted = vec![false; self.input_vertices() as usize];
-        let mut any = false;
-        for v in vertices {
-            if !self.rows.contains_key(&v) {
-                // Appended vertices get their list when they are made.
-                wanted[v as usize] = true;
-                any = true;
-            }
-        }
-        if !any {
+        // Appended vertices get their list when they are made.
+        let mut new: Vec<u32> =
+            vertices.into_iter().filter(|v| !self.rows.contains_key(v)).collect();
+        if new.is_empty() {
             return;
         }
+        new.sort_unstable();
+        new.dedup();
+        // One bit per input vertex: small enough to stay in cache while every corner of a
+        // mesh in any vertex order is looked up.
+        let mut wanted = vec![0u64; (self.input_vertices() as usize).div_ceil(64)];
+        for &v in &new {
+            wanted[v as usize / 64] |= 1 << (v % 64);
+        }
         // REMOVED and appended vertices are out of range: they match nothing.
-        let is_wanted = |v: u32| wanted.get(v as usize) == Some(&true);
+        let is_wanted =
+            |v: u32| wanted.get(v as usize / 64).is_some_and(|bits| bits >> (v % 64) & 1 == 1);
+        for &v in &new {
+            // An unreferenced vertex has an empty list.
+            self.rows.insert(v, Vec::new());
+        }
         let input = self.triangles.chunks_exact(3);
         for (t, c) in (0u32..).zip(input.chain(self.added_triangles.chunks_exact(3))) {
             // `|`, not `||`: no branch per corner in the one loop that sees every triangle.
@@ -141,14 +148,8 @@ impl MirrorMesh {
             }
             for (k, &v) in c.iter().enumerate() {
                 if is_wanted(v) && !c[..k].contains(&v) {
-                    self.rows.entry(v).or_default().push(t);
+                    self.rows.get_mut(&v).expect("listed above").push(t);
                 }
-            }
-        }
-        for (v, &w) in wanted.iter().enumerate() {
-            if w {
-                // An unreferenced vertex has an empty list.
-                self.rows.entry(v as u32).or_default();
             }
         }
     }
