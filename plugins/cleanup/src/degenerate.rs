@@ -198,56 +198,59 @@ fn scan_input(positions: &[f32], triangles: &[u32], epsilon: f64) -> InputScan {
 }
 
 /// Proper triangles whose vertex set a proper triangle of smaller id has (either
-/// orientation), ascending. Duplicates share their smallest corner, so the other two corners
-/// of each triangle are bucketed by it (a counting sort) and compared within a bucket, in
+/// orientation), ascending. Duplicates share their smallest corner, so a fingerprint of the
+/// other two corners is bucketed by it (a counting sort) and compared within a bucket, in
 /// bucket order: no read of the triangles out of order, which costs a cache miss per
-/// triangle on a mesh whose ids come in no particular order. Ids are not stored: only the
-/// rare repeated vertex sets are looked up again, in one more pass. O(T) for buckets of
-/// bounded size, O(T log T) at worst (fans are sorted).
+/// triangle on a mesh whose ids come in no particular order, and 4 bytes per triangle. Only
+/// the buckets where fingerprints repeat are looked at again, exactly, in one more pass.
+/// O(T) for buckets of bounded size, O(T log T) at worst (fans are sorted).
 fn duplicates(triangles: &[u32], mut starts: Vec<u32>) -> Vec<u32> {
     let vertex_count = starts.len() - 1;
-    let mut bucketed = vec![[0u32; 2]; starts[vertex_count] as usize];
+    // Any function of the two corners would be correct (repeats are checked exactly);
+    // this one rarely maps two pairs to one value.
+    let fingerprint = |b: u32, c: u32| b.wrapping_mul(0x9e37_79b1) ^ c.wrapping_mul(0x85eb_ca77);
+    let mut bucketed = vec![0u32; starts[vertex_count] as usize];
     // starts[v] is the write cursor of bucket v; afterwards it is where bucket v + 1 starts.
     for c in triangles.chunks_exact(3) {
         let [a, b, c] = sorted_corners(c);
         if a != b && b != c {
             let slot = &mut starts[a as usize];
-            bucketed[*slot as usize] = [b, c];
+            bucketed[*slot as usize] = fingerprint(b, c);
             *slot += 1;
         }
     }
-    let mut repeated: Vec<[u32; 3]> = Vec::new();
+    // Smallest corners whose bucket repeats a fingerprint, ascending.
+    let mut suspect: Vec<u32> = Vec::new();
     let mut start = 0;
     for (a, &end) in (0u32..).zip(&starts[..vertex_count]) {
         let bucket = &bucketed[start as usize..end as usize];
         start = end;
-        if bucket.len() < 2 {
-            continue;
-        }
-        if bucket.len() <= PAIRWISE_BUCKET {
-            for (i, &[b, c]) in bucket.iter().enumerate().skip(1) {
-                if bucket[..i].contains(&[b, c]) {
-                    repeated.push([a, b, c]);
-                }
+        let repeats = match bucket.len() {
+            0 | 1 => false,
+            2..=PAIRWISE_BUCKET => (1..bucket.len()).any(|i| bucket[..i].contains(&bucket[i])),
+            _ => {
+                let mut sorted = bucket.to_vec();
+                sorted.sort_unstable();
+                sorted.windows(2).any(|w| w[0] == w[1])
             }
-        } else {
-            let mut sorted = bucket.to_vec();
-            sorted.sort_unstable();
-            let twins = sorted.windows(2).filter(|w| w[0] == w[1]);
-            repeated.extend(twins.map(|w| [a, w[0][0], w[0][1]]));
+        };
+        if repeats {
+            suspect.push(a);
         }
     }
-    if repeated.is_empty() {
+    if suspect.is_empty() {
         return Vec::new();
     }
-    repeated.sort_unstable();
-    repeated.dedup();
-    // Every triangle with a repeated set but the first (ids ascend in this pass).
-    let mut first_seen = std::collections::HashSet::new();
+    // Every triangle of a suspect bucket whose exact set an earlier one had (ids ascend).
+    let mut seen = std::collections::HashSet::new();
     let mut found = Vec::new();
     for (t, c) in (0u32..).zip(triangles.chunks_exact(3)) {
         let set = sorted_corners(c);
-        if repeated.binary_search(&set).is_ok() && !first_seen.insert(set) {
+        if set[0] != set[1]
+            && set[1] != set[2]
+            && suspect.binary_search(&set[0]).is_ok()
+            && !seen.insert(set)
+        {
             found.push(t);
         }
     }
