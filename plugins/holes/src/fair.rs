@@ -9,7 +9,7 @@
 //! number of steps without assembling a matrix.
 
 use meshflow_plugin_sdk::geometry::{Vec3, add, dot, scale, sub};
-use meshflow_plugin_sdk::topology::VertexNeighbours;
+use meshflow_plugin_sdk::topology::{Csr, VertexNeighbours, for_each_by_four};
 
 /// The mesh neighbours of one loop vertex, summed (each neighbour once).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -20,29 +20,20 @@ pub struct Ring {
 
 /// The umbrella operator over a patch: rows for every vertex, columns for the new ones.
 struct Umbrellas {
-    neighbours: VertexNeighbours,
+    /// Per row: the new vertices among its neighbours, as column (unknown) indices,
+    /// ascending.
+    columns: Csr,
     /// Per row: 1 / (number of neighbours counted in the umbrella).
     inverse_degree: Vec<f64>,
     rim_len: usize,
 }
 
 impl Umbrellas {
-    /// For loop vertices only the patch neighbours the mesh ring lacks count: the loop
-    /// edges to `i - 1` and `i + 1` are mesh edges, every other patch edge is new.
-    fn counts(&self, v: usize, w: u32) -> bool {
-        let (n, w) = (self.rim_len, w as usize);
-        v >= n || w >= n || (w != (v + 1) % n && w != (v + n - 1) % n)
-    }
-
     /// `U x` over the new vertices' values `x` (the fixed part left out).
     fn apply(&self, x: &[Vec3], out: &mut [Vec3]) {
         for (v, o) in out.iter_mut().enumerate() {
             let mut sum = [0.0; 3];
-            for &w in self.neighbours.of(v as u32) {
-                if w as usize >= self.rim_len {
-                    sum = add(sum, x[w as usize - self.rim_len]);
-                }
-            }
+            for_each_by_four(self.columns.row(v), |_, c| sum = add(sum, x[c as usize]));
             *o = scale(sum, self.inverse_degree[v]);
             if v >= self.rim_len {
                 *o = sub(*o, x[v - self.rim_len]);
@@ -55,17 +46,22 @@ impl Umbrellas {
         out.fill([0.0; 3]);
         for (v, &yv) in y.iter().enumerate() {
             let share = scale(yv, self.inverse_degree[v]);
-            for &w in self.neighbours.of(v as u32) {
-                if w as usize >= self.rim_len {
-                    let o = &mut out[w as usize - self.rim_len];
-                    *o = add(*o, share);
-                }
-            }
+            for_each_by_four(self.columns.row(v), |_, c| {
+                let o = &mut out[c as usize];
+                *o = add(*o, share);
+            });
             if v >= self.rim_len {
                 out[v - self.rim_len] = sub(out[v - self.rim_len], yv);
             }
         }
     }
+}
+
+/// For loop vertex `v` only the patch neighbours `w` the mesh ring lacks count: the loop
+/// edges to `v - 1` and `v + 1` are mesh edges, every other patch edge is new.
+fn counts(rim_len: usize, v: usize, w: u32) -> bool {
+    let (n, w) = (rim_len, w as usize);
+    v >= n || w >= n || (w != (v + 1) % n && w != (v + n - 1) % n)
 }
 
 /// Fairs the vertices of `points` from index `rings.len()` on (the new ones); the first
@@ -76,32 +72,37 @@ pub fn fair(points: &mut [Vec3], triangles: &[[u32; 3]], rings: &[Ring], iterati
     if points.len() <= rim_len {
         return;
     }
-    let mut umbrellas = Umbrellas {
-        neighbours: VertexNeighbours::new(points.len(), triangles.as_flattened()),
-        inverse_degree: Vec::new(),
-        rim_len,
-    };
+    let neighbours = VertexNeighbours::new(points.len(), triangles.as_flattened());
     // The fixed part of every umbrella: loop neighbours, mesh rings, minus a loop vertex.
     let mut fixed = vec![[0.0; 3]; points.len()];
     let mut inverse_degree = vec![0.0; points.len()];
+    let (mut offsets, mut columns) = (vec![0u32], Vec::new());
     for v in 0..points.len() {
         let ring = rings.get(v).copied().unwrap_or_default();
         let (mut sum, mut count) = (ring.sum, ring.count as usize);
-        for &w in umbrellas.neighbours.of(v as u32) {
-            if umbrellas.counts(v, w) {
+        for &w in neighbours.of(v as u32) {
+            if counts(rim_len, v, w) {
                 count += 1;
                 if (w as usize) < rim_len {
                     sum = add(sum, points[w as usize]);
                 }
             }
+            if w as usize >= rim_len {
+                columns.push(w - rim_len as u32);
+            }
         }
+        offsets.push(columns.len() as u32);
         inverse_degree[v] = 1.0 / count.max(1) as f64;
         fixed[v] = scale(sum, inverse_degree[v]);
         if v < rim_len {
             fixed[v] = sub(fixed[v], points[v]);
         }
     }
-    umbrellas.inverse_degree = inverse_degree;
+    let umbrellas = Umbrellas {
+        columns: Csr::from_parts(offsets, columns).expect("offsets ascend to the column count"),
+        inverse_degree,
+        rim_len,
+    };
     let unknowns = points.len() - rim_len;
     let mut x = points[rim_len..].to_vec();
     // Residual r = -fixed - U x; CGLS on min |U x + fixed|², per coordinate.

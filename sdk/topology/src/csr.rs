@@ -91,3 +91,39 @@ impl Csr {
         (self.offsets, self.items)
     }
 }
+
+/// Calls `f(k, item)` for every item of a row in order, `k` counting from 0, four items per
+/// loop turn and the last up to three without a loop. In the sandbox every loop turn checks
+/// the run's deadline (wasmtime's epoch check); over rows of about six neighbours, one turn
+/// per item cost Taubin smoothing half its time.
+///
+/// ```
+/// let mut seen = Vec::new();
+/// meshflow_topology::for_each_by_four(&[7, 8, 9, 10, 11], |k, item| seen.push((k, item)));
+/// assert_eq!(seen, [(0, 7), (1, 8), (2, 9), (3, 10), (4, 11)]);
+/// ```
+#[inline(always)]
+pub fn for_each_by_four(row: &[u32], mut f: impl FnMut(usize, u32)) {
+    let mut quads = row.chunks_exact(4);
+    let mut k = 0;
+    for quad in &mut quads {
+        f(k, quad[0]);
+        f(k + 1, quad[1]);
+        f(k + 2, quad[2]);
+        f(k + 3, quad[3]);
+        k += 4;
+    }
+    match *quads.remainder() {
+        [a] => f(k, a),
+        [a, b] => {
+            f(k, a);
+            f(k + 1, b);
+        }
+        [a, b, c] => {
+            f(k, a);
+            f(k + 1, b);
+            f(k + 2, c);
+        }
+        _ => {}
+    }
+}

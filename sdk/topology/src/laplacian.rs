@@ -7,6 +7,7 @@
 //! neighbours in ascending order, so the result is the same on every machine.
 
 use crate::VertexNeighbours;
+use crate::csr::for_each_by_four;
 use crate::geometry::{cotangent_weights, larger};
 
 /// The umbrella operator: every neighbour weighs 1. `neighbours` must cover the vertices
@@ -92,32 +93,10 @@ pub fn visit_weighted_mean(
             sum[2] += w * p[2] as f64;
             total += w;
         };
-        // Four neighbours per loop turn and the rest without a loop: in the sandbox every
-        // loop turn checks the run's deadline (wasmtime's epoch check), which cost Taubin
-        // half its time with one turn per neighbour. The order of the sums is unchanged.
-        let (start, end) = (offsets[v] as usize, offsets[v + 1] as usize);
-        let mut quads = items[start..end].chunks_exact(4);
-        let mut i = start;
-        for quad in &mut quads {
-            add(i, quad[0]);
-            add(i + 1, quad[1]);
-            add(i + 2, quad[2]);
-            add(i + 3, quad[3]);
-            i += 4;
-        }
-        match *quads.remainder() {
-            [a] => add(i, a),
-            [a, b] => {
-                add(i, a);
-                add(i + 1, b);
-            }
-            [a, b, c] => {
-                add(i, a);
-                add(i + 1, b);
-                add(i + 2, c);
-            }
-            _ => {}
-        }
+        // Four neighbours per loop turn (see `for_each_by_four`); the order of the sums is
+        // unchanged.
+        let start = offsets[v] as usize;
+        for_each_by_four(&items[start..offsets[v + 1] as usize], |k, item| add(start + k, item));
         if total > 0.0 {
             visit(v, sum.map(|s| s / total));
         }

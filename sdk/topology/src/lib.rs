@@ -55,7 +55,7 @@ pub mod transform;
 pub use adjacency::{VertexNeighbours, VertexTriangles, unreferenced_vertices};
 pub use boundary::{BoundaryLoop, boundary_loops, boundary_vertices};
 pub use components::{TriangleComponents, UnionFind};
-pub use csr::Csr;
+pub use csr::{Csr, for_each_by_four};
 pub use edges::{EdgeBuckets, Members};
 pub use halfedge::{EdgeKind, EdgeLookup, HalfEdges};
 pub use laplacian::{
