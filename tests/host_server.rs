@@ -344,6 +344,7 @@ async fn meshes_are_written_in_a_users_format_only_as_the_mesh_their_hash_names(
         hash: hash.to_owned(),
         from: from.map(str::to_owned),
         format,
+        grid: None,
     };
 
     // The holder writes the mesh it holds, in every format, as that very mesh.
@@ -373,6 +374,27 @@ async fn meshes_are_written_in_a_users_format_only_as_the_mesh_their_hash_names(
         writer.convert(ask(&hash, Some("file:///etc/passwd"), MeshFileFormat::Ply), LIMIT).await,
     );
     assert_eq!((status, code.as_str()), (400, "url-not-allowed"));
+    // A quantised run's input: its hash names the mesh snapped onto the run's grid, so the
+    // fetched file is snapped before it is checked; a grid out of range is refused.
+    let mut on_grid = io::load(&bunny_path()).unwrap();
+    let exponents = [-10, -12, -9];
+    meshflow_codec::quantize::Grid::from_exponents(exponents)
+        .unwrap()
+        .snap_all(&mut on_grid.positions);
+    let snapped_hash = on_grid.content_hash().to_hex();
+    let (status, code, _) = api_error(
+        writer.convert(ask(&snapped_hash, Some(&input), MeshFileFormat::Ply), LIMIT).await,
+    );
+    assert_eq!((status, code.as_str()), (502, "hash-mismatch"), "unsnapped, it is another mesh");
+    let snapped = ConvertMesh {
+        grid: Some(exponents),
+        ..ask(&snapped_hash, Some(&input), MeshFileFormat::Ply)
+    };
+    let ply = writer.convert(snapped.clone(), LIMIT).await.unwrap();
+    assert_eq!(io::load_bytes(&ply, io::Format::Ply, "ply").unwrap(), on_grid);
+    let off_range = ConvertMesh { grid: Some([-10, 400, -9]), ..snapped };
+    let (status, code, _) = api_error(writer.convert(off_range, LIMIT).await);
+    assert_eq!((status, code.as_str()), (400, "bad-grid"));
     // A client's limit holds, whatever the host would send.
     let capped = holder.convert(ask(&hash, None, MeshFileFormat::Obj), 1000).await;
     assert!(matches!(capped, Err(ClientError::TooLarge { .. })), "{capped:?}");

@@ -82,6 +82,19 @@ async fn results_steps_and_inputs_download_in_every_format_named_after_the_input
     let mesh = io::load_bytes(&body, Format::Ply, "ply").unwrap();
     assert_eq!(mesh.content_hash().to_hex(), input_hash);
 
+    // A quantised run's input is the mesh on the run's grid, which its hash names.
+    let mut quantised = repair();
+    quantised["quantize"] = json!(16);
+    let on_grid = cluster.run(&quantised, &cluster.upload(&input).await).await;
+    assert_eq!(on_grid["status"], "completed", "{on_grid:#}");
+    let grid_input_hash = text(&on_grid["input"]["hash"]);
+    assert_ne!(grid_input_hash, input.mesh.content_hash().to_hex(), "the grid moved vertices");
+    let path = format!("/runs/{}/input?format=ply", text(&on_grid["id"]));
+    let (status, _, body) = get(&cluster, &path).await;
+    assert_eq!(status, 200, "{}", String::from_utf8_lossy(&body));
+    let mesh = io::load_bytes(&body, Format::Ply, "ply").unwrap();
+    assert_eq!(mesh.content_hash().to_hex(), grid_input_hash);
+
     // What cannot be served says why.
     for (path, status, code) in [
         (format!("/runs/{id}/result?format=exe"), 400, "bad-format"),

@@ -101,6 +101,10 @@ pub struct ConvertMesh {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub from: Option<String>,
     pub format: MeshFileFormat,
+    /// The step exponents of the grid the named mesh lies on (a quantised run's input): a
+    /// mesh fetched from `from` is snapped onto it before its hash is checked.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grid: Option<[i32; 3]>,
 }
 
 /// What a mesh is written as for people and other tools.

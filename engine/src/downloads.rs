@@ -89,6 +89,8 @@ struct Source {
     step: Option<usize>,
     hash: String,
     label: String,
+    /// The grid a quantised run's input was snapped onto: `hash` names the snapped mesh.
+    grid: Option<[i32; 3]>,
 }
 
 impl Downloads {
@@ -110,7 +112,12 @@ impl Downloads {
         };
         // A slot before the request: memory stays bounded by the slots, not the requests.
         let _slot = self.slots.acquire().await.expect("the semaphore is never closed");
-        let request = ConvertMesh { hash: source.hash.clone(), from: source.from.clone(), format };
+        let request = ConvertMesh {
+            hash: source.hash.clone(),
+            from: source.from.clone(),
+            format,
+            grid: source.grid,
+        };
         let host = writer.base_url().to_owned();
         let converted = tokio::time::timeout(
             DOWNLOAD_FETCH_TIMEOUT,
@@ -159,6 +166,7 @@ fn locate(record: &RunRecord, which: Which) -> Result<Source, DownloadError> {
                 step: None,
                 hash: result.hash.clone(),
                 label: "result".into(),
+                grid: None,
             }),
             (_, status) if !status.is_final() => Err(DownloadError::NotFinished(record.id.clone())),
             (_, status) => Err(DownloadError::NoResult {
@@ -182,6 +190,7 @@ fn locate(record: &RunRecord, which: Which) -> Result<Source, DownloadError> {
                 step: Some(index),
                 hash,
                 label: format!("step{index}-{}", step.service),
+                grid: None,
             })
         }
         Which::Input => {
@@ -194,6 +203,7 @@ fn locate(record: &RunRecord, which: Which) -> Result<Source, DownloadError> {
                 step: None,
                 hash: input.hash.clone(),
                 label: "input".into(),
+                grid: input.grid,
             })
         }
     }
@@ -314,7 +324,7 @@ mod tests {
         assert_eq!(served.bytes, raw);
         assert_eq!(
             seen.lock().unwrap()[0],
-            ConvertMesh { hash: hash.clone(), from: None, format: raw_format }
+            ConvertMesh { hash: hash.clone(), from: None, format: raw_format, grid: None }
         );
 
         let forged = completed(format!("{host}/blobs/{hash}.mfm"), "00".repeat(32));
@@ -361,10 +371,16 @@ mod tests {
         assert_eq!(served.file_name, "bunny-input.ply");
         assert!(other_seen.lock().unwrap().is_empty());
         let asked = used_seen.lock().unwrap().clone();
-        assert_eq!(
-            asked,
-            vec![ConvertMesh { hash: hash.clone(), from: Some(input_url), format: ply }]
-        );
+        let request =
+            ConvertMesh { hash: hash.clone(), from: Some(input_url), format: ply, grid: None };
+        assert_eq!(asked, std::slice::from_ref(&request));
+
+        // A quantised run's input hash names the mesh on the run's grid: the host is told
+        // the grid, to snap what it fetches before checking it.
+        record.input.as_mut().unwrap().grid = Some([-10, -12, -9]);
+        downloads.mesh(&record, Which::Input, ply, "bunny", &cluster).await.unwrap();
+        let asked = used_seen.lock().unwrap().last().cloned();
+        assert_eq!(asked, Some(ConvertMesh { grid: Some([-10, -12, -9]), ..request }));
 
         record.input.as_mut().unwrap().url = "http://127.0.0.1:7100/inputs/missing".into();
         let failed = downloads.mesh(&record, Which::Input, ply, "bunny", &cluster).await;

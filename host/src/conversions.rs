@@ -9,6 +9,7 @@ use meshflow_api::fetch_rules::FetchScope;
 use meshflow_api::host::MeshFileFormat;
 use meshflow_api::raw_mesh;
 use meshflow_codec::pack;
+use meshflow_codec::quantize::Grid;
 use meshflow_mesh::{MeshData, as_le_bytes_f32, as_le_bytes_u32};
 use meshflow_meshio::{self as io, Format};
 
@@ -29,15 +30,23 @@ pub enum ConvertError {
     Write { format: &'static str, message: String },
 }
 
-/// Mesh `hash` as `format`: from this host's outputs, sessions or packed blobs, else
-/// downloaded from `from` within `scope`.
+/// The mesh a conversion writes: its content hash, where to fetch it if this host does not
+/// hold it, and the grid a fetched mesh is snapped onto before its hash is checked.
+pub struct Source<'a> {
+    pub hash: &'a str,
+    pub from: Option<&'a str>,
+    pub grid: Option<Grid>,
+}
+
+/// Mesh `source.hash` as `format`: from this host's outputs, sessions or packed blobs, else
+/// downloaded from `source.from` within `scope`.
 pub async fn convert(
     host: &Host,
-    hash: &str,
-    from: Option<&str>,
+    source: Source<'_>,
     scope: &FetchScope,
     format: MeshFileFormat,
 ) -> Result<Vec<u8>, ConvertError> {
+    let Source { hash, from, grid } = source;
     // The packed blob as stored, not packed again (a run's result is packed as the run
     // ends): its sealed header states the hash, which every reader's decode holds it to.
     if format == MeshFileFormat::Mfm
@@ -59,18 +68,40 @@ pub async fn convert(
         Some((url, bytes)) => {
             let bytes = bytes.map_err(|e| ConvertError::Fetch(e.to_string()))?;
             let fetched = rebuild::decode_fetched(url, bytes).await.map_err(ConvertError::Fetch)?;
-            if fetched.mesh.hash != hash {
-                let (expected, actual) = (hash.to_owned(), fetched.mesh.hash);
-                return Err(ConvertError::HashMismatch { url: url.to_owned(), expected, actual });
+            let (mesh, actual, packed) = match grid {
+                // Snapped, it is no longer the mesh its packed bytes hold.
+                Some(grid) => {
+                    let (mesh, hash) = snapped(fetched.mesh.mesh, grid).await;
+                    (mesh, hash, None)
+                }
+                None => {
+                    let packed = fetched.encoding == MeshEncoding::Packed;
+                    (fetched.mesh.mesh, fetched.mesh.hash, packed.then_some(fetched.bytes))
+                }
+            };
+            if actual != hash {
+                let (url, expected) = (url.to_owned(), hash.to_owned());
+                return Err(ConvertError::HashMismatch { url, expected, actual });
             }
-            let packed = (fetched.encoding == MeshEncoding::Packed).then_some(fetched.bytes);
-            (fetched.mesh.mesh, packed)
+            (mesh, packed)
         }
         None => held(host, hash).await.ok_or_else(|| ConvertError::NotHeld(hash.to_owned()))?,
     };
     tokio::task::spawn_blocking(move || write(&mesh, packed, format))
         .await
         .expect("writing a mesh does not panic")
+}
+
+/// `mesh` on `grid`, with its content hash.
+async fn snapped(mesh: Arc<MeshData>, grid: Grid) -> (Arc<MeshData>, String) {
+    tokio::task::spawn_blocking(move || {
+        let mut mesh = Arc::unwrap_or_clone(mesh);
+        grid.snap_all(&mut mesh.positions);
+        let hash = mesh.content_hash().to_hex();
+        (Arc::new(mesh), hash)
+    })
+    .await
+    .expect("snapping a mesh does not panic")
 }
 
 /// The mesh with content hash `hash` decoded in memory here: a recent output or a session's.

@@ -11,6 +11,7 @@ use crate::conversions::{self, ConvertError};
 use crate::meshes;
 use crate::state::Host;
 use meshflow_api::host::{ConvertMesh, Vouched};
+use meshflow_codec::quantize::Grid;
 
 /// `POST /meshes/convert`.
 pub async fn convert(
@@ -24,9 +25,18 @@ pub async fn convert(
         Some(url) => Some(super::allowed_url(&host, url, &peers)?),
         None => None,
     };
+    let grid = match request.grid {
+        Some(exponents) => Some(Grid::from_exponents(exponents).ok_or_else(|| {
+            ApiError::bad_request(
+                "bad-grid",
+                format!("grid exponents {exponents:?} are out of range"),
+            )
+        })?),
+        None => None,
+    };
     let scope = host.scope(&peers).map_err(|e| ApiError::bad_request("bad-peers", e))?;
-    let bytes =
-        conversions::convert(&host, &request.hash, from.as_deref(), &scope, request.format).await?;
+    let source = conversions::Source { hash: &request.hash, from: from.as_deref(), grid };
+    let bytes = conversions::convert(&host, source, &scope, request.format).await?;
     let headers = [(header::CONTENT_TYPE, "application/octet-stream")];
     Ok((headers, bytes).into_response())
 }
