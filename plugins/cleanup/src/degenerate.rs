@@ -98,6 +98,10 @@ pub fn repair_degenerate(
             break;
         }
         if wave == REPAIR_WAVES {
+            // A triangle may wait twice (two repairs flattened it): the store refuses a
+            // removal naming an id twice.
+            waiting.sort_unstable();
+            waiting.dedup();
             let left: Vec<u32> = waiting.into_iter().filter(|&t| is_flat(&mesh, t)).collect();
             report.removed += left.len();
             mesh.remove_triangles(&left);
