@@ -97,11 +97,11 @@ pub fn repair_degenerate(
         if waiting.is_empty() {
             break;
         }
+        // A triangle two repairs flattened waits twice: list it once, so its corners are
+        // indexed once and a removal names it once (the store refuses an id twice).
+        waiting.sort_unstable();
+        waiting.dedup();
         if wave == REPAIR_WAVES {
-            // A triangle may wait twice (two repairs flattened it): the store refuses a
-            // removal naming an id twice.
-            waiting.sort_unstable();
-            waiting.dedup();
             let left: Vec<u32> = waiting.into_iter().filter(|&t| is_flat(&mesh, t)).collect();
             report.removed += left.len();
             mesh.remove_triangles(&left);
