@@ -31,9 +31,11 @@ const REPAIRS_MIN: usize = 64;
 /// next wave, which lists them in one pass over the mesh. After this many waves, degenerate
 /// triangles still waiting are removed: a bound on passes for chains of cascading repairs.
 const REPAIR_WAVES: usize = 16;
-/// Buckets of triangles sharing their smallest vertex up to this size are compared pair by
-/// pair; larger ones (fans) are sorted.
-const PAIRWISE_BUCKET: usize = 8;
+/// Fingerprints are looked for repeats in partitions of about this many triangles (at most
+/// this many partitions): a partition's hash table then stays in cache, and so do the ends
+/// of all partitions while they are filled.
+const FINGERPRINTS_PER_PARTITION: usize = 8192;
+const MAX_PARTITIONS: usize = 256;
 
 /// What the repair did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -73,7 +75,7 @@ pub fn repair_degenerate(
     epsilon: f64,
 ) -> (MirrorMesh, RepairReport) {
     let scan = scan_input(&positions, &triangles, epsilon);
-    let duplicates = duplicates(&triangles, scan.smallest_corner_starts);
+    let duplicates = duplicates(&triangles, &scan.fingerprints);
     let flat: Vec<u32> =
         scan.flat.into_iter().filter(|t| duplicates.binary_search(t).is_err()).collect();
     let mut report = RepairReport {
@@ -150,9 +152,11 @@ struct InputScan {
     improper: Vec<u32>,
     /// The other triangles that are flat, ascending.
     flat: Vec<u32>,
-    /// Per vertex, where its bucket of proper triangles having it as their smallest corner
-    /// starts, with one more entry for the end; read as a count for `v` at index `v + 1`.
-    smallest_corner_starts: Vec<u32>,
+    /// The [`fingerprint`] and id of every proper triangle, partitioned by the range its
+    /// smallest corner falls in (`corner >> partition_shift`), ids ascending within a
+    /// partition.
+    fingerprints: Vec<Vec<(u32, u32)>>,
+    partition_shift: u32,
 }
 
 /// The corners of a triangle in ascending order.
@@ -167,98 +171,139 @@ fn sorted_corners(c: &[u32]) -> [u32; 3] {
     }
 }
 
-/// One pass over the triangles: repeated vertices, flatness, and the bucket sizes that
-/// [`duplicates`] sorts by (so the mesh is read once for all three).
+/// A hash of a triangle's vertex set (its sorted corners): equal sets have equal
+/// fingerprints; unequal ones rarely do, and repeats are checked exactly anyway.
+fn fingerprint([a, b, c]: [u32; 3]) -> u32 {
+    let h = a.wrapping_mul(0x9e37_79b1) ^ b.wrapping_mul(0x85eb_ca77) ^ c.wrapping_mul(0xc2b2_ae3d);
+    (h ^ (h >> 15)).wrapping_mul(0x2c1b_3c6d)
+}
+
+/// One pass over the triangles: repeated vertices, flatness, and the fingerprints that
+/// [`duplicates`] looks for repeats in (so the mesh is read once for all three).
+///
+/// The corners' positions of a block of triangles are gathered first, in a loop that does
+/// nothing else: on a mesh whose vertex ids come in no particular order every read is a
+/// cache miss, and a short loop keeps many of them in flight at once.
 fn scan_input(positions: &[f32], triangles: &[u32], epsilon: f64) -> InputScan {
+    const BLOCK: usize = 256;
     let (points, _) = positions.as_chunks::<3>();
-    let vertex_count = points.len();
+    let triangle_count = triangles.len() / 3;
+    // Duplicates share their smallest corner: partitions by its range keep them together,
+    // and follow the mesh's order where its ids have one.
+    let wanted = (triangle_count / FINGERPRINTS_PER_PARTITION).clamp(1, MAX_PARTITIONS);
+    let partition_shift = points.len().div_ceil(wanted).next_power_of_two().trailing_zeros();
+    let partitions = (points.len() >> partition_shift) + 1;
     let mut scan = InputScan {
         improper: Vec::new(),
         flat: Vec::new(),
-        smallest_corner_starts: vec![0; vertex_count + 1],
+        // Grown as filled: capacity reserved up front and never written cost the sandbox a
+        // page fault per page in every run.
+        fingerprints: vec![Vec::new(); partitions],
+        partition_shift,
     };
-    for (t, c) in (0u32..).zip(triangles.chunks_exact(3)) {
-        let [a, b, c2] = sorted_corners(c);
-        if a == b || b == c2 {
-            scan.improper.push(t);
-            continue;
-        }
-        scan.smallest_corner_starts[a as usize + 1] += 1;
-        // One bounds check per corner; spelled out, as `array::map` here ran 5x slower.
-        let corner = |k: usize| {
-            let [x, y, z] = points[c[k] as usize];
-            [f64::from(x), f64::from(y), f64::from(z)]
-        };
-        let p = [corner(0), corner(1), corner(2)];
-        if is_flat_within(&p, epsilon) {
-            scan.flat.push(t);
-        }
-    }
-    let starts = &mut scan.smallest_corner_starts;
-    for v in 0..vertex_count {
-        starts[v + 1] += starts[v];
+    let mut gathered = [[0f32; 3]; 3 * BLOCK];
+    for (first, block) in (0u32..).step_by(BLOCK).zip(triangles.chunks(3 * BLOCK)) {
+        gather(points, block, &mut gathered);
+        scan.add(first, block, &gathered, epsilon);
     }
     scan
 }
 
-/// Proper triangles whose vertex set a proper triangle of smaller id has (either
-/// orientation), ascending. Duplicates share their smallest corner, so a fingerprint of the
-/// other two corners is bucketed by it (a counting sort) and compared within a bucket, in
-/// bucket order: no read of the triangles out of order, which costs a cache miss per
-/// triangle on a mesh whose ids come in no particular order, and 4 bytes per triangle. Only
-/// the buckets where fingerprints repeat are looked at again, exactly, in one more pass.
-/// O(T) for buckets of bounded size, O(T log T) at worst (fans are sorted).
-fn duplicates(triangles: &[u32], mut starts: Vec<u32>) -> Vec<u32> {
-    let vertex_count = starts.len() - 1;
-    // Any function of the two corners would be correct (repeats are checked exactly);
-    // this one rarely maps two pairs to one value.
-    let fingerprint = |b: u32, c: u32| b.wrapping_mul(0x9e37_79b1) ^ c.wrapping_mul(0x85eb_ca77);
-    let mut bucketed = vec![0u32; starts[vertex_count] as usize];
-    // starts[v] is the write cursor of bucket v; afterwards it is where bucket v + 1 starts.
-    for c in triangles.chunks_exact(3) {
-        let [a, b, c] = sorted_corners(c);
-        if a != b && b != c {
-            let slot = &mut starts[a as usize];
-            bucketed[*slot as usize] = fingerprint(b, c);
-            *slot += 1;
-        }
-    }
-    // Smallest corners whose bucket repeats a fingerprint, ascending.
-    let mut suspect: Vec<u32> = Vec::new();
-    let mut start = 0;
-    for (a, &end) in (0u32..).zip(&starts[..vertex_count]) {
-        let bucket = &bucketed[start as usize..end as usize];
-        start = end;
-        let repeats = match bucket.len() {
-            0 | 1 => false,
-            2..=PAIRWISE_BUCKET => (1..bucket.len()).any(|i| bucket[..i].contains(&bucket[i])),
-            _ => {
-                let mut sorted = bucket.to_vec();
-                sorted.sort_unstable();
-                sorted.windows(2).any(|w| w[0] == w[1])
+impl InputScan {
+    /// Adds triangles `first..` with their corners' points. Not inlined, as [`gather`].
+    #[inline(never)]
+    fn add(&mut self, first: u32, triangles: &[u32], points: &[[f32; 3]], epsilon: f64) {
+        for ((t, c), p) in (first..).zip(triangles.chunks_exact(3)).zip(points.chunks_exact(3)) {
+            let set = sorted_corners(c);
+            if set[0] == set[1] || set[1] == set[2] {
+                self.improper.push(t);
+                continue;
             }
-        };
-        if repeats {
-            suspect.push(a);
+            let partition = (set[0] >> self.partition_shift) as usize;
+            self.fingerprints[partition].push((fingerprint(set), t));
+            // Spelled out: `array::map` here ran 5x slower in the sandbox.
+            let corner = |k: usize| {
+                let [x, y, z] = p[k];
+                [f64::from(x), f64::from(y), f64::from(z)]
+            };
+            if is_flat_within(&[corner(0), corner(1), corner(2)], epsilon) {
+                self.flat.push(t);
+            }
         }
     }
-    if suspect.is_empty() {
-        return Vec::new();
+}
+
+/// Copies the points `corners` name into `out`, four per loop turn.
+///
+/// Not inlined: in a function of its own the sandbox's compiler keeps the loop's few
+/// values in registers, and with fewer instructions per read the processor keeps more
+/// reads in flight (in a large function this loop spilled, and ran at half the speed).
+#[inline(never)]
+fn gather(points: &[[f32; 3]], corners: &[u32], out: &mut [[f32; 3]]) {
+    let (quads, rest) = corners.as_chunks::<4>();
+    let (out_quads, out_rest) = out[..corners.len()].as_chunks_mut::<4>();
+    for (o, &[a, b, c, d]) in out_quads.iter_mut().zip(quads) {
+        *o = [points[a as usize], points[b as usize], points[c as usize], points[d as usize]];
     }
-    // Every triangle of a suspect bucket whose exact set an earlier one had (ids ascend).
-    let mut seen = std::collections::HashSet::new();
+    for (o, &v) in out_rest.iter_mut().zip(rest) {
+        *o = points[v as usize];
+    }
+}
+
+/// Proper triangles whose vertex set a proper triangle of smaller id has (either
+/// orientation), ascending. Duplicates share their smallest corner, so they share a
+/// partition: repeats of a fingerprint are found within one, in a hash table small enough
+/// to stay in cache whatever the order of the mesh's ids, and only triangles whose
+/// fingerprint repeats are compared exactly. O(T log T) at worst (every triangle a
+/// duplicate), O(T) for the usual few.
+fn duplicates(triangles: &[u32], partitions: &[Vec<(u32, u32)>]) -> Vec<u32> {
     let mut found = Vec::new();
-    for (t, c) in (0u32..).zip(triangles.chunks_exact(3)) {
-        let set = sorted_corners(c);
-        if set[0] != set[1]
-            && set[1] != set[2]
-            && suspect.binary_search(&set[0]).is_ok()
-            && !seen.insert(set)
-        {
-            found.push(t);
+    let mut table = Vec::new();
+    for partition in partitions {
+        let repeated = repeated_fingerprints(partition, &mut table);
+        if repeated.is_empty() {
+            continue;
         }
+        // By vertex set, then id: all but the first of a set are duplicates.
+        let mut candidates: Vec<([u32; 3], u32)> = partition
+            .iter()
+            .filter(|&&(print, _)| repeated.binary_search(&table_key(print)).is_ok())
+            .map(|&(_, t)| (sorted_corners(&triangles[3 * t as usize..][..3]), t))
+            .collect();
+        candidates.sort_unstable();
+        found.extend(candidates.windows(2).filter(|w| w[0].0 == w[1].0).map(|w| w[1].1));
     }
+    found.sort_unstable();
     found
+}
+
+/// A fingerprint as [`repeated_fingerprints`] keys it: 0 marks a free slot, so 0 counts as
+/// 1 (a false repeat at worst, and repeats are checked exactly).
+fn table_key(print: u32) -> u32 {
+    print.max(1)
+}
+
+/// The keys that occur more than once in a partition, ascending; `table` is scratch space
+/// (open addressing, at most half full).
+fn repeated_fingerprints(partition: &[(u32, u32)], table: &mut Vec<u32>) -> Vec<u32> {
+    let size = (2 * partition.len()).next_power_of_two();
+    table.clear();
+    table.resize(size, 0);
+    let mut repeated = Vec::new();
+    for &(print, _) in partition {
+        let key = table_key(print);
+        let mut slot = key as usize & (size - 1);
+        while table[slot] != 0 && table[slot] != key {
+            slot = (slot + 1) & (size - 1);
+        }
+        if table[slot] == key {
+            repeated.push(key);
+        }
+        table[slot] = key;
+    }
+    repeated.sort_unstable();
+    repeated.dedup();
+    repeated
 }
 
 /// Repairs one degenerate triangle: the repair its shape calls for, else the other one.
@@ -465,8 +510,8 @@ mod tests {
 
     #[test]
     fn duplicates_around_a_fan_centre_are_found_whatever_their_orientation() {
-        // Twelve triangles around vertex 0 (more than are compared pair by pair), then a
-        // reversed copy, a rotated copy and a triangle repeating a vertex.
+        // Twelve triangles around vertex 0, then a reversed copy, a rotated copy and a
+        // triangle repeating a vertex.
         let mut positions = vec![0.0, 0.0, 0.0];
         for i in 0..12 {
             let angle = i as f32 * std::f32::consts::TAU / 12.0;
@@ -477,6 +522,42 @@ mod tests {
         let (mirror, report) = repair_degenerate(positions, triangles, 0.0);
         assert_eq!((report.improper, report.duplicates, report.degenerate), (1, 2, 0));
         assert_eq!(mirror.into_edits(), [Edit::RemoveTriangles(vec![12, 13, 14])]);
+    }
+
+    #[test]
+    fn duplicates_are_found_in_a_large_mesh_of_no_particular_order() {
+        // 60k random triangles on 20k vertices (many partitions), then copies of random
+        // ones, rotated or reversed, at random places; against a plain set of vertex sets.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = |n: u32| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % u64::from(n)) as u32
+        };
+        let vertices = 20_000;
+        let mut triangles: Vec<u32> = (0..3 * 60_000).map(|_| next(vertices)).collect();
+        for _ in 0..500 {
+            let from = 3 * next(triangles.len() as u32 / 3) as usize;
+            let [a, b, c] = [triangles[from], triangles[from + 1], triangles[from + 2]];
+            let copy = if next(2) == 0 { [b, c, a] } else { [c, b, a] };
+            let at = 3 * next(triangles.len() as u32 / 3) as usize;
+            triangles.splice(at..at, copy);
+        }
+        let mut seen = std::collections::HashSet::new();
+        let expected: Vec<u32> = (0u32..)
+            .zip(triangles.chunks_exact(3))
+            .filter(|(_, c)| {
+                let set = sorted_corners(c);
+                set[0] != set[1] && set[1] != set[2] && !seen.insert(set)
+            })
+            .map(|(t, _)| t)
+            .collect();
+        assert!(expected.len() >= 500);
+        let positions = vec![0.0; 3 * vertices as usize];
+        let scan = scan_input(&positions, &triangles, 0.0);
+        assert!(scan.fingerprints.len() > 1);
+        assert_eq!(duplicates(&triangles, &scan.fingerprints), expected);
     }
 
     #[test]
