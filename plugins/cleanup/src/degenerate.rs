@@ -159,16 +159,13 @@ struct InputScan {
     partition_shift: u32,
 }
 
-/// The corners of a triangle in ascending order.
+/// The corners of a triangle in ascending order. By minima and maxima, not comparisons
+/// and branches: corners come in any order, and mispredicted branches here cost more than
+/// the rest of a triangle's test.
 fn sorted_corners(c: &[u32]) -> [u32; 3] {
     let (lo, hi) = (c[0].min(c[1]), c[0].max(c[1]));
-    if c[2] < lo {
-        [c[2], lo, hi]
-    } else if c[2] < hi {
-        [lo, c[2], hi]
-    } else {
-        [lo, hi, c[2]]
-    }
+    let (low, rest) = (lo.min(c[2]), lo.max(c[2]));
+    [low, rest.min(hi), rest.max(hi)]
 }
 
 /// A hash of a triangle's vertex set (its sorted corners): equal sets have equal

@@ -133,21 +133,17 @@ impl MirrorMesh {
         for &v in &new {
             wanted[v as usize / 64] |= 1 << (v % 64);
         }
-        // REMOVED and appended vertices are out of range: they match nothing.
-        let is_wanted =
-            |v: u32| wanted.get(v as usize / 64).is_some_and(|bits| bits >> (v % 64) & 1 == 1);
         for &v in &new {
             // An unreferenced vertex has an empty list.
             self.rows.insert(v, Vec::new());
         }
-        let input = self.triangles.chunks_exact(3);
-        for (t, c) in (0u32..).zip(input.chain(self.added_triangles.chunks_exact(3))) {
-            // `|`, not `||`: no branch per corner in the one loop that sees every triangle.
-            if !(is_wanted(c[0]) | is_wanted(c[1]) | is_wanted(c[2])) {
-                continue;
-            }
+        let mut hits = Vec::new();
+        triangles_touching(&self.triangles, 0, &wanted, &mut hits);
+        triangles_touching(&self.added_triangles, self.input_slots(), &wanted, &mut hits);
+        for t in hits {
+            let c = self.corners(t);
             for (k, &v) in c.iter().enumerate() {
-                if is_wanted(v) && !c[..k].contains(&v) {
+                if is_marked(&wanted, v) && !c[..k].contains(&v) {
                     self.rows.get_mut(&v).expect("listed above").push(t);
                 }
             }
@@ -273,6 +269,23 @@ impl MirrorMesh {
             {
                 row.insert(i, t);
             }
+        }
+    }
+}
+
+/// Whether bit `v` is set; ids beyond the bits (REMOVED, appended vertices) are not.
+fn is_marked(bits: &[u64], v: u32) -> bool {
+    bits.get(v as usize / 64).is_some_and(|word| word >> (v % 64) & 1 == 1)
+}
+
+/// Appends `first + i` for every triangle `i` of `triangles` with a corner marked in
+/// `wanted`. The one loop that sees every triangle: `|`, not `||`, so no branch per corner,
+/// and not inlined, so the sandbox's compiler keeps its values in registers.
+#[inline(never)]
+fn triangles_touching(triangles: &[u32], first: u32, wanted: &[u64], out: &mut Vec<u32>) {
+    for (t, c) in (first..).zip(triangles.chunks_exact(3)) {
+        if is_marked(wanted, c[0]) | is_marked(wanted, c[1]) | is_marked(wanted, c[2]) {
+            out.push(t);
         }
     }
 }
