@@ -7,7 +7,7 @@ use crate::MeshData;
 /// forward into them costs no second allocation of the mesh (whose fresh pages alone took
 /// longer than the move).
 pub(super) fn compact(mut mesh: MeshData, vertex_removed: &[bool]) -> MeshData {
-    let new_id = renumber_vertices(&mut mesh.positions, vertex_removed);
+    let new_ids = move_live_vertices(&mut mesh.positions, vertex_removed);
     let triangles = &mut mesh.triangles;
     let mut kept = 0;
     for t in 0..triangles.len() / 3 {
@@ -18,7 +18,7 @@ pub(super) fn compact(mut mesh: MeshData, vertex_removed: &[bool]) -> MeshData {
         for k in 0..3 {
             // The store removes a vertex's triangles with it, so every corner maps.
             let v = triangles[i + k];
-            triangles[kept + k] = new_id.as_ref().map_or(v, |ids| ids[v as usize]);
+            triangles[kept + k] = new_ids.as_ref().map_or(v, |ids| ids.new_id(v));
         }
         kept += 3;
     }
@@ -27,12 +27,10 @@ pub(super) fn compact(mut mesh: MeshData, vertex_removed: &[bool]) -> MeshData {
     mesh
 }
 
-/// Moves the live vertices' positions forward; returns the new id of every old one, or
-/// `None` if no vertex was removed (every id stays).
-fn renumber_vertices(positions: &mut Vec<f32>, vertex_removed: &[bool]) -> Option<Vec<u32>> {
+/// Moves the live vertices' positions forward, a run of live vertices in one copy; returns
+/// their new ids, or `None` if no vertex was removed (every id stays).
+fn move_live_vertices(positions: &mut Vec<f32>, vertex_removed: &[bool]) -> Option<NewIds> {
     let first_removed = vertex_removed.iter().position(|&removed| removed)?;
-    let mut new_id: Vec<u32> = (0..first_removed as u32).collect();
-    new_id.resize(vertex_removed.len(), REMOVED);
     let mut next = first_removed;
     let mut v = first_removed;
     while v < vertex_removed.len() {
@@ -40,20 +38,81 @@ fn renumber_vertices(positions: &mut Vec<f32>, vertex_removed: &[bool]) -> Optio
             v += 1;
             continue;
         }
-        // A run of live vertices moves in one copy: one call per run, not per vertex.
         let run = vertex_removed[v..]
             .iter()
             .position(|&removed| removed)
             .unwrap_or(vertex_removed.len() - v);
-        for (offset, id) in new_id[v..v + run].iter_mut().enumerate() {
-            *id = (next + offset) as u32;
-        }
         positions.copy_within(3 * v..3 * (v + run), 3 * next);
         next += run;
         v += run;
     }
     positions.truncate(3 * next);
-    Some(new_id)
+    Some(NewIds::new(vertex_removed))
+}
+
+/// Ids per block of [`NewIds::Sparse`].
+const SPARSE_BLOCK_BITS: u32 = 8;
+/// Removals are sparse when at most one id in this many is removed.
+const SPARSE_RATIO: usize = 4096;
+/// Marks a block of [`NewIds::Sparse`] holding a removed id.
+const HOLDS_REMOVED: u32 = 1 << 31;
+
+/// A live vertex's new id: its old id less the removed ids below it.
+enum NewIds {
+    /// Few removed (a repair here and there): per block of ids, how many were removed
+    /// below it, flagged if the block holds one, which is then counted in `removed`. A few
+    /// kilobytes, so they stay in cache while the corners of a mesh whose ids come in no
+    /// particular order are looked up, where a table of every id (4 bytes a vertex) does not.
+    Sparse { removed: Vec<u32>, below_block: Vec<u32> },
+    /// Many removed: every new id.
+    Table(Vec<u32>),
+}
+
+impl NewIds {
+    fn new(vertex_removed: &[bool]) -> Self {
+        let removed: Vec<u32> =
+            (0u32..).zip(vertex_removed).filter(|&(_, &gone)| gone).map(|(v, _)| v).collect();
+        // Sparse counts stay far below the flag bit: at most 2^32 / SPARSE_RATIO.
+        if removed.len() * SPARSE_RATIO > vertex_removed.len() {
+            let mut next = 0;
+            let table = vertex_removed
+                .iter()
+                .map(|&gone| {
+                    next += u32::from(!gone);
+                    if gone { REMOVED } else { next - 1 }
+                })
+                .collect();
+            return Self::Table(table);
+        }
+        let blocks = (vertex_removed.len() >> SPARSE_BLOCK_BITS) + 1;
+        let mut below_block = vec![0; blocks];
+        let mut gone = removed.iter().peekable();
+        for (block, entry) in below_block.iter_mut().enumerate() {
+            let start = (block as u32) << SPARSE_BLOCK_BITS;
+            let end = start + (1 << SPARSE_BLOCK_BITS);
+            let below = removed.len() - gone.len();
+            let mut holds = false;
+            while gone.next_if(|&&r| r < end).is_some() {
+                holds = true;
+            }
+            *entry = below as u32 | if holds { HOLDS_REMOVED } else { 0 };
+        }
+        Self::Sparse { removed, below_block }
+    }
+
+    fn new_id(&self, v: u32) -> u32 {
+        match self {
+            Self::Sparse { removed, below_block } => {
+                let entry = below_block[(v >> SPARSE_BLOCK_BITS) as usize];
+                if entry & HOLDS_REMOVED == 0 {
+                    v - entry
+                } else {
+                    v - removed.partition_point(|&r| r < v) as u32
+                }
+            }
+            Self::Table(table) => table[v as usize],
+        }
+    }
 }
 
 #[cfg(test)]
@@ -73,5 +132,21 @@ mod tests {
         let xs: Vec<f32> = mesh.positions.chunks_exact(3).map(|p| p[0]).collect();
         assert_eq!(xs, [1.0, 2.0, 3.0, 6.0, 7.0, 8.0]);
         assert_eq!(mesh.triangles, [0, 1, 2, 3, 4, 5, 2, 3, 0]);
+    }
+
+    #[test]
+    fn new_ids_agree_with_counting_whether_removals_are_few_or_many() {
+        for step in [5000, 3] {
+            let removed: Vec<bool> = (0..20_000).map(|v| v % step == 1).collect();
+            let ids = NewIds::new(&removed);
+            assert_eq!(matches!(ids, NewIds::Sparse { .. }), step == 5000);
+            let mut expected = 0;
+            for (v, &gone) in (0u32..).zip(&removed) {
+                if !gone {
+                    assert_eq!(ids.new_id(v), expected, "vertex {v}, one in {step} removed");
+                    expected += 1;
+                }
+            }
+        }
     }
 }
