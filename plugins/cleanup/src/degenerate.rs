@@ -36,6 +36,9 @@ const REPAIR_WAVES: usize = 16;
 /// of all partitions while they are filled.
 const FINGERPRINTS_PER_PARTITION: usize = 8192;
 const MAX_PARTITIONS: usize = 256;
+/// Hash-table probes allowed per fingerprint of a partition, on average, before its
+/// fingerprints are sorted instead (at most half full, a table needs about 1.5).
+const PROBES_PER_FINGERPRINT: usize = 8;
 
 /// What the repair did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -281,17 +284,24 @@ fn table_key(print: u32) -> u32 {
 }
 
 /// The keys that occur more than once in a partition, ascending; `table` is scratch space
-/// (open addressing, at most half full).
+/// (open addressing, at most half full). Fingerprints are a public function of the
+/// corners, so a hostile mesh can make many share their low bits and the probes run long:
+/// past [`PROBES_PER_FINGERPRINT`] on average the partition's keys are sorted instead.
 fn repeated_fingerprints(partition: &[(u32, u32)], table: &mut Vec<u32>) -> Vec<u32> {
     let size = (2 * partition.len()).next_power_of_two();
     table.clear();
     table.resize(size, 0);
+    let mut probes_left = PROBES_PER_FINGERPRINT * partition.len();
     let mut repeated = Vec::new();
     for &(print, _) in partition {
         let key = table_key(print);
         let mut slot = key as usize & (size - 1);
         while table[slot] != 0 && table[slot] != key {
             slot = (slot + 1) & (size - 1);
+            probes_left = match probes_left.checked_sub(1) {
+                Some(left) => left,
+                None => return repeated_by_sorting(partition),
+            };
         }
         if table[slot] == key {
             repeated.push(key);
@@ -299,6 +309,15 @@ fn repeated_fingerprints(partition: &[(u32, u32)], table: &mut Vec<u32>) -> Vec<
         table[slot] = key;
     }
     repeated.sort_unstable();
+    repeated.dedup();
+    repeated
+}
+
+/// [`repeated_fingerprints`] in O(n log n) whatever the keys.
+fn repeated_by_sorting(partition: &[(u32, u32)]) -> Vec<u32> {
+    let mut keys: Vec<u32> = partition.iter().map(|&(print, _)| table_key(print)).collect();
+    keys.sort_unstable();
+    let mut repeated: Vec<u32> = keys.windows(2).filter(|w| w[0] == w[1]).map(|w| w[0]).collect();
     repeated.dedup();
     repeated
 }
@@ -555,6 +574,21 @@ mod tests {
         let scan = scan_input(&positions, &triangles, 0.0);
         assert!(scan.fingerprints.len() > 1);
         assert_eq!(duplicates(&triangles, &scan.fingerprints), expected);
+    }
+
+    #[test]
+    fn fingerprints_crafted_to_collide_are_sorted_instead_with_the_same_answer() {
+        // Distinct fingerprints sharing their low 20 bits all probe one run of slots; a
+        // few repeat.
+        let mut partition: Vec<(u32, u32)> = (1..=4000u32).map(|k| (k << 20, k)).collect();
+        partition.extend([(5 << 20, 9000), (77 << 20, 9001), (5 << 20, 9002)]);
+        let found = repeated_fingerprints(&partition, &mut Vec::new());
+        assert_eq!(found, [5 << 20, 77 << 20]);
+        assert_eq!(found, repeated_by_sorting(&partition));
+        // Well-spread fingerprints take the table: the same answer.
+        let spread: Vec<(u32, u32)> =
+            partition.iter().map(|&(print, t)| (fingerprint([print, 1, 2]), t)).collect();
+        assert_eq!(repeated_fingerprints(&spread, &mut Vec::new()), repeated_by_sorting(&spread));
     }
 
     #[test]
