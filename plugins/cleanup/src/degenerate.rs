@@ -31,14 +31,14 @@ const REPAIRS_MIN: usize = 64;
 /// next wave, which lists them in one pass over the mesh. After this many waves, degenerate
 /// triangles still waiting are removed: a bound on passes for chains of cascading repairs.
 const REPAIR_WAVES: usize = 16;
-/// Fingerprints are looked for repeats in partitions of about this many triangles (at most
-/// this many partitions): a partition's hash table then stays in cache, and so do the ends
-/// of all partitions while they are filled.
-const FINGERPRINTS_PER_PARTITION: usize = 8192;
+/// Triangles are filed for the duplicate search in partitions of about this many (at most
+/// this many partitions), so that a partition's counts and keys stay in cache, and so do
+/// the ends of all partitions while they are filled.
+const KEYS_PER_PARTITION: usize = 8192;
 const MAX_PARTITIONS: usize = 256;
-/// Hash-table probes allowed per fingerprint of a partition, on average, before its
-/// fingerprints are sorted instead (at most half full, a table needs about 1.5).
-const PROBES_PER_FINGERPRINT: usize = 8;
+/// Triangles sharing their smallest corner up to this many are compared pair by pair;
+/// larger groups (fans) are sorted.
+const PAIRWISE_GROUP: usize = 8;
 
 /// What the repair did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -78,7 +78,7 @@ pub fn repair_degenerate(
     epsilon: f64,
 ) -> (MirrorMesh, RepairReport) {
     let scan = scan_input(&positions, &triangles, epsilon);
-    let duplicates = duplicates(&triangles, &scan.fingerprints);
+    let duplicates = duplicates(&triangles, &scan.keys, scan.key);
     let flat: Vec<u32> =
         scan.flat.into_iter().filter(|t| duplicates.binary_search(t).is_err()).collect();
     let mut report = RepairReport {
@@ -155,11 +155,10 @@ struct InputScan {
     improper: Vec<u32>,
     /// The other triangles that are flat, ascending.
     flat: Vec<u32>,
-    /// The [`fingerprint`] and id of every proper triangle, partitioned by the range its
-    /// smallest corner falls in (`corner >> partition_shift`), ids ascending within a
-    /// partition.
-    fingerprints: Vec<Vec<(u32, u32)>>,
-    partition_shift: u32,
+    /// The [`DuplicateKey`] and id of every proper triangle, partitioned by the range its
+    /// smallest corner falls in, ids ascending within a partition.
+    keys: Vec<Vec<(u32, u32)>>,
+    key: DuplicateKey,
 }
 
 /// The corners of a triangle in ascending order. By minima and maxima, not comparisons
@@ -171,14 +170,36 @@ fn sorted_corners(c: &[u32]) -> [u32; 3] {
     [low, rest.min(hi), rest.max(hi)]
 }
 
-/// A hash of a triangle's vertex set (its sorted corners): equal sets have equal
-/// fingerprints; unequal ones rarely do, and repeats are checked exactly anyway.
-fn fingerprint([a, b, c]: [u32; 3]) -> u32 {
-    let h = a.wrapping_mul(0x9e37_79b1) ^ b.wrapping_mul(0x85eb_ca77) ^ c.wrapping_mul(0xc2b2_ae3d);
-    (h ^ (h >> 15)).wrapping_mul(0x2c1b_3c6d)
+/// How a proper triangle is filed for the duplicate search: in the partition of the range
+/// its smallest corner falls in, under a 32-bit key whose high bits are that corner's place
+/// in the range and whose low bits hash the other two. Equal vertex sets get equal keys;
+/// unequal ones with the same smallest corner rarely do, and repeats are checked exactly.
+#[derive(Clone, Copy)]
+struct DuplicateKey {
+    /// log2 of the vertices per partition.
+    shift: u32,
 }
 
-/// One pass over the triangles: repeated vertices, flatness, and the fingerprints that
+impl DuplicateKey {
+    // Shifts in u64: `shift` may be 32 (one partition of every possible id).
+    fn partition(self, [a, _, _]: [u32; 3]) -> usize {
+        (u64::from(a) >> self.shift) as usize
+    }
+
+    fn key(self, [a, b, c]: [u32; 3]) -> u32 {
+        let offset = u64::from(a) & ((1 << self.shift) - 1);
+        let h = b.wrapping_mul(0x9e37_79b1) ^ c.wrapping_mul(0x85eb_ca77);
+        let h = (h ^ (h >> 15)).wrapping_mul(0x2c1b_3c6d);
+        ((offset << (32 - self.shift)) | (u64::from(h) >> self.shift)) as u32
+    }
+
+    /// The smallest corner's place in its partition.
+    fn offset(self, key: u32) -> usize {
+        (u64::from(key) >> (32 - self.shift)) as usize
+    }
+}
+
+/// One pass over the triangles: repeated vertices, flatness, and the keys that
 /// [`duplicates`] looks for repeats in (so the mesh is read once for all three).
 ///
 /// The corners' positions of a block of triangles are gathered first, in a loop that does
@@ -190,16 +211,17 @@ fn scan_input(positions: &[f32], triangles: &[u32], epsilon: f64) -> InputScan {
     let triangle_count = triangles.len() / 3;
     // Duplicates share their smallest corner: partitions by its range keep them together,
     // and follow the mesh's order where its ids have one.
-    let wanted = (triangle_count / FINGERPRINTS_PER_PARTITION).clamp(1, MAX_PARTITIONS);
-    let partition_shift = points.len().div_ceil(wanted).next_power_of_two().trailing_zeros();
-    let partitions = (points.len() >> partition_shift) + 1;
+    let wanted = (triangle_count / KEYS_PER_PARTITION).clamp(1, MAX_PARTITIONS);
+    let key =
+        DuplicateKey { shift: points.len().div_ceil(wanted).next_power_of_two().trailing_zeros() };
+    let partitions = (points.len() >> key.shift) + 1;
     let mut scan = InputScan {
         improper: Vec::new(),
         flat: Vec::new(),
         // Grown as filled: capacity reserved up front and never written cost the sandbox a
         // page fault per page in every run.
-        fingerprints: vec![Vec::new(); partitions],
-        partition_shift,
+        keys: vec![Vec::new(); partitions],
+        key,
     };
     let mut gathered = [[0f32; 3]; 3 * BLOCK];
     for (first, block) in (0u32..).step_by(BLOCK).zip(triangles.chunks(3 * BLOCK)) {
@@ -219,8 +241,7 @@ impl InputScan {
                 self.improper.push(t);
                 continue;
             }
-            let partition = (set[0] >> self.partition_shift) as usize;
-            self.fingerprints[partition].push((fingerprint(set), t));
+            self.keys[self.key.partition(set)].push((self.key.key(set), t));
             // Spelled out: `array::map` here ran 5x slower in the sandbox.
             let corner = |k: usize| {
                 let [x, y, z] = p[k];
@@ -252,22 +273,24 @@ fn gather(points: &[[f32; 3]], corners: &[u32], out: &mut [[f32; 3]]) {
 
 /// Proper triangles whose vertex set a proper triangle of smaller id has (either
 /// orientation), ascending. Duplicates share their smallest corner, so they share a
-/// partition: repeats of a fingerprint are found within one, in a hash table small enough
-/// to stay in cache whatever the order of the mesh's ids, and only triangles whose
-/// fingerprint repeats are compared exactly. O(T log T) at worst (every triangle a
-/// duplicate), O(T) for the usual few.
-fn duplicates(triangles: &[u32], partitions: &[Vec<(u32, u32)>]) -> Vec<u32> {
+/// partition and the high bits of their [`DuplicateKey`]: a counting sort by those bits,
+/// within a partition small enough to stay in cache whatever the order of the mesh's ids,
+/// groups the triangles sharing a smallest corner, and only triangles whose key repeats in
+/// a group are compared exactly. O(T) for groups of bounded size, O(T log T) at worst
+/// (fans are sorted).
+fn duplicates(triangles: &[u32], partitions: &[Vec<(u32, u32)>], key: DuplicateKey) -> Vec<u32> {
     let mut found = Vec::new();
-    let mut table = Vec::new();
+    let mut group_ends = Vec::new();
+    let mut grouped = Vec::new();
     for partition in partitions {
-        let repeated = repeated_fingerprints(partition, &mut table);
+        let repeated = repeated_keys(partition, key, &mut group_ends, &mut grouped);
         if repeated.is_empty() {
             continue;
         }
         // By vertex set, then id: all but the first of a set are duplicates.
         let mut candidates: Vec<([u32; 3], u32)> = partition
             .iter()
-            .filter(|&&(print, _)| repeated.binary_search(&table_key(print)).is_ok())
+            .filter(|&&(k, _)| repeated.binary_search(&k).is_ok())
             .map(|&(_, t)| (sorted_corners(&triangles[3 * t as usize..][..3]), t))
             .collect();
         candidates.sort_unstable();
@@ -277,47 +300,52 @@ fn duplicates(triangles: &[u32], partitions: &[Vec<(u32, u32)>]) -> Vec<u32> {
     found
 }
 
-/// A fingerprint as [`repeated_fingerprints`] keys it: 0 marks a free slot, so 0 counts as
-/// 1 (a false repeat at worst, and repeats are checked exactly).
-fn table_key(print: u32) -> u32 {
-    print.max(1)
-}
-
-/// The keys that occur more than once in a partition, ascending; `table` is scratch space
-/// (open addressing, at most half full). Fingerprints are a public function of the
-/// corners, so a hostile mesh can make many share their low bits and the probes run long:
-/// past [`PROBES_PER_FINGERPRINT`] on average the partition's keys are sorted instead.
-fn repeated_fingerprints(partition: &[(u32, u32)], table: &mut Vec<u32>) -> Vec<u32> {
-    let size = (2 * partition.len()).next_power_of_two();
-    table.clear();
-    table.resize(size, 0);
-    let mut probes_left = PROBES_PER_FINGERPRINT * partition.len();
+/// The keys that occur more than once in a partition, ascending: its keys grouped by the
+/// smallest corner (a counting sort into `grouped`, with `group_ends` as scratch space),
+/// then each group compared within itself.
+fn repeated_keys(
+    partition: &[(u32, u32)],
+    key: DuplicateKey,
+    group_ends: &mut Vec<u32>,
+    grouped: &mut Vec<u32>,
+) -> Vec<u32> {
+    group_ends.clear();
+    group_ends.resize((1 << key.shift) + 1, 0);
+    for &(k, _) in partition {
+        group_ends[key.offset(k) + 1] += 1;
+    }
+    for i in 1..group_ends.len() {
+        group_ends[i] += group_ends[i - 1];
+    }
+    grouped.clear();
+    grouped.resize(partition.len(), 0);
+    // group_ends[i] is group i's write cursor; afterwards, where group i ends.
+    for &(k, _) in partition {
+        let cursor = &mut group_ends[key.offset(k)];
+        grouped[*cursor as usize] = k;
+        *cursor += 1;
+    }
     let mut repeated = Vec::new();
-    for &(print, _) in partition {
-        let key = table_key(print);
-        let mut slot = key as usize & (size - 1);
-        while table[slot] != 0 && table[slot] != key {
-            slot = (slot + 1) & (size - 1);
-            probes_left = match probes_left.checked_sub(1) {
-                Some(left) => left,
-                None => return repeated_by_sorting(partition),
-            };
+    let mut start = 0;
+    for &end in &group_ends[..group_ends.len() - 1] {
+        let group = &mut grouped[start as usize..end as usize];
+        start = end;
+        match group.len() {
+            0 | 1 => {}
+            2..=PAIRWISE_GROUP => {
+                for i in 1..group.len() {
+                    if group[..i].contains(&group[i]) {
+                        repeated.push(group[i]);
+                    }
+                }
+            }
+            _ => {
+                group.sort_unstable();
+                repeated.extend(group.windows(2).filter(|w| w[0] == w[1]).map(|w| w[0]));
+            }
         }
-        if table[slot] == key {
-            repeated.push(key);
-        }
-        table[slot] = key;
     }
     repeated.sort_unstable();
-    repeated.dedup();
-    repeated
-}
-
-/// [`repeated_fingerprints`] in O(n log n) whatever the keys.
-fn repeated_by_sorting(partition: &[(u32, u32)]) -> Vec<u32> {
-    let mut keys: Vec<u32> = partition.iter().map(|&(print, _)| table_key(print)).collect();
-    keys.sort_unstable();
-    let mut repeated: Vec<u32> = keys.windows(2).filter(|w| w[0] == w[1]).map(|w| w[0]).collect();
     repeated.dedup();
     repeated
 }
@@ -526,8 +554,8 @@ mod tests {
 
     #[test]
     fn duplicates_around_a_fan_centre_are_found_whatever_their_orientation() {
-        // Twelve triangles around vertex 0, then a reversed copy, a rotated copy and a
-        // triangle repeating a vertex.
+        // Twelve triangles around vertex 0 (more than are compared pair by pair), then a
+        // reversed copy, a rotated copy and a triangle repeating a vertex.
         let mut positions = vec![0.0, 0.0, 0.0];
         for i in 0..12 {
             let angle = i as f32 * std::f32::consts::TAU / 12.0;
@@ -572,23 +600,8 @@ mod tests {
         assert!(expected.len() >= 500);
         let positions = vec![0.0; 3 * vertices as usize];
         let scan = scan_input(&positions, &triangles, 0.0);
-        assert!(scan.fingerprints.len() > 1);
-        assert_eq!(duplicates(&triangles, &scan.fingerprints), expected);
-    }
-
-    #[test]
-    fn fingerprints_crafted_to_collide_are_sorted_instead_with_the_same_answer() {
-        // Distinct fingerprints sharing their low 20 bits all probe one run of slots; a
-        // few repeat.
-        let mut partition: Vec<(u32, u32)> = (1..=4000u32).map(|k| (k << 20, k)).collect();
-        partition.extend([(5 << 20, 9000), (77 << 20, 9001), (5 << 20, 9002)]);
-        let found = repeated_fingerprints(&partition, &mut Vec::new());
-        assert_eq!(found, [5 << 20, 77 << 20]);
-        assert_eq!(found, repeated_by_sorting(&partition));
-        // Well-spread fingerprints take the table: the same answer.
-        let spread: Vec<(u32, u32)> =
-            partition.iter().map(|&(print, t)| (fingerprint([print, 1, 2]), t)).collect();
-        assert_eq!(repeated_fingerprints(&spread, &mut Vec::new()), repeated_by_sorting(&spread));
+        assert!(scan.keys.len() > 1);
+        assert_eq!(duplicates(&triangles, &scan.keys, scan.key), expected);
     }
 
     #[test]
