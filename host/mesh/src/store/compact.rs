@@ -70,10 +70,17 @@ enum NewIds {
 
 impl NewIds {
     fn new(vertex_removed: &[bool]) -> Self {
-        let removed: Vec<u32> =
-            (0u32..).zip(vertex_removed).filter(|&(_, &gone)| gone).map(|(v, _)| v).collect();
-        // Sparse counts stay far below the flag bit: at most 2^32 / SPARSE_RATIO.
-        if removed.len() * SPARSE_RATIO > vertex_removed.len() {
+        // Listed only up to one past the sparse limit: many removals take the table, and
+        // listing them all would be work thrown away. Sparse counts stay far below the flag
+        // bit: at most 2^32 / SPARSE_RATIO.
+        let sparse_limit = vertex_removed.len() / SPARSE_RATIO;
+        let removed: Vec<u32> = (0u32..)
+            .zip(vertex_removed)
+            .filter(|&(_, &gone)| gone)
+            .map(|(v, _)| v)
+            .take(sparse_limit + 1)
+            .collect();
+        if removed.len() > sparse_limit {
             let mut next = 0;
             let table = vertex_removed
                 .iter()
