@@ -8,23 +8,36 @@ use crate::MeshData;
 /// longer than the move).
 pub(super) fn compact(mut mesh: MeshData, vertex_removed: &[bool]) -> MeshData {
     let new_ids = move_live_vertices(&mut mesh.positions, vertex_removed);
-    let triangles = &mut mesh.triangles;
+    // One loop per way of finding new ids, so the choice is not made again for every corner.
+    match new_ids {
+        None => keep_live_triangles(&mut mesh.triangles, |v| v),
+        Some(NewIds::Sparse { removed, below_block }) => {
+            keep_live_triangles(&mut mesh.triangles, |v| sparse_new_id(&removed, &below_block, v))
+        }
+        Some(NewIds::Table(table)) => {
+            keep_live_triangles(&mut mesh.triangles, |v| table[v as usize])
+        }
+    }
+    mesh
+}
+
+/// Moves the live triangles forward, their corners renamed by `new_id`.
+fn keep_live_triangles(triangles: &mut Vec<u32>, new_id: impl Fn(u32) -> u32) {
     let mut kept = 0;
     for t in 0..triangles.len() / 3 {
         let i = 3 * t;
-        if triangles[i] == REMOVED {
+        let corners = [triangles[i], triangles[i + 1], triangles[i + 2]];
+        if corners[0] == REMOVED {
             continue;
         }
-        for k in 0..3 {
-            // The store removes a vertex's triangles with it, so every corner maps.
-            let v = triangles[i + k];
-            triangles[kept + k] = new_ids.as_ref().map_or(v, |ids| ids.new_id(v));
-        }
+        // The store removes a vertex's triangles with it, so every corner maps.
+        triangles[kept] = new_id(corners[0]);
+        triangles[kept + 1] = new_id(corners[1]);
+        triangles[kept + 2] = new_id(corners[2]);
         kept += 3;
     }
     triangles.truncate(kept);
     debug_assert!(!triangles.contains(&REMOVED));
-    mesh
 }
 
 /// Moves the live vertices' positions forward, a run of live vertices in one copy; returns
@@ -106,19 +119,15 @@ impl NewIds {
         }
         Self::Sparse { removed, below_block }
     }
+}
 
-    fn new_id(&self, v: u32) -> u32 {
-        match self {
-            Self::Sparse { removed, below_block } => {
-                let entry = below_block[(v >> SPARSE_BLOCK_BITS) as usize];
-                if entry & HOLDS_REMOVED == 0 {
-                    v - entry
-                } else {
-                    v - removed.partition_point(|&r| r < v) as u32
-                }
-            }
-            Self::Table(table) => table[v as usize],
-        }
+/// [`NewIds::Sparse`]'s new id of live vertex `v`.
+fn sparse_new_id(removed: &[u32], below_block: &[u32], v: u32) -> u32 {
+    let entry = below_block[(v >> SPARSE_BLOCK_BITS) as usize];
+    if entry & HOLDS_REMOVED == 0 {
+        v - entry
+    } else {
+        v - removed.partition_point(|&r| r < v) as u32
     }
 }
 
@@ -147,12 +156,19 @@ mod tests {
             let removed: Vec<bool> = (0..20_000).map(|v| v % step == 1).collect();
             let ids = NewIds::new(&removed);
             assert_eq!(matches!(ids, NewIds::Sparse { .. }), step == 5000);
-            let mut expected = 0;
-            for (v, &gone) in (0u32..).zip(&removed) {
-                if !gone {
-                    assert_eq!(ids.new_id(v), expected, "vertex {v}, one in {step} removed");
-                    expected += 1;
-                }
+            // Corners naming the live vertices in a scattered order, as a real mesh's do.
+            let live: Vec<u32> =
+                (0u32..).zip(&removed).filter(|(_, gone)| !**gone).map(|(v, _)| v).collect();
+            let expected_id = |v: u32| live.binary_search(&v).unwrap() as u32;
+            let order: Vec<u32> = (0..live.len() as u32 / 3 * 3)
+                .map(|i| live[(i as usize * 7919) % live.len()])
+                .collect();
+            let positions = (0..removed.len()).flat_map(|v| [v as f32, 0.0, 0.0]).collect();
+            let mesh = compact(MeshData::new(positions, order.clone()), &removed);
+            let renamed: Vec<u32> = order.iter().map(|&v| expected_id(v)).collect();
+            assert_eq!(mesh.triangles, renamed, "one in {step} removed");
+            for (new, &old) in live.iter().enumerate() {
+                assert_eq!(mesh.positions[3 * new], old as f32);
             }
         }
     }
