@@ -9,6 +9,7 @@
 //! are `meshflow-params` types; the WIT's bindgen types stay inside `bindings`. This crate
 //! must not depend on codecs, file formats or HTTP.
 
+mod array_reads;
 mod bindings;
 mod cache;
 mod catalog;
@@ -79,6 +80,7 @@ impl Runtime {
         let mut linker = Linker::new(&engine);
         wasmtime_wasi::p2::add_to_linker_sync(&mut linker)
             .and_then(|()| bindings::Plugin::add_to_linker::<_, HasSelf<_>>(&mut linker, |s| s))
+            .and_then(|()| array_reads::add_to_linker(&mut linker))
             .map_err(|e| PluginError::World(e.to_string()))?;
         start_epoch_ticker(&engine);
         let cache = cache_dir.map(|dir| ArtifactCache::new(dir, &engine)).transpose()?;

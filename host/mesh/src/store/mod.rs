@@ -113,6 +113,13 @@ impl MeshStore {
         &self.mesh.triangles
     }
 
+    /// [`positions`](Self::positions) and [`triangles`](Self::triangles) in one shared
+    /// value, without a copy: slots, tombstones included, not a compact mesh. Drop it before
+    /// the next edit, or that edit copies the mesh.
+    pub fn shared_slots(&self) -> Arc<MeshData> {
+        Arc::clone(&self.mesh)
+    }
+
     pub fn removed_vertices(&self) -> Vec<u32> {
         (0..self.vertex_slots()).filter(|&v| self.vertex_removed[v as usize]).collect()
     }

@@ -312,6 +312,23 @@ fn degenerate_input_triangles_load_but_cannot_be_created() {
 }
 
 #[test]
+fn shared_slots_show_the_slots_as_they_were_when_taken() {
+    let mut s = store();
+    s.apply(Op::RemoveTriangles { ids: vec![1] }).unwrap();
+    let taken = s.shared_slots();
+    assert!(std::ptr::eq(&taken.triangles[..], s.triangles()), "taking them copies nothing");
+    assert_eq!(taken.triangles[3..6], [REMOVED; 3], "tombstones included");
+
+    s.apply(Op::MoveVertices { ids: vec![0], xyz: vec![0.5, 0.5, 0.5] }).unwrap();
+    assert_eq!(taken.positions[..3], [0.0; 3], "an edit while they are held does not reach them");
+    assert_eq!(s.positions()[..3], [0.5; 3]);
+    drop(taken);
+    let before = s.positions().as_ptr();
+    s.apply(Op::MoveVertices { ids: vec![1], xyz: vec![0.5, 0.5, 0.5] }).unwrap();
+    assert_eq!(s.positions().as_ptr(), before, "once dropped, edits copy nothing");
+}
+
+#[test]
 fn a_shared_mesh_is_read_in_place_and_copied_on_the_first_edit() {
     let shared = Arc::new(sample());
     let reader = MeshStore::new(Arc::clone(&shared));
