@@ -61,7 +61,8 @@ unsafe impl<T: Lower + 'static> Lower for MeshArray<T> {
 }
 
 /// Redefines `[method]mesh.positions` and `[method]mesh.triangles`, which the generated
-/// `add_to_linker` defined (with the copying `HostMesh` methods), to lower from the store.
+/// `add_to_linker` defined with `HostMesh`'s methods, to lower from the store. Shadowing is
+/// allowed for these two definitions only.
 pub(crate) fn add_to_linker(linker: &mut Linker<RunState>) -> wasmtime::Result<()> {
     fn read<T: Lower + 'static>(
         array: fn(&MeshData) -> &[T],
