@@ -3,6 +3,7 @@
 use std::time::Duration;
 
 pub use meshflow_params::ParamError;
+use meshflow_params::Value;
 
 #[derive(Debug, thiserror::Error)]
 pub enum PluginError {
@@ -47,11 +48,26 @@ pub enum RunError {
     Trap { service: String, message: String },
     #[error("{service}: {message}")]
     Failed { service: String, message: String },
-    #[error("{service}: invalid result: {message}")]
-    BadResult { service: String, message: String },
+    #[error("{service}: invalid result: {problem}")]
+    BadResult {
+        service: String,
+        #[source]
+        problem: ResultError,
+    },
     #[error("{service}: could not start: {message}")]
     Instantiate { service: String, message: String },
     /// Every run slot is taken and the queue is full: try again later or elsewhere.
     #[error("{service}: all {slots} run slots are taken and {queued} runs wait already")]
     Busy { service: String, slots: usize, queued: usize },
+}
+
+/// How a service's result disagrees with its description.
+#[derive(Debug, thiserror::Error)]
+pub enum ResultError {
+    #[error("a filter returned a value ({0:?})")]
+    FilterValue(Value),
+    #[error("a check returned no value; expected {expected}")]
+    NoValue { expected: &'static str },
+    #[error("expected {expected}, got {found:?}")]
+    WrongType { expected: &'static str, found: Value },
 }

@@ -3,7 +3,8 @@
 //! A [`Runtime`] owns one engine. [`Runtime::load`] turns component bytes into a validated
 //! [`Plugin`] (compiled once, cached on disk by digest); [`Runtime::run`] runs one service
 //! of it on a mesh in a fresh `Store` with every limit of [`Limits`], and returns the edited
-//! mesh with the log of every edit the plugin made.
+//! mesh with the log of every edit the plugin made. [`Runtime::invoke`] runs an
+//! [`Invocation`], a service whose lookup and parameters were resolved once by the caller.
 //!
 //! [`Catalog`] says which loaded plugin offers a service. Service descriptions and values
 //! are `meshflow-params` types; the WIT's bindgen types stay inside `bindings`. This crate
@@ -16,13 +17,15 @@ mod catalog;
 mod crash;
 mod error;
 mod host_mesh;
+mod invocation;
 mod limits;
 mod permits;
 mod plugin;
 mod state;
 
 pub use catalog::Catalog;
-pub use error::{PluginError, RunError};
+pub use error::{PluginError, ResultError, RunError};
+pub use invocation::Invocation;
 pub use limits::*;
 pub use meshflow_params::{
     ParamError, ParamInfo, ServiceInfo, ServiceKind, Value, ValueType, describe_params,
@@ -142,9 +145,33 @@ impl Runtime {
                 .collect::<Vec<_>>()
                 .join(", "),
         })?;
-        let params: Vec<Param> = meshflow_params::resolve(info, params)?
-            .into_iter()
-            .map(|(name, value)| Param { name, value: value.into() })
+        let params = meshflow_params::resolve(info, params)?;
+        self.run_resolved(plugin, info, mesh.into(), &params)
+    }
+
+    /// [`Runtime::run`] of a service already looked up, with its parameters already
+    /// resolved: neither is done again.
+    pub fn invoke(
+        &self,
+        invocation: &Invocation,
+        mesh: impl Into<Arc<MeshData>>,
+    ) -> Result<RunOutput, RunError> {
+        let (plugin, info) = (invocation.plugin(), invocation.info());
+        self.run_resolved(plugin, info, mesh.into(), invocation.params())
+    }
+
+    /// Runs service `info` of `plugin` with `params`, every one resolved.
+    fn run_resolved(
+        &self,
+        plugin: &Plugin,
+        info: &ServiceInfo,
+        mesh: Arc<MeshData>,
+        params: &[(String, Value)],
+    ) -> Result<RunOutput, RunError> {
+        let service = info.name.as_str();
+        let params: Vec<Param> = params
+            .iter()
+            .map(|(name, value)| Param { name: name.clone(), value: value.clone().into() })
             .collect();
         let is_check = info.kind == ServiceKind::Check;
         let (slot, queued) =
@@ -155,7 +182,7 @@ impl Runtime {
             })?;
         let started = Instant::now();
         let (outcome, state) =
-            self.call(&slot, &plugin.pre, service, mesh.into(), is_check, |store, p, mesh| {
+            self.call(&slot, &plugin.pre, service, mesh, is_check, |store, p, mesh| {
                 p.meshflow_geometry_service().call_run(store, service, mesh, &params)
             })?;
         // The store is gone: the next run may have the slot while this one compacts.
@@ -164,7 +191,7 @@ impl Runtime {
             outcome.map_err(|message| RunError::Failed { service: service.to_owned(), message })?;
         let value = outcome.value.map(Value::from);
         check_value(info, value.as_ref())
-            .map_err(|message| RunError::BadResult { service: service.to_owned(), message })?;
+            .map_err(|problem| RunError::BadResult { service: service.to_owned(), problem })?;
         let (edited, log) = state.mesh.finish();
         Ok(RunOutput {
             mesh: (!is_check).then_some(edited),
@@ -308,13 +335,15 @@ fn start_epoch_ticker(engine: &Engine) {
         .expect("spawning the epoch ticker thread");
 }
 
-fn check_value(info: &ServiceInfo, value: Option<&Value>) -> Result<(), String> {
+fn check_value(info: &ServiceInfo, value: Option<&Value>) -> Result<(), ResultError> {
     match (info.result_type, value) {
         (None, None) => Ok(()),
-        (None, Some(v)) => Err(format!("a filter returned a value ({v:?})")),
-        (Some(ty), None) => Err(format!("a check returned no value; expected {}", type_name(ty))),
+        (None, Some(v)) => Err(ResultError::FilterValue(v.clone())),
+        (Some(ty), None) => Err(ResultError::NoValue { expected: type_name(ty) }),
         (Some(ty), Some(v)) if v.is_of(ty) => Ok(()),
-        (Some(ty), Some(v)) => Err(format!("expected {}, got {v:?}", type_name(ty))),
+        (Some(ty), Some(v)) => {
+            Err(ResultError::WrongType { expected: type_name(ty), found: v.clone() })
+        }
     }
 }
 
