@@ -4,6 +4,7 @@
 mod commands;
 mod componentize;
 mod embedded;
+mod mlx;
 mod output;
 mod plugins;
 

@@ -553,7 +553,7 @@ fn meshlab_scripts_convert_to_workflows_and_back() {
     // Saved as pymeshlab's MeshSet.save_filter_script writes scripts (pymeshlab is not
     // needed to run this test).
     let script =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("engine/tests/data/pymeshlab-repair.mlx");
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/pymeshlab-repair.mlx");
     let out =
         meshflow(&["workflow", "from-mlx", &script.display().to_string(), "-o", &path("w.json")]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

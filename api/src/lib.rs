@@ -16,6 +16,7 @@ mod host_client;
 pub mod raw_mesh;
 #[cfg(feature = "server")]
 pub mod server;
+pub mod tls;
 mod transport;
 
 pub use engine_client::EngineClient;

@@ -7,6 +7,7 @@
 
 use std::future::Future;
 use std::net::SocketAddr;
+use std::sync::Arc;
 use std::time::Duration;
 
 use axum::Router;
@@ -16,9 +17,13 @@ use hyper_util::rt::{TokioIo, TokioTimer};
 use hyper_util::server::graceful::GracefulShutdown;
 use hyper_util::service::TowerToHyperService;
 use tokio::net::TcpListener;
+use tokio_util::either::Either;
 use tower_http::timeout::RequestBodyTimeout;
 
 use crate::host::{ErrorBody, ErrorDetail};
+
+mod tls;
+pub use tls::TlsFiles;
 
 /// A connection whose request head has not fully arrived after this long is closed.
 pub const HEADER_READ_TIMEOUT: Duration = Duration::from_secs(10);
@@ -36,9 +41,21 @@ pub async fn serve(
     app: Router,
     shutdown: impl Future<Output = ()>,
 ) -> std::io::Result<()> {
+    serve_with(listener, app, None, shutdown).await
+}
+
+/// [`serve`], over TLS when `tls` is given: the handshake must end within
+/// [`HEADER_READ_TIMEOUT`], as a request head must.
+pub async fn serve_with(
+    listener: TcpListener,
+    app: Router,
+    tls: Option<Arc<rustls::ServerConfig>>,
+    shutdown: impl Future<Output = ()>,
+) -> std::io::Result<()> {
     let graceful = GracefulShutdown::new();
     let mut http = hyper::server::conn::http1::Builder::new();
     http.timer(TokioTimer::new()).header_read_timeout(HEADER_READ_TIMEOUT);
+    let acceptor = tls.map(tokio_rustls::TlsAcceptor::from);
     let mut shutdown = std::pin::pin!(shutdown);
     loop {
         let stream = tokio::select! {
@@ -54,10 +71,20 @@ pub async fn serve(
         };
         let service =
             TowerToHyperService::new(RequestBodyTimeout::new(app.clone(), BODY_IDLE_TIMEOUT));
-        let connection = graceful.watch(http.serve_connection(TokioIo::new(stream), service));
+        let (http, watcher, acceptor) = (http.clone(), graceful.watcher(), acceptor.clone());
         tokio::spawn(async move {
+            let stream = match acceptor {
+                None => Either::Left(stream),
+                Some(acceptor) => {
+                    match tokio::time::timeout(HEADER_READ_TIMEOUT, acceptor.accept(stream)).await {
+                        Ok(Ok(stream)) => Either::Right(stream),
+                        // A client that cannot finish a handshake ends only its own connection.
+                        _ => return,
+                    }
+                }
+            };
             // A client that goes away or times out ends only its own connection.
-            let _ = connection.await;
+            let _ = watcher.watch(http.serve_connection(TokioIo::new(stream), service)).await;
         });
     }
     drop(listener);
@@ -85,7 +112,8 @@ pub struct Unauthorized(String);
 
 impl IntoResponse for Unauthorized {
     fn into_response(self) -> Response {
-        let mut response = error_response(StatusCode::UNAUTHORIZED, "unauthorized", self.0);
+        let mut response =
+            ApiError::new(StatusCode::UNAUTHORIZED, "unauthorized", self.0).into_response();
         // The request's body was never read: the connection cannot carry another request,
         // so tell the client not to put it back in its pool.
         response
@@ -107,10 +135,55 @@ pub fn require(given: Option<&str>, accepted: &[&str], what: &str) -> Result<(),
     }))
 }
 
-/// An error answer in the APIs' form, `{"error": {"code", "message"}}`.
-pub fn error_response(status: StatusCode, code: &str, message: String) -> Response {
-    let body = ErrorBody { error: ErrorDetail { code: code.to_owned(), message } };
-    (status, axum::Json(body)).into_response()
+/// An error answer of either server: a status, a kebab-case code and a human message, sent
+/// as `{"error": {"code", "message"}}`; a 429 says when to come back (`Retry-After`).
+#[derive(Debug)]
+pub struct ApiError {
+    pub status: StatusCode,
+    pub code: &'static str,
+    pub message: String,
+    /// Sent as `Retry-After` (whole seconds) with a 429.
+    pub retry_after: Option<Duration>,
+}
+
+impl ApiError {
+    pub fn new(status: StatusCode, code: &'static str, message: impl Into<String>) -> Self {
+        Self { status, code, message: message.into(), retry_after: None }
+    }
+
+    pub fn bad_request(code: &'static str, message: impl Into<String>) -> Self {
+        Self::new(StatusCode::BAD_REQUEST, code, message)
+    }
+
+    pub fn conflict(code: &'static str, message: impl Into<String>) -> Self {
+        Self::new(StatusCode::CONFLICT, code, message)
+    }
+
+    pub fn internal(message: impl std::fmt::Display) -> Self {
+        Self::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", message.to_string())
+    }
+
+    /// A 429 that says when to come back.
+    pub fn busy(code: &'static str, message: impl Into<String>, retry_after: Duration) -> Self {
+        Self {
+            retry_after: Some(retry_after),
+            ..Self::new(StatusCode::TOO_MANY_REQUESTS, code, message)
+        }
+    }
+}
+
+impl IntoResponse for ApiError {
+    fn into_response(self) -> Response {
+        let body =
+            ErrorBody { error: ErrorDetail { code: self.code.to_owned(), message: self.message } };
+        let mut response = (self.status, axum::Json(body)).into_response();
+        if let Some(after) =
+            self.retry_after.filter(|_| self.status == StatusCode::TOO_MANY_REQUESTS)
+        {
+            response.headers_mut().insert(header::RETRY_AFTER, after.as_secs().into());
+        }
+        response
+    }
 }
 
 /// Why a server will not start.

@@ -35,6 +35,9 @@ pub enum ClientError {
     /// The server is busy (HTTP 429): ask again after `retry_after`, or elsewhere.
     #[error("{url}: busy: {message}")]
     Busy { url: String, retry_after: Option<Duration>, message: String },
+    /// A token would have crossed plain http beyond loopback (see [`crate::tls`]).
+    #[error("{url}: {message}")]
+    PlainHttp { url: String, message: String },
     /// The URL (or a redirect's target) is not one the fetch rules allow.
     #[error(transparent)]
     NotAllowed(#[from] Refusal),
@@ -60,7 +63,7 @@ pub const LONG_POLL_TIMEOUT: Duration = Duration::from_secs(90);
 /// A connection pool with [`CONNECT_TIMEOUT`]. Steps and transfers get no overall deadline
 /// here: a host bounds their work by its own run deadline and download limits.
 pub(crate) fn default_client() -> reqwest::Client {
-    reqwest::Client::builder()
+    crate::tls::client_builder()
         .connect_timeout(CONNECT_TIMEOUT)
         .build()
         .expect("a client with only a connect timeout builds")
@@ -162,6 +165,11 @@ pub(crate) fn authorized(request: RequestBuilder, token: Option<&str>) -> Reques
 pub(crate) async fn send(request: RequestBuilder, url: &str) -> Result<Response, ClientError> {
     let (client, request) = request.build_split();
     let request = request.map_err(|e| ClientError::transport(url, e))?;
+    if request.headers().contains_key(reqwest::header::AUTHORIZATION)
+        && let Some(message) = crate::tls::plain_http_refusal(request.url())
+    {
+        return Err(ClientError::PlainHttp { url: url.to_owned(), message });
+    }
     let idempotent = matches!(*request.method(), Method::GET | Method::HEAD | Method::DELETE);
     let again = if idempotent { request.try_clone() } else { None };
     let response = match (client.execute(request).await, again) {

@@ -15,7 +15,7 @@ use meshflow_api::engine::{Status, SubmitBatch, SummaryRow};
 use meshflow_engine::summary;
 use serde_json::Value as Json;
 
-use super::remote::{upload_input, verified_result};
+use super::remote::{VerifiedResult, upload_input};
 
 /// How often a mesh's bar asks the engine how its run is going.
 const POLL_EVERY: Duration = Duration::from_millis(200);
@@ -235,9 +235,8 @@ impl Batch {
         let record_path = self.out_dir.join("records").join(format!("{name}.json"));
         super::pack::write_atomically(&record_path, text.as_bytes())?;
         if record.status == Status::Completed {
-            let mesh = verified_result(&self.engine, &record).await?;
-            let path = self.out_dir.join(format!("{name}.{}", self.format));
-            super::pack::save_mesh(&path, &mesh)?;
+            let result = VerifiedResult::download(&self.engine, &record).await?;
+            result.save(&self.out_dir.join(format!("{name}.{}", self.format)))?;
         }
         Ok(())
     }

@@ -67,7 +67,7 @@ fn report(
     }
 }
 
-fn is_packed(path: &Path) -> bool {
+pub fn is_packed(path: &Path) -> bool {
     path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case(PACKED))
 }
 

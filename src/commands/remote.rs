@@ -13,6 +13,8 @@ use meshflow_api::EngineClient;
 use meshflow_api::engine::{RunRecord, Status, StepRecord, SubmitRun};
 use serde_json::{Value as Json, json};
 
+use super::options::RunOutputArgs;
+
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum TransferMode {
     /// Per receiving host, the way the cost model expects to be quickest.
@@ -30,9 +32,7 @@ pub struct Submission {
     pub workflow: PathBuf,
     pub input: Option<String>,
     pub transfer: Option<TransferMode>,
-    pub output: Option<PathBuf>,
-    pub report: Option<PathBuf>,
-    pub json: bool,
+    pub out: RunOutputArgs,
 }
 
 impl Submission {
@@ -40,7 +40,7 @@ impl Submission {
         let workflow = self.read_workflow()?;
         if !wait {
             let id = self.start(workflow).await?;
-            match self.json {
+            match self.out.json {
                 true => out!("{}", json!({"id": id})),
                 false => out!("{id}"),
             }
@@ -71,9 +71,9 @@ impl Submission {
     /// `report` if asked), however the run ended.
     pub async fn run_to_end(&self, workflow: Json) -> anyhow::Result<RunRecord> {
         let id = self.start(workflow).await?;
-        follow(&self.engine, &id, !self.json).await?;
+        follow(&self.engine, &id, !self.out.json).await?;
         let record = self.engine.run(&id).await?;
-        if let Some(path) = &self.report {
+        if let Some(path) = &self.out.report {
             let text = serde_json::to_string_pretty(&record)?;
             super::pack::write_atomically(path, text.as_bytes())?;
         }
@@ -84,9 +84,9 @@ impl Submission {
     /// error for a run that did not complete.
     async fn deliver(&self, record: &RunRecord) -> anyhow::Result<()> {
         self.save_result(record).await?;
-        match self.json {
+        match self.out.json {
             true => out!("{}", serde_json::to_string_pretty(record)?),
-            false => print_summary(record, self.output.as_deref()),
+            false => print_summary(record, self.out.output.as_deref()),
         }
         Ok(())
     }
@@ -98,8 +98,8 @@ impl Submission {
             let reason = record.error.as_deref().unwrap_or("no reason given");
             bail!("run {} {}: {reason}", record.id, status.as_str().unwrap_or("ended"));
         }
-        if let Some(path) = &self.output {
-            super::pack::save_mesh(path, &verified_result(&self.engine, record).await?)?;
+        if let Some(path) = &self.out.output {
+            VerifiedResult::download(&self.engine, record).await?.save(path)?;
         }
         Ok(())
     }
@@ -124,24 +124,41 @@ impl Submission {
     }
 }
 
-/// The run's final mesh, downloaded and decoded; it must be the mesh the record names
-/// (`result.hash`): whoever serves it is trusted no further than that.
-pub(super) async fn verified_result(
-    engine: &EngineClient,
-    record: &RunRecord,
-) -> anyhow::Result<meshflow_mesh::MeshData> {
-    let expected = &record.result.as_ref().context("the run record names no result")?.hash;
-    let bytes = engine.result(&record.id).await?;
-    let mesh = meshflow_codec::pack::decode(&bytes).context("decoding the result")?;
-    let actual = mesh.content_hash().to_hex();
-    if &actual != expected {
-        bail!(
-            "the result downloaded for run {} is mesh {actual}, not the recorded {expected}; \
-             nothing was written",
-            record.id
-        );
+/// A run's final mesh as the engine served it (`.mfm` bytes) and decoded, its content
+/// hash checked against the record.
+pub(super) struct VerifiedResult {
+    packed: Vec<u8>,
+    mesh: meshflow_mesh::MeshData,
+}
+
+impl VerifiedResult {
+    /// Downloads and decodes the run's final mesh; it must be the mesh the record names
+    /// (`result.hash`): whoever serves it is trusted no further than that.
+    pub(super) async fn download(
+        engine: &EngineClient,
+        record: &RunRecord,
+    ) -> anyhow::Result<Self> {
+        let expected = &record.result.as_ref().context("the run record names no result")?.hash;
+        let packed = engine.result(&record.id).await?;
+        let mesh = meshflow_codec::pack::decode(&packed).context("decoding the result")?;
+        let actual = mesh.content_hash().to_hex();
+        if &actual != expected {
+            bail!(
+                "the result downloaded for run {} is mesh {actual}, not the recorded {expected}; \
+                 nothing was written",
+                record.id
+            );
+        }
+        Ok(Self { packed, mesh })
     }
-    Ok(mesh)
+
+    /// Writes the mesh in the format `path` names; a `.mfm` as it was received.
+    pub(super) fn save(&self, path: &Path) -> anyhow::Result<()> {
+        match super::pack::is_packed(path) {
+            true => super::pack::write_atomically(path, &self.packed),
+            false => super::pack::save_mesh(path, &self.mesh),
+        }
+    }
 }
 
 pub(super) async fn upload_input(engine: &EngineClient, path: &Path) -> anyhow::Result<String> {

@@ -12,8 +12,8 @@ use meshflow_api::engine::{Comparison, RunRecord, Status};
 use meshflow_engine::rerun::{compare, rerun_workflow};
 
 use super::remote::Submission;
-use super::tokens::{ApiTokenArgs, ClusterTokenArgs};
-use crate::embedded::{self, Layout, Tokens};
+use super::options::{EmbeddedArgs, RunOutputArgs};
+use crate::embedded::Layout;
 
 #[derive(Args)]
 pub struct RerunArgs {
@@ -23,9 +23,8 @@ pub struct RerunArgs {
     /// content hash is the recorded input's counts as the recorded input.
     #[arg(long, value_name = "FILE|URL")]
     input: Option<String>,
-    /// Where to write the result (format by extension).
-    #[arg(short, long)]
-    output: Option<PathBuf>,
+    #[command(flatten)]
+    out: RunOutputArgs,
     /// Run today's plugin for each service (with the recorded parameters) instead of the
     /// recorded digests: shows whether an updated plugin changes the results.
     #[arg(long)]
@@ -34,21 +33,9 @@ pub struct RerunArgs {
     /// instead of an embedded engine and hosts.
     #[arg(long, value_name = "URL")]
     engine: Option<String>,
-    /// How many embedded hosts to start (without --engine).
-    #[arg(long, default_value_t = 3)]
-    hosts: usize,
-    /// Write the re-run's record as JSON.
-    #[arg(long, value_name = "R.json")]
-    report: Option<PathBuf>,
-    /// Print the comparison as JSON instead of progress and words.
-    #[arg(long)]
-    json: bool,
+    /// Without --engine: the embedded engine and hosts (with --engine: its API token).
     #[command(flatten)]
-    api_token: ApiTokenArgs,
-    #[command(flatten)]
-    cluster_token: ClusterTokenArgs,
-    #[command(flatten)]
-    sandbox: crate::SandboxArgs,
+    embedded: EmbeddedArgs,
 }
 
 /// Exits 0 when the re-run is bit-identical to the record, else says where it diverged
@@ -71,24 +58,13 @@ pub fn run(args: RerunArgs) -> anyhow::Result<()> {
         let engine = match &args.engine {
             Some(url) => {
                 let client = EngineClient::new(url.trim_end_matches('/'));
-                match args.api_token.get()? {
+                match args.embedded.api_token.get()? {
                     Some(token) => client.with_token(&token),
                     None => client,
                 }
             }
             None => {
-                let tokens =
-                    Tokens::given_or_fresh(args.api_token.get()?, args.cluster_token.get()?)?;
-                let system = embedded::start(
-                    args.hosts,
-                    "127.0.0.1:0",
-                    None,
-                    Layout::Spread,
-                    tokens,
-                    Vec::new(),
-                    args.sandbox,
-                )
-                .await?;
+                let system = args.embedded.start("127.0.0.1:0", None, Layout::Spread).await?;
                 let client = EngineClient::new(&system.engine.url).with_token(&system.tokens.api);
                 embedded = Some(system);
                 client
@@ -100,9 +76,7 @@ pub fn run(args: RerunArgs) -> anyhow::Result<()> {
             workflow: args.record.clone(),
             input: Some(input),
             transfer: None,
-            output: args.output.clone(),
-            report: args.report.clone(),
-            json: args.json,
+            out: args.out.clone(),
         };
         let rerun = submission.run_to_end(workflow).await?;
         let comparison = compare(&recorded, &rerun);
@@ -110,7 +84,7 @@ pub fn run(args: RerunArgs) -> anyhow::Result<()> {
             submission.save_result(&rerun).await?;
         }
         drop(embedded);
-        report(&comparison, &recorded, args.json)
+        report(&comparison, &recorded, args.out.json)
     })
 }
 

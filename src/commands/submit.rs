@@ -7,6 +7,7 @@ use clap::Args;
 use meshflow_api::EngineClient;
 
 use super::batch::BatchArgs;
+use super::options::RunOutputArgs;
 use super::remote::{Submission, TransferMode};
 
 /// Which engine to talk to, and with what API token.
@@ -45,42 +46,35 @@ pub struct SubmitArgs {
     input: Vec<String>,
     #[command(flatten)]
     batch: BatchArgs,
-    /// Where to write the result (format by extension); implies --wait.
-    #[arg(short, long)]
-    output: Option<PathBuf>,
+    /// -o and --report imply --wait.
+    #[command(flatten)]
+    out: RunOutputArgs,
     /// Follow the run's progress until it ends.
     #[arg(long)]
     wait: bool,
     /// Overrides the workflow's "transfer".
     #[arg(long, value_enum)]
     transfer: Option<TransferMode>,
-    /// Write the run's record as JSON (implies --wait).
-    #[arg(long, value_name = "R.json")]
-    report: Option<PathBuf>,
-    /// Print JSON (the run id, or the record when waiting) instead of progress.
-    #[arg(long)]
-    json: bool,
 }
 
 pub fn run(args: SubmitArgs) -> anyhow::Result<()> {
-    let wait = args.wait || args.output.is_some() || args.report.is_some();
+    let wait = args.wait || args.out.output.is_some() || args.out.report.is_some();
     let inputs = args.batch.inputs(&args.input)?;
-    super::run::check_shape(&inputs, args.output.is_some(), args.report.is_some(), &args.batch)?;
+    super::run::check_shape(&inputs, &args.out, &args.batch)?;
     let submission = Submission {
         engine: args.engine.client()?,
         workflow: args.workflow,
         input: inputs.first().cloned(),
         transfer: args.transfer,
-        output: args.output,
-        report: args.report,
-        json: args.json,
+        out: args.out,
     };
     let runtime = tokio::runtime::Runtime::new()?;
     match &args.batch.out_dir {
         None => runtime.block_on(submission.execute(wait)),
         Some(dir) => {
             let workflow = submission.read_workflow()?;
-            let batch = args.batch.run(submission.engine, workflow, inputs, dir.clone(), args.json);
+            let json = submission.out.json;
+            let batch = args.batch.run(submission.engine, workflow, inputs, dir.clone(), json);
             runtime.block_on(batch)
         }
     }

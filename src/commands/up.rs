@@ -5,14 +5,13 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::tokens::{ApiTokenArgs, ClusterArgs};
-use crate::embedded::{self, Layout, Tokens};
+use super::options::EmbeddedArgs;
+use crate::embedded::Layout;
 
 #[derive(Args)]
 pub struct UpArgs {
-    /// How many hosts to start.
-    #[arg(long, default_value_t = 3)]
-    hosts: usize,
+    #[command(flatten)]
+    embedded: EmbeddedArgs,
     /// Where the engine listens.
     #[arg(long, default_value = "127.0.0.1:7000", value_name = "ADDR")]
     listen: String,
@@ -22,28 +21,12 @@ pub struct UpArgs {
     /// Which built-in services each host offers.
     #[arg(long, value_enum, default_value_t = Layout::Spread)]
     layout: Layout,
-    #[command(flatten)]
-    api_token: ApiTokenArgs,
-    #[command(flatten)]
-    cluster: ClusterArgs,
-    #[command(flatten)]
-    sandbox: crate::SandboxArgs,
 }
 
 pub fn run(args: UpArgs) -> anyhow::Result<()> {
     super::host::init_logging();
-    let tokens = Tokens::given_or_fresh(args.api_token.get()?, args.cluster.token.get()?)?;
     tokio::runtime::Runtime::new()?.block_on(async {
-        let system = embedded::start(
-            args.hosts,
-            &args.listen,
-            args.data,
-            args.layout,
-            tokens,
-            args.cluster.allow_input_from,
-            args.sandbox,
-        )
-        .await?;
+        let system = args.embedded.start(&args.listen, args.data, args.layout).await?;
         let (url, tokens) = (&system.engine.url, &system.tokens);
         out!("engine: {url}");
         out!("web UI: {url}/#token={}", tokens.api);

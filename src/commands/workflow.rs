@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Subcommand;
-use meshflow_engine::mlx;
+use crate::mlx;
 
 #[derive(Subcommand)]
 pub enum WorkflowCommand {

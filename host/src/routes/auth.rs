@@ -10,7 +10,7 @@ use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 
 use crate::state::Host;
-use meshflow_api::server::{bearer, error_response, require};
+use meshflow_api::server::{ApiError, bearer, require};
 
 pub async fn check(State(host): State<Arc<Host>>, request: Request, next: Next) -> Response {
     let path = request.uri().path();
@@ -24,11 +24,12 @@ pub async fn check(State(host): State<Arc<Host>>, request: Request, next: Next) 
             Some(token) => {
                 require(given, &[token], "the host's upload token").map_err(|e| e.into_response())
             }
-            None => Err(error_response(
+            None => Err(ApiError::new(
                 StatusCode::FORBIDDEN,
                 "uploads-disabled",
-                "uploads disabled: start the host with an upload token (--token)".into(),
-            )),
+                "uploads disabled: start the host with an upload token (--token)",
+            )
+            .into_response()),
         }
     } else {
         let cluster: Vec<&str> = host.config.cluster_token.as_deref().into_iter().collect();

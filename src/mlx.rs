@@ -288,19 +288,35 @@ pub fn from_mlx(text: &str) -> Result<FromMlx, MlxError> {
     Ok(FromMlx { workflow: json!({"steps": steps}), notes })
 }
 
+/// Why one filter's parameter keeps the filter from converting.
+#[derive(Debug, thiserror::Error)]
+enum ParamRefusal {
+    #[error("{0}=true works on a selection; meshflow filters the whole mesh")]
+    Selection(String),
+    #[error("{name}: \"{value}\" is not a {expected}")]
+    NotA { name: String, value: String, expected: &'static str },
+    #[error("{name}: \"{value}\" is not true or false")]
+    NotBool { name: String, value: String },
+    #[error("{0} has no bounding-box diagonal (max) to make it a percentage")]
+    NoDiagonal(String),
+}
+
 /// The service parameters of one filter, and the MeshLab parameters left out.
 fn convert_params(
     mapping: &Mapping,
     given: &[(&str, &str, Option<&str>)],
-) -> Result<(Map<String, Json>, Vec<String>), String> {
+) -> Result<(Map<String, Json>, Vec<String>), ParamRefusal> {
+    let not_a = |name: &str, value: &str, expected: &'static str| ParamRefusal::NotA {
+        name: name.into(),
+        value: value.into(),
+        expected,
+    };
     let mut params = Map::new();
     let mut ignored = Vec::new();
     for &(name, value, max) in given {
         let Some(spec) = mapping.params.iter().find(|p| p.meshlab == name) else {
             if name.starts_with("Selected") && value == "true" {
-                return Err(format!(
-                    "{name}=true works on a selection; meshflow filters the whole mesh"
-                ));
+                return Err(ParamRefusal::Selection(name.into()));
             }
             if !HARMLESS.iter().any(|&(n, v)| n == name && v == value) {
                 ignored.push(format!("{name}={value}"));
@@ -309,21 +325,21 @@ fn convert_params(
         };
         let converted = match spec.conversion {
             Conversion::Same => scalar(spec.meshlab_type, value)
-                .ok_or_else(|| format!("{name}: \"{value}\" is not a {}", spec.meshlab_type))?,
+                .ok_or_else(|| not_a(name, value, spec.meshlab_type))?,
             Conversion::Choice(yes, no) => match value {
                 "true" => yes.into(),
                 "false" => no.into(),
-                other => return Err(format!("{name}: \"{other}\" is not true or false")),
+                other => {
+                    return Err(ParamRefusal::NotBool { name: name.into(), value: other.into() });
+                }
             },
             Conversion::PercentOfDiagonal => {
                 let absolute: f64 =
-                    value.parse().map_err(|_| format!("{name}: \"{value}\" is not a number"))?;
+                    value.parse().map_err(|_| not_a(name, value, "number"))?;
                 let diagonal: f64 = max
                     .and_then(|m| m.parse().ok())
                     .filter(|d: &f64| d.is_finite() && *d > 0.0)
-                    .ok_or_else(|| {
-                        format!("{name} has no bounding-box diagonal (max) to make it a percentage")
-                    })?;
+                    .ok_or_else(|| ParamRefusal::NoDiagonal(name.into()))?;
                 json!(round6(absolute / diagonal * 100.0))
             }
         };
