@@ -1,23 +1,7 @@
-//! Who may call which engine route, and which input URLs a run may name (DESIGN §10).
-//!
-//! Routes, checked from the headers before any body is read: `GET /` (the UI page) and
-//! `GET /health` are open; `POST /hosts` takes the cluster token (the API token when there
-//! is no cluster token); `GET /inputs/{file}` takes either (hosts fetch inputs with the
-//! cluster token, users with theirs); every other route takes the API token, which
-//! `GET /runs/{id}/events` also accepts as `?token=` (a browser's `EventSource` cannot set
-//! headers). A route whose tokens are all unset is open.
+//! The engine's secrets and which input URLs a run may name (DESIGN §10). Which route
+//! takes which token is `routes/auth.rs`.
 
-use std::sync::Arc;
-
-use axum::extract::{Query, Request, State};
-use axum::http::Method;
-use axum::middleware::Next;
-use axum::response::{IntoResponse, Response};
-use serde::Deserialize;
-
-use crate::Engine;
 use meshflow_api::fetch_rules::{Origins, Refusal, origin, parse_origin};
-use meshflow_api::server::{bearer, require};
 
 /// The engine's secrets and what it lets runs fetch.
 #[derive(Clone, Debug, Default)]
@@ -93,41 +77,6 @@ impl Access {
         let parsed = reqwest::Url::parse(url)
             .map_err(|_| Refusal::NotAUrl(meshflow_api::fetch_rules::quoted(url)))?;
         self.input_origins(own, hosts).check(&parsed)
-    }
-}
-
-#[derive(Deserialize)]
-struct TokenQuery {
-    token: Option<String>,
-}
-
-/// The middleware: refuses a request without the token its route takes.
-pub async fn check(State(engine): State<Arc<Engine>>, request: Request, next: Next) -> Response {
-    let access = &engine.access;
-    let (api, cluster) = (access.api_token.as_deref(), access.cluster_token.as_deref());
-    let path = request.uri().path();
-    let get = request.method() == Method::GET;
-    let mut given = bearer(request.headers()).map(str::to_owned);
-    // The page and its bundled files are public; what they show needs the API token.
-    let page = path == "/" || path == "/health" || path.starts_with("/assets/");
-    let allowed = if get && page {
-        Ok(())
-    } else if path == "/hosts" && request.method() == Method::POST {
-        let tokens: Vec<&str> = cluster.or(api).into_iter().collect();
-        require(given.as_deref(), &tokens, "the cluster token")
-    } else if get && path.starts_with("/inputs/") {
-        let tokens: Vec<&str> = [api, cluster].into_iter().flatten().collect();
-        require(given.as_deref(), &tokens, "the API or the cluster token")
-    } else {
-        if get && path.starts_with("/runs/") && path.ends_with("/events") && given.is_none() {
-            given = Query::<TokenQuery>::try_from_uri(request.uri()).ok().and_then(|q| q.0.token);
-        }
-        let tokens: Vec<&str> = api.into_iter().collect();
-        require(given.as_deref(), &tokens, "the API token")
-    };
-    match allowed {
-        Ok(()) => next.run(request).await,
-        Err(refusal) => refusal.into_response(),
     }
 }
 

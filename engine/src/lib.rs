@@ -7,7 +7,6 @@
 //! format (`downloads.rs`). `tests/layers.rs` holds it to that.
 
 mod admission;
-mod api;
 pub mod auth;
 mod batches;
 pub mod downloads;
@@ -15,15 +14,14 @@ mod executor;
 mod inputs;
 pub mod limits;
 pub mod measured;
-pub mod mlx;
 pub mod plan;
 pub mod record;
 pub mod registry;
 pub mod rerun;
+mod routes;
 pub mod run;
 mod store;
 pub mod summary;
-mod ui;
 pub mod validate;
 pub mod workflow;
 
@@ -34,12 +32,12 @@ use std::sync::{Arc, Mutex};
 use serde_json::Value as Json;
 use tokio::sync::Notify;
 
-pub use api::router;
 pub use auth::Access;
 use limits::{JANITOR_INTERVAL, KEPT_RUNS, PERSIST_INTERVAL, UNUSED_INPUT_TTL};
 use meshflow_api::engine::RerunRequest;
 use record::{RunRecord, Status};
 use registry::Registry;
+pub use routes::router;
 use run::{Run, RunParts};
 use store::{Store, StoreError, StoredRun};
 use workflow::{Workflow, WorkflowError};
@@ -129,7 +127,6 @@ impl Engine {
         Arc::new(Run::new(RunParts {
             id: stored.id.clone(),
             owner: stored.owner.clone(),
-            workflow: stored.workflow.clone(),
             input: stored.input.clone(),
             record: stored.record.clone(),
             sessions: stored.sessions.clone(),
@@ -181,14 +178,9 @@ impl Engine {
         let id = new_run_id();
         let mut record = RunRecord::new(id.clone(), workflow.transfer);
         record.rerun_of = rerun_of;
-        let stored = StoredRun {
-            record,
-            id,
-            owner: client.to_owned(),
-            workflow: workflow_json,
-            input,
-            sessions: Vec::new(),
-        };
+        record.workflow = workflow_json;
+        let stored =
+            StoredRun { record, id, owner: client.to_owned(), input, sessions: Vec::new() };
         let row = stored.clone();
         self.store.call(move |c| store::insert_run(c, &row)).await?;
         let run = self.revive(&stored);
@@ -206,7 +198,7 @@ impl Engine {
         let interrupted = |reason: String| {
             run.set_status(Status::Interrupted, Some(format!("the engine restarted: {reason}")))
         };
-        match (Workflow::from_json(&stored.workflow), self.admission.admit(&stored.owner)) {
+        match (Workflow::from_json(&stored.record.workflow), self.admission.admit(&stored.owner)) {
             (Ok(workflow), Ok(ticket)) => {
                 tokio::spawn(drive(self.clone(), run.clone(), workflow, ticket, true));
             }

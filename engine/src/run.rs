@@ -12,11 +12,17 @@ use tokio::sync::{Notify, broadcast};
 use tokio_util::sync::CancellationToken;
 
 use crate::record::{RunRecord, Status, StepRecord};
-use crate::store::OpenSession;
 
 /// Events kept for a subscriber that lags; a slower one misses some and catches up from
 /// the record.
 const EVENT_BUFFER: usize = 1024;
+
+/// A host session a run opened, to be deleted when the run ends (even after a restart).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OpenSession {
+    pub host: String,
+    pub session: String,
+}
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Event {
@@ -29,8 +35,8 @@ pub struct Run {
     pub id: String,
     /// Who submitted it: a digest of the API token, or `anonymous`.
     pub owner: String,
-    /// The workflow as submitted and the input URL it runs on, kept to resume the run.
-    pub workflow: Json,
+    /// The input URL the run reads, kept to resume the run. The workflow as submitted is
+    /// the record's (`RunRecord::workflow`, see [`Run::workflow`]).
     pub input: String,
     started: Instant,
     /// Time the run had taken before this process took it over (a resumed run).
@@ -57,11 +63,11 @@ pub struct Changes {
     pub sessions: Vec<OpenSession>,
 }
 
-/// What a run is made of; `changed` is told of every change (the engine's persister).
+/// What a run is made of; `changed` is told of every change (the engine's persister). The
+/// record holds the workflow as submitted.
 pub struct RunParts {
     pub id: String,
     pub owner: String,
-    pub workflow: Json,
     pub input: String,
     pub record: RunRecord,
     pub sessions: Vec<OpenSession>,
@@ -69,10 +75,8 @@ pub struct RunParts {
 }
 
 impl Run {
-    pub fn new(mut parts: RunParts) -> Self {
+    pub fn new(parts: RunParts) -> Self {
         let (events, _) = broadcast::channel(EVENT_BUFFER);
-        // The store keeps the workflow in a column of its own, not in every record write.
-        parts.record.workflow = parts.workflow.clone();
         let earlier_ms = parts
             .record
             .total_ms
@@ -81,7 +85,6 @@ impl Run {
         Self {
             id: parts.id,
             owner: parts.owner,
-            workflow: parts.workflow,
             input: parts.input,
             started: Instant::now(),
             earlier_ms,
@@ -102,6 +105,11 @@ impl Run {
 
     pub fn record(&self) -> RunRecord {
         self.record.lock().unwrap().clone()
+    }
+
+    /// The workflow as submitted (without copying the rest of the record).
+    pub fn workflow(&self) -> Json {
+        self.record.lock().unwrap().workflow.clone()
     }
 
     /// Steps recorded so far (without copying the record).
@@ -216,6 +224,7 @@ impl Run {
             steps: Vec::new(),
             result: record.result.clone(),
             total_ms: record.total_ms,
+            // The store keeps the workflow in a column of its own, not in every record write.
             workflow: serde_json::Value::Null,
             rerun_of: record.rerun_of.clone(),
         };

@@ -13,7 +13,7 @@ use rusqlite::{Connection, OptionalExtension, params};
 
 use crate::measured::Snapshot;
 use crate::record::{BatchEntry, RunRecord, Status};
-use crate::run::Changes;
+use crate::run::{Changes, OpenSession};
 
 /// Bumped when the schema changes; an older file is migrated, a newer one refused.
 const SCHEMA_VERSION: i64 = 1;
@@ -90,22 +90,16 @@ pub enum StoreError {
     Join(#[from] tokio::task::JoinError),
 }
 
-/// A run as stored: what is needed to show it, and to resume it after a restart.
+/// A run as stored: what is needed to show it, and to resume it after a restart. Its
+/// workflow as submitted is `record.workflow`, written to a column of its own (the
+/// `record` column holds it as null, as every later write of the record does).
 #[derive(Debug, Clone)]
 pub struct StoredRun {
     pub id: String,
     pub owner: String,
-    pub workflow: serde_json::Value,
     pub input: String,
     pub record: RunRecord,
     pub sessions: Vec<OpenSession>,
-}
-
-/// A host session a run opened, to be deleted when the run ends (even after a restart).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct OpenSession {
-    pub host: String,
-    pub session: String,
 }
 
 #[derive(Clone)]
@@ -181,6 +175,7 @@ pub fn load_measurements(connection: &mut Connection) -> Result<Option<Snapshot>
 }
 
 pub fn insert_run(connection: &mut Connection, run: &StoredRun) -> Result<(), StoreError> {
+    let head = RunRecord { workflow: serde_json::Value::Null, ..run.record.clone() };
     connection.execute(
         "INSERT INTO runs (id, seq, created_unix, owner, workflow, input, status, record)
          VALUES (?1, (SELECT COALESCE(MAX(seq), 0) + 1 FROM runs), ?2, ?3, ?4, ?5, ?6, ?7)",
@@ -188,10 +183,10 @@ pub fn insert_run(connection: &mut Connection, run: &StoredRun) -> Result<(), St
             run.id,
             unix_now(),
             run.owner,
-            run.workflow.to_string(),
+            run.record.workflow.to_string(),
             run.input,
             status_text(run.record.status),
-            serde_json::to_string(&run.record)?,
+            serde_json::to_string(&head)?,
         ],
     )?;
     Ok(())
@@ -256,18 +251,12 @@ pub fn load_runs(connection: &mut Connection) -> Result<Vec<StoredRun>, StoreErr
             .query_map([&id], |row| Ok(OpenSession { host: row.get(0)?, session: row.get(1)? }))?
             .collect::<Result<_, _>>()?;
         let mut record: RunRecord = serde_json::from_str(&record)?;
+        record.workflow = serde_json::from_str(&workflow)?;
         for step in steps.query_map([&id], |row| row.get::<_, String>(0))? {
             let step: String = step?;
             record.steps.push(serde_json::from_str(&step)?);
         }
-        runs.push(StoredRun {
-            id,
-            owner,
-            workflow: serde_json::from_str(&workflow)?,
-            input,
-            record,
-            sessions: open,
-        });
+        runs.push(StoredRun { id, owner, input, record, sessions: open });
     }
     Ok(runs)
 }

@@ -10,8 +10,8 @@ use meshflow_api::engine::TransferEstimates;
 use meshflow_api::host::{Update, Updated};
 use tokio::task::JoinHandle;
 
-use super::LastFull;
 use super::cost::StepOutput;
+use super::current::LastFull;
 use crate::measured::Applied;
 use crate::record::TransferRecord;
 use crate::registry::{HostEntry, Registry};

@@ -1,6 +1,6 @@
 //! The workbench's files (`engine/web/`, bundled by `build.rs`), served from the binary:
-//! `/` is its page, `/assets/…` its scripts and styles, whose names carry a content hash and
-//! so may be cached for good.
+//! `GET /` is its page, `GET /assets/…` its scripts and styles, whose names carry a content
+//! hash and so may be cached for good.
 
 use axum::extract::Path;
 use axum::http::{StatusCode, header};

@@ -1,0 +1,57 @@
+//! Why a run ends without its result. The run's record says it in words
+//! (`Run::set_status`), so each message is the one the record has always had.
+
+use std::collections::BTreeSet;
+
+use serde_json::Value as Json;
+
+use crate::limits::MAX_STEPS_PER_RUN;
+use crate::workflow::WorkflowError;
+
+#[derive(Debug, thiserror::Error)]
+pub enum ExecError {
+    /// No plan: some task's service is offered by no host.
+    #[error(transparent)]
+    Plan(#[from] WorkflowError),
+    /// The input could not be loaded, for a reason of its own (not a host's).
+    #[error("input {input}: {message}")]
+    Input { input: String, message: String },
+    #[error("input {input}: hosts decoded it differently ({hashes:?})")]
+    InputDecodedDifferently { input: String, hashes: BTreeSet<String> },
+    #[error("{path}: host {host} failed and no other host offers \"{service}\"")]
+    NoReplacement { path: String, host: String, service: String },
+    #[error("{path}: the run has executed {max} steps, the most one run may", max = MAX_STEPS_PER_RUN)]
+    TooManySteps { path: String },
+    /// Every host offering the task's service failed; `reasons` says how, host by host.
+    #[error("{path}: no host left for \"{service}\" (failed: {reasons})")]
+    NoHostLeft { path: String, service: String, reasons: String },
+    /// The step itself failed (plugin error, bad parameters): it would fail elsewhere too.
+    #[error("{path} ({service} on {host}): {message}")]
+    Step { path: String, service: String, host: String, message: String },
+    #[error("{path}: {service} returned a check value, not a mesh")]
+    NotAMesh { path: String, service: String },
+    #[error("{path}: {service} is not a check")]
+    NotACheck { path: String, service: String },
+    #[error("{path}: {source}")]
+    Condition { path: String, source: CompareError },
+    /// A resumed run: the recorded check has no outcome.
+    #[error("{0}: no recorded outcome")]
+    NoRecordedOutcome(String),
+    /// A resumed run: the recorded steps do not follow the workflow.
+    #[error("the record has {recorded_kind} {recorded_path} where the workflow has {kind} {path}")]
+    RecordMismatch { recorded_kind: String, recorded_path: String, kind: String, path: String },
+    #[error("the record has steps but no input")]
+    NoRecordedInput,
+    /// A resumed run: a recorded filter has no output hash.
+    #[error("{0}: no output hash")]
+    NoOutputHash(String),
+}
+
+/// Why a check's value and a condition's cannot be compared.
+#[derive(Debug, thiserror::Error)]
+pub enum CompareError {
+    #[error("cannot compare {0} with {1}")]
+    Unordered(f64, f64),
+    #[error("the check returned {actual}, which cannot be compared with {expected}")]
+    Mismatch { actual: Json, expected: Json },
+}

@@ -1,0 +1,84 @@
+//! The end of a run: where the final mesh is and its packed size, the real sizes of the
+//! edit logs written meanwhile, and the run's final status.
+
+use std::sync::Arc;
+
+use meshflow_api::HostClient;
+use serde_json::json;
+
+use super::Executor;
+use super::error::ExecError;
+use crate::limits::MAX_CORRECTION_BYTES;
+use crate::record::{ResultRecord, Status};
+use crate::run::Run;
+
+impl Executor {
+    /// Records where the final mesh is and its packed size: its host packs and stores it
+    /// now, so the result outlives the run's sessions (and the host's memory of recent
+    /// outputs).
+    pub(super) async fn finish(&mut self) {
+        let current = &self.current;
+        // The result is packed while the last edit logs are still being written: both are
+        // the hosts' work at the end of a run, and neither needs the other.
+        let packed = async {
+            match &current.producer {
+                Some(host) => self.registry.client(host).packed_size(&current.full.url).await.ok(),
+                None => None,
+            }
+        };
+        let log_sizes = futures_util::future::join_all(self.log_sizes.drain(..));
+        let (bytes, _) = tokio::join!(packed, log_sizes);
+        let result = ResultRecord {
+            url: current.full.url.clone(),
+            hash: current.hash.clone(),
+            bytes,
+            vertices: current.vertices,
+            triangles: current.triangles,
+        };
+        self.run.update("result", |r| {
+            let json = json!(result);
+            r.result = Some(result);
+            json
+        });
+    }
+}
+
+/// Ends the run as `outcome` says; the error is put in words here, for the record. A
+/// resumed run (`resumed_at`: the steps it had) that failed before a new step is
+/// interrupted rather than failed.
+pub(super) fn conclude(run: &Run, outcome: Result<(), ExecError>, resumed_at: Option<usize>) {
+    match (outcome, resumed_at) {
+        (Ok(()), _) => run.set_status(Status::Completed, None),
+        (Err(error), Some(resuming_at)) if run.step_count() <= resuming_at => run.set_status(
+            Status::Interrupted,
+            Some(format!(
+                "the engine restarted and could not resume after {resuming_at} step(s): {error}"
+            )),
+        ),
+        (Err(error), _) => run.set_status(Status::Failed, Some(error.to_string())),
+    }
+}
+
+/// Replaces step `index`'s estimated edit-log size by the real one once its producer has
+/// written the log (a HEAD of it waits for that); an answer that does not come leaves the
+/// estimate.
+pub(super) fn record_log_size(
+    run: Arc<Run>,
+    producer: HostClient,
+    index: usize,
+    url: String,
+) -> tokio::task::JoinHandle<()> {
+    tokio::spawn(async move {
+        let Ok(bytes) = producer.blob_size(&url).await else { return };
+        // A host's answer is a claim: a size no edit log can have leaves the estimate.
+        if bytes > MAX_CORRECTION_BYTES {
+            tracing::warn!("{url}: an edit log of {bytes} bytes is not believed");
+            return;
+        }
+        run.update_step("correction", index, |step| {
+            step.correction_bytes = Some(bytes);
+            step.correction_estimated = false;
+            json!({"step": index, "correction_bytes": bytes})
+        });
+    })
+}

@@ -1,0 +1,94 @@
+//! A filter step: its output becomes the current mesh, and is forwarded at once, in
+//! parallel, to every host that still has a task on the active list, each by the transfer
+//! the cost model (or the workflow) chooses.
+
+use std::sync::Arc;
+
+use meshflow_api::host::{FilterResult, RunResult, Update};
+
+use super::error::ExecError;
+use super::{Executor, cost, replica};
+use crate::registry::HostEntry;
+use crate::workflow::{Task, Transfer};
+
+impl Executor {
+    /// Runs a filter (or takes it as done before a restart) and forwards its result to the
+    /// `receivers`, the hosts of the tasks still to come.
+    pub(super) async fn run_filter(
+        &mut self,
+        task: &Task,
+        receivers: &[Arc<HostEntry>],
+    ) -> Result<(), ExecError> {
+        if let Some(step) = self.take_done(task, "filter")? {
+            return self.restore_filter(task, &step);
+        }
+        let (index, result, host) = self.run_task(task, "filter").await?;
+        let RunResult::Filter(filter) = result else {
+            return Err(ExecError::NotAMesh {
+                path: task.path.clone(),
+                service: task.service.clone(),
+            });
+        };
+        let url = filter.correction.url.clone();
+        let log_size =
+            super::finish::record_log_size(self.run.clone(), host.client.clone(), index, url);
+        self.log_sizes.push(log_size);
+        self.advance(&filter, &host);
+        self.history.push((task.clone(), filter.output_hash.clone()));
+        let output = cost::StepOutput {
+            correction_bytes: filter.correction.bytes,
+            replay_bytes: filter.replay.bytes,
+            full_bytes: self.current.last_full.estimate(filter.vertices as u64),
+            edits: filter.edits as u64,
+            vertices: filter.vertices as u64,
+            compute_ms: filter.compute_ms,
+        };
+        let hash = self.current.hash.clone();
+        let last_full = self.current.last_full.clone();
+        let measured = &self.registry.measured;
+        for replica in &mut self.replicas {
+            let wanted = receivers.iter().any(|h| Arc::ptr_eq(h, &replica.host));
+            if !wanted || Arc::ptr_eq(&replica.host, &host) {
+                continue;
+            }
+            let receiver = &replica.host;
+            let has_plugin = receiver.has_plugin(&filter.plugin)
+                || measured.has_fetched(&receiver.url, &filter.plugin);
+            let estimates = cost::estimate(
+                &output,
+                &cost::Receiver {
+                    link: measured.link(&host.url, &receiver.url),
+                    speed: measured.speed(&receiver.url),
+                    has_plugin,
+                    load: receiver.load(),
+                },
+            );
+            let update = Update {
+                correction: Some(filter.correction.clone()),
+                replay: Some(filter.replay.clone()),
+                full: filter.full.clone(),
+                use_: cost::choose(self.transfer, &estimates),
+            };
+            let forwarded = replica::Forwarded {
+                update,
+                plugin: filter.plugin.clone(),
+                had_plugin: has_plugin,
+                estimates: (self.transfer == Transfer::Auto).then_some(estimates),
+                output,
+                last_full: last_full.clone(),
+                registry: self.registry.clone(),
+            };
+            replica.forward(&self.run, index, forwarded, &hash, &host);
+        }
+        Ok(())
+    }
+
+    /// The filter's output becomes the current mesh; the producer already holds it.
+    fn advance(&mut self, filter: &FilterResult, producer: &Arc<HostEntry>) {
+        self.holders.clear();
+        self.current.advance(filter, &producer.url);
+        if let Some(replica) = self.replicas.iter_mut().find(|r| Arc::ptr_eq(&r.host, producer)) {
+            replica.hash = filter.output_hash.clone();
+        }
+    }
+}

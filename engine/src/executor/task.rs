@@ -1,0 +1,171 @@
+//! One task on one host, and its failover: the task runs on its planned host once that
+//! host holds the current mesh; a host that fails, lies or stays busy is set aside and the
+//! task moves to another host offering the service, until one answers or none is left.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use meshflow_api::host::{
+    CreateSession, GridSpec, InputRef, RunRequest, RunResult, SessionState, SessionStatus,
+};
+use meshflow_api::params::ValueType;
+
+use super::error::ExecError;
+use super::failure::{Failure, StepFailed};
+use super::step_record::{Answer, Ran};
+use super::{Executor, busy, verify};
+use crate::limits::MAX_STEPS_PER_RUN;
+use crate::plan::{offering_pinned, pick, placed_by_link};
+use crate::registry::HostEntry;
+use crate::run::Run;
+use crate::workflow::Task;
+
+impl Executor {
+    /// Runs one task on its planned host, or on another one if that host fails; records it.
+    pub(super) async fn run_task(
+        &mut self,
+        task: &Task,
+        kind: &'static str,
+    ) -> Result<(usize, RunResult, Arc<HostEntry>), ExecError> {
+        if self.run.step_count() >= MAX_STEPS_PER_RUN {
+            return Err(ExecError::TooManySteps { path: task.path.clone() });
+        }
+        let mut failed: Vec<Arc<HostEntry>> = Vec::new();
+        // What went wrong on each failed host, for the error if none is left.
+        let mut reasons: Vec<String> = Vec::new();
+        loop {
+            let host = self.plan.host(&task.path).clone();
+            let known = failed.iter().any(|h| Arc::ptr_eq(h, &host));
+            if !known && (!host.is_up() || host.is_suspect()) {
+                let why = host.suspicion().unwrap_or_else(|| "down".into());
+                reasons.push(format!("{}: {why}", host.url));
+                failed.push(host.clone());
+            }
+            if failed.iter().any(|h| Arc::ptr_eq(h, &host)) {
+                let candidates =
+                    offering_pinned(&self.registry.hosts(), &task.service, task.plugin.as_deref());
+                let replacement = pick(
+                    &candidates,
+                    &self.plan.hosts(),
+                    &task.service,
+                    &failed,
+                    placed_by_link(self.plan.placement(), &self.registry),
+                )
+                .ok_or_else(|| ExecError::NoHostLeft {
+                    path: task.path.clone(),
+                    service: task.service.clone(),
+                    reasons: reasons.join("; "),
+                })?;
+                self.plan.assign(&task.path, replacement);
+                continue;
+            }
+            match self.attempt(task, kind, &host, &failed).await {
+                Ok((index, result)) => return Ok((index, result, host)),
+                Err(failure) => {
+                    let busy = matches!(failure, Failure::Busy(_));
+                    let message = failure.set_aside(&host).map_err(|StepFailed(message)| {
+                        ExecError::Step {
+                            path: task.path.clone(),
+                            service: task.service.clone(),
+                            host: host.url.clone(),
+                            message,
+                        }
+                    })?;
+                    // A busy host keeps its copy of the mesh for its later tasks.
+                    if !busy {
+                        self.replicas.retain(|r| !Arc::ptr_eq(&r.host, &host));
+                    }
+                    reasons.push(format!("{}: {message}", host.url));
+                    failed.push(host);
+                }
+            }
+        }
+    }
+
+    /// Runs the task on `host` once its session holds the current mesh, checks the answer
+    /// and records the step; its index and the answer.
+    async fn attempt(
+        &mut self,
+        task: &Task,
+        kind: &'static str,
+        host: &Arc<HostEntry>,
+        failed: &[Arc<HostEntry>],
+    ) -> Result<(usize, RunResult), Failure> {
+        let waiting = Instant::now();
+        let session = self.bring_up_to_date(host).await?;
+        let wait_ms = waiting.elapsed().as_secs_f64() * 1e3;
+        let overhead_ms = (self.last_reply.elapsed().as_secs_f64() * 1e3 - wait_ms).max(0.0);
+        let request = RunRequest {
+            service: task.service.clone(),
+            params: task.params.clone(),
+            plugin: task.plugin.clone(),
+        };
+        let started_ms = self.run.elapsed_ms();
+        let (result, busy) = {
+            let _in_flight = host.assign();
+            busy::run_when_free(&host.client, &session, &request).await
+        };
+        let result = result?;
+        self.last_reply = Instant::now();
+        let asked = verify::Asked {
+            host: &host.url,
+            service: &task.service,
+            input_hash: &self.current.hash,
+            input_counts: (self.current.vertices, self.current.triangles),
+        };
+        match &result {
+            RunResult::Filter(filter) => asked.filter(filter)?,
+            RunResult::Check(check) => asked.check(check, declared_type(host, &task.service)?)?,
+        }
+        let answer = Answer::of(&result);
+        verify::ran_pinned(answer.plugin, task.plugin.as_deref())?;
+        let ran = Ran {
+            task,
+            kind,
+            host: &host.url,
+            input_hash: self.current.hash.clone(),
+            started_ms,
+            finished_ms: self.run.elapsed_ms(),
+            busy_ms: busy.as_secs_f64() * 1e3,
+            wait_ms,
+            overhead_ms,
+            failed,
+        };
+        let index = self.run.push_step(ran.record(&answer));
+        Ok((index, result))
+    }
+}
+
+/// Opens a session on `host` from `url` (the run deletes it when it ends) and waits until
+/// it is loaded.
+pub(super) async fn load_input(
+    run: &Run,
+    host: Arc<HostEntry>,
+    url: &str,
+    hash: Option<String>,
+    grid: Option<GridSpec>,
+) -> Result<(String, SessionStatus), Failure> {
+    let input = InputRef { url: url.to_owned(), hash: hash.clone() };
+    let created = host.client.create_session_with(CreateSession { input, grid }).await?;
+    run.session_opened(&host.url, &created.id);
+    let status = host.client.wait_ready(&created.id).await?;
+    match status.state {
+        SessionState::Failed => Err(Failure::Step(
+            status.error.unwrap_or_else(|| "the host could not load it".to_owned()),
+        )),
+        _ => {
+            verify::loaded(&status, hash.as_deref())?;
+            Ok((created.id, status))
+        }
+    }
+}
+
+/// The result type `host` declares for the check `service`; a host answering a check it
+/// does not declare is not to be believed.
+fn declared_type(host: &HostEntry, service: &str) -> Result<ValueType, Failure> {
+    let services = host.state().services;
+    let declared = services.iter().find(|s| s.info.name == service);
+    declared.and_then(|s| s.info.result_type).ok_or_else(|| {
+        Failure::Suspect(format!("answered the check {service:?}, which it does not declare"))
+    })
+}

@@ -1,0 +1,72 @@
+//! A run's meshes in the user's format: `GET /runs/{id}/result`, `/input` and
+//! `/steps/{index}/output`, each `?format=` (see `crate::downloads`).
+
+use std::sync::Arc;
+
+use axum::extract::{Path, Query, State};
+use axum::http::header;
+use axum::response::{IntoResponse, Response};
+use meshflow_api::host::MeshFileFormat;
+use serde::Deserialize;
+
+use super::error::ApiResult;
+use super::runs::find;
+use crate::Engine;
+use crate::downloads::{DownloadError, Which};
+use crate::record::RunRecord;
+
+#[derive(Deserialize)]
+pub struct FormatQuery {
+    format: Option<String>,
+}
+
+/// `GET /runs/{id}/result[?format=]`: the final mesh, fetched from its host with the cluster
+/// token (a user holds none, so a redirect would not do), served only if it is the mesh the
+/// record names (its content hash checked), in the asked format (`.mfm` by default).
+pub async fn result(
+    State(engine): State<Arc<Engine>>,
+    Path(id): Path<String>,
+    Query(query): Query<FormatQuery>,
+) -> ApiResult<Response> {
+    let record = find(&engine, &id)?.record();
+    // `.mfm` unless asked otherwise: the CLI decodes it (and checks it once more).
+    mesh(&engine, &record, Which::Result, query.format).await
+}
+
+/// `GET /runs/{id}/input?format=`: the run's input, if it was uploaded to this engine.
+pub async fn input(
+    State(engine): State<Arc<Engine>>,
+    Path(id): Path<String>,
+    Query(query): Query<FormatQuery>,
+) -> ApiResult<Response> {
+    let record = find(&engine, &id)?.record();
+    mesh(&engine, &record, Which::Input, query.format).await
+}
+
+/// `GET /runs/{id}/steps/{index}/output?format=`: a filter step's output, while its host
+/// still holds it.
+pub async fn step_output(
+    State(engine): State<Arc<Engine>>,
+    Path((id, index)): Path<(String, usize)>,
+    Query(query): Query<FormatQuery>,
+) -> ApiResult<Response> {
+    let record = find(&engine, &id)?.record();
+    mesh(&engine, &record, Which::Step(index), query.format).await
+}
+
+async fn mesh(
+    engine: &Engine,
+    record: &RunRecord,
+    which: Which,
+    format: Option<String>,
+) -> ApiResult<Response> {
+    let name = format.unwrap_or_else(|| "mfm".into());
+    let format = MeshFileFormat::parse(&name)
+        .ok_or_else(|| DownloadError::BadFormat(name.chars().take(16).collect()))?;
+    let download = engine.download(record, which, format).await?;
+    let headers = [
+        (header::CONTENT_TYPE, "application/octet-stream".to_owned()),
+        (header::CONTENT_DISPOSITION, format!("attachment; filename=\"{}\"", download.file_name)),
+    ];
+    Ok((headers, download.bytes).into_response())
+}

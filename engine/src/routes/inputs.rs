@@ -1,0 +1,48 @@
+//! `POST /inputs?name=` (an upload, streamed to disk and kept by its digest) and
+//! `GET /inputs/{file}` (what hosts fetch).
+
+use std::sync::Arc;
+
+use axum::Json;
+use axum::body::Body;
+use axum::extract::{Path, Query, State};
+use axum::http::{StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use meshflow_api::engine::InputUploaded;
+use serde::Deserialize;
+
+use super::error::{ApiError, ApiResult};
+use crate::Engine;
+
+#[derive(Deserialize)]
+pub struct InputQuery {
+    name: Option<String>,
+}
+
+pub async fn upload(
+    State(engine): State<Arc<Engine>>,
+    Query(query): Query<InputQuery>,
+    body: Body,
+) -> ApiResult<(StatusCode, Json<InputUploaded>)> {
+    let name = query.name.ok_or_else(|| {
+        ApiError::bad_request("bad-request", "give the file name, e.g. POST /inputs?name=bunny.ply")
+    })?;
+    let (url, bytes) = engine.put_input(&name, body.into_data_stream()).await?;
+    Ok((StatusCode::CREATED, Json(InputUploaded { url, bytes })))
+}
+
+/// Streams a stored input (inputs may be gigabytes: never read whole).
+pub async fn download(
+    State(engine): State<Arc<Engine>>,
+    Path(file): Path<String>,
+) -> ApiResult<Response> {
+    let path = engine.inputs.path(&file).ok_or_else(|| ApiError::not_found("input", &file))?;
+    let opened = tokio::fs::File::open(&path).await.map_err(ApiError::internal)?;
+    let length = opened.metadata().await.map_err(ApiError::internal)?.len();
+    let body = Body::from_stream(tokio_util::io::ReaderStream::new(opened));
+    let headers = [
+        (header::CONTENT_TYPE, "application/octet-stream".to_owned()),
+        (header::CONTENT_LENGTH, length.to_string()),
+    ];
+    Ok((headers, body).into_response())
+}

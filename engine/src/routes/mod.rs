@@ -1,0 +1,80 @@
+//! The engine HTTP API (DESIGN §6): hosts, catalogue, inputs, runs with their status,
+//! progress events and result, batches, workflow checks, plugin uploads and the web UI.
+//! One file per resource; errors are `{"error": {"code", "message"}}` ([`error`]); who may
+//! call what is [`auth`].
+
+mod auth;
+mod batches;
+mod downloads;
+mod error;
+mod events;
+mod hosts;
+mod inputs;
+mod plugins;
+mod runs;
+mod ui;
+mod workflows;
+
+use std::sync::Arc;
+
+use axum::extract::DefaultBodyLimit;
+use axum::http::{HeaderMap, header};
+use axum::routing::{get, post};
+use axum::{Json, Router};
+use serde_json::json;
+
+use crate::Engine;
+use crate::limits::{MAX_PLUGIN_FORWARD_BYTES, MAX_REGISTER_BYTES, MAX_SUBMIT_BYTES};
+
+pub fn router(engine: Arc<Engine>) -> Router {
+    Router::new()
+        .route("/", get(ui::index))
+        .route("/assets/{file}", get(ui::asset))
+        .route("/health", get(|| async { Json(json!({"status": "ok"})) }))
+        .route(
+            "/hosts",
+            get(hosts::list).post(hosts::register).layer(DefaultBodyLimit::max(MAX_REGISTER_BYTES)),
+        )
+        .route("/services", get(hosts::services))
+        // Streamed to disk: the limit is applied while writing.
+        .route("/inputs", post(inputs::upload).layer(DefaultBodyLimit::disable()))
+        .route("/inputs/{file}", get(inputs::download))
+        .route(
+            "/runs",
+            get(runs::list).post(runs::submit).layer(DefaultBodyLimit::max(MAX_SUBMIT_BYTES)),
+        )
+        .route("/runs/{id}", get(runs::status))
+        .route("/runs/{id}/cancel", post(runs::cancel))
+        .route("/runs/{id}/rerun", post(runs::rerun))
+        .route("/batches", post(batches::submit).layer(DefaultBodyLimit::max(MAX_SUBMIT_BYTES)))
+        .route("/batches/{id}", get(batches::status))
+        .route("/runs/{id}/comparison", get(runs::comparison))
+        .route("/runs/{id}/events", get(events::stream))
+        .route("/runs/{id}/workflow", get(runs::workflow))
+        .route("/runs/{id}/result", get(downloads::result))
+        .route("/runs/{id}/input", get(downloads::input))
+        .route("/runs/{id}/steps/{index}/output", get(downloads::step_output))
+        .route(
+            "/workflows/validate",
+            post(workflows::validate).layer(DefaultBodyLimit::max(MAX_SUBMIT_BYTES)),
+        )
+        .route(
+            "/plugins",
+            post(plugins::forward).layer(DefaultBodyLimit::max(MAX_PLUGIN_FORWARD_BYTES)),
+        )
+        .layer(axum::middleware::from_fn_with_state(engine.clone(), auth::check))
+        .with_state(engine)
+}
+
+/// Who sends a request, for per-client limits: a digest of its bearer token, or
+/// `anonymous` (the token itself is never stored).
+fn client_of(headers: &HeaderMap) -> String {
+    let token = headers
+        .get(header::AUTHORIZATION)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.strip_prefix("Bearer "));
+    match token {
+        Some(token) => format!("token:{}", &blake3::hash(token.as_bytes()).to_hex()[..16]),
+        None => "anonymous".to_owned(),
+    }
+}
