@@ -22,7 +22,9 @@ use tower_http::timeout::RequestBodyTimeout;
 
 use crate::host::{ErrorBody, ErrorDetail};
 
+mod browser;
 mod tls;
+pub use browser::{BrowserGuard, guard as browser_guard};
 pub use tls::TlsFiles;
 
 /// A connection whose request head has not fully arrived after this long is closed.
