@@ -22,8 +22,8 @@ use std::cell::RefCell;
 use std::path::Path;
 
 pub use meshflow_mesh::MeshData;
+use meshflow_mesh::calls::{Called, MeshCalls, Recorder};
 pub use meshflow_mesh::store::Op;
-use meshflow_mesh::store::{self, Affine, MeshStore};
 
 use crate::bindings::meshflow::geometry::types::{
     EditError, EditErrorKind, Param, ParamInfo, ServiceKind, Value,
@@ -76,12 +76,10 @@ pub fn run(
             Param { name: p.name.clone(), value: given.unwrap_or_else(|| p.default.clone()) }
         })
         .collect();
-    let native = NativeMesh {
-        store: RefCell::new(MeshStore::new(mesh)),
-        read_only: info.kind == ServiceKind::Check,
-    };
+    let native =
+        NativeMesh { calls: RefCell::new(Recorder::new(mesh, info.kind == ServiceKind::Check)) };
     let outcome = crate::run(services, name, Mesh::native(&native), resolved).map_err(Error)?;
-    let (mesh, edits) = native.store.into_inner().finish();
+    let (mesh, edits) = native.calls.into_inner().finish();
     Ok(Outcome { mesh, edits, report: outcome.report, value: outcome.value })
 }
 
@@ -112,155 +110,133 @@ fn check_value(service: &str, declared: &ParamInfo, value: &Value) -> Result<()>
 }
 
 /// The in-process twin of the host's mesh resource: the same methods as the generated
-/// import, each a read of, or an [`Op`] on, the recording store.
+/// import, each a call of the store's checked interface ([`MeshCalls`]), which the runtime
+/// wraps too.
 pub(crate) struct NativeMesh {
-    store: RefCell<MeshStore>,
-    read_only: bool,
+    calls: RefCell<Recorder>,
 }
 
 type Edit<T> = std::result::Result<T, EditError>;
 
-fn to_wit(e: store::EditError) -> EditError {
-    use store::EditErrorKind as K;
-    let kind = match e.kind {
-        K::InvalidVertex => EditErrorKind::InvalidVertex,
-        K::InvalidTriangle => EditErrorKind::InvalidTriangle,
-        K::InvalidEdge => EditErrorKind::InvalidEdge,
-        K::RepeatedVertex => EditErrorKind::RepeatedVertex,
-        K::InvalidArgument => EditErrorKind::InvalidArgument,
-        K::NotApplicable => EditErrorKind::NotApplicable,
-        K::ReadOnly => EditErrorKind::ReadOnly,
-    };
-    EditError { kind, message: e.message }
-}
-
-fn affine(matrix: &[f32]) -> Edit<Affine> {
-    matrix.try_into().map_err(|_| EditError {
-        kind: EditErrorKind::InvalidArgument,
-        message: format!("an affine map has 12 values (row-major 3x4), got {}", matrix.len()),
-    })
-}
+meshflow_mesh::wit_edit_error!(fn to_wit -> EditError { kind: EditErrorKind });
 
 impl NativeMesh {
-    fn edit(&self, op: Op) -> Edit<Option<u32>> {
-        if self.read_only {
-            let message = format!("{} refused: a check may not edit the mesh", op.kind().name());
-            return Err(EditError { kind: EditErrorKind::ReadOnly, message });
-        }
-        self.store.borrow_mut().apply(op).map_err(to_wit)
+    /// Reads or edits through the shared calls; nothing stops a native run.
+    fn call<T>(
+        &self,
+        call: impl FnOnce(&mut Recorder) -> Called<T, std::convert::Infallible>,
+    ) -> Edit<T> {
+        let Ok(result) = call(&mut self.calls.borrow_mut());
+        result.map_err(to_wit)
     }
 
-    fn unit(&self, op: Op) -> Edit<()> {
-        self.edit(op).map(|_| ())
-    }
-
-    fn id(&self, op: Op) -> Edit<u32> {
-        self.edit(op).map(|id| id.expect("this op creates an element"))
+    fn read<T>(&self, read: impl FnOnce(&Recorder) -> T) -> T {
+        read(&self.calls.borrow())
     }
 
     pub fn vertex_slots(&self) -> u32 {
-        self.store.borrow().vertex_slots()
+        self.read(|m| m.vertex_slots())
     }
     pub fn triangle_slots(&self) -> u32 {
-        self.store.borrow().triangle_slots()
+        self.read(|m| m.triangle_slots())
     }
     pub fn vertex_count(&self) -> u32 {
-        self.store.borrow().vertex_count()
+        self.read(|m| m.vertex_count())
     }
     pub fn triangle_count(&self) -> u32 {
-        self.store.borrow().triangle_count()
+        self.read(|m| m.triangle_count())
     }
     pub fn positions(&self) -> Vec<f32> {
-        self.store.borrow().positions().to_vec()
+        self.read(|m| m.store().positions().to_vec())
     }
     pub fn triangles(&self) -> Vec<u32> {
-        self.store.borrow().triangles().to_vec()
+        self.read(|m| m.store().triangles().to_vec())
     }
     pub fn removed_vertices(&self) -> Vec<u32> {
-        self.store.borrow().removed_vertices()
+        self.read(|m| m.removed_vertices())
     }
     pub fn position(&self, v: u32) -> Edit<(f32, f32, f32)> {
-        self.store.borrow().position(v).map(|[x, y, z]| (x, y, z)).map_err(to_wit)
+        self.read(|m| m.position(v)).map_err(to_wit)
     }
     pub fn triangle(&self, t: u32) -> Edit<(u32, u32, u32)> {
-        self.store.borrow().triangle(t).map(|[a, b, c]| (a, b, c)).map_err(to_wit)
+        self.read(|m| m.triangle(t)).map_err(to_wit)
     }
     pub fn is_vertex_live(&self, v: u32) -> bool {
-        self.store.borrow().is_vertex_live(v)
+        self.read(|m| m.is_vertex_live(v))
     }
     pub fn is_triangle_live(&self, t: u32) -> bool {
-        self.store.borrow().is_triangle_live(t)
+        self.read(|m| m.is_triangle_live(t))
     }
     pub fn add_vertex(&self, x: f32, y: f32, z: f32) -> Edit<u32> {
-        self.id(Op::AddVertices { xyz: vec![x, y, z] })
+        self.call(|m| m.add_vertex(x, y, z))
     }
     pub fn add_vertices(&self, xyz: &[f32]) -> Edit<u32> {
-        self.id(Op::AddVertices { xyz: xyz.to_vec() })
+        self.call(|m| m.add_vertices(xyz.to_vec()))
     }
     pub fn move_vertex(&self, vertex: u32, x: f32, y: f32, z: f32) -> Edit<()> {
-        self.unit(Op::MoveVertices { ids: vec![vertex], xyz: vec![x, y, z] })
+        self.call(|m| m.move_vertex(vertex, x, y, z))
     }
     pub fn move_vertices(&self, ids: &[u32], xyz: &[f32]) -> Edit<()> {
-        self.unit(Op::MoveVertices { ids: ids.to_vec(), xyz: xyz.to_vec() })
+        self.call(|m| m.move_vertices(ids.to_vec(), xyz.to_vec()))
     }
     pub fn set_positions(&self, xyz: &[f32]) -> Edit<()> {
-        self.unit(Op::SetPositions { xyz: xyz.to_vec() })
+        self.call(|m| m.set_positions(xyz.to_vec()))
     }
     pub fn remove_vertex(&self, vertex: u32) -> Edit<()> {
-        self.unit(Op::RemoveVertices { ids: vec![vertex] })
+        self.call(|m| m.remove_vertex(vertex))
     }
     pub fn remove_vertices(&self, ids: &[u32]) -> Edit<()> {
-        self.unit(Op::RemoveVertices { ids: ids.to_vec() })
+        self.call(|m| m.remove_vertices(ids.to_vec()))
     }
     pub fn add_triangle(&self, a: u32, b: u32, c: u32) -> Edit<u32> {
-        self.id(Op::AddTriangles { abc: vec![a, b, c] })
+        self.call(|m| m.add_triangle(a, b, c))
     }
     pub fn add_triangles(&self, abc: &[u32]) -> Edit<u32> {
-        self.id(Op::AddTriangles { abc: abc.to_vec() })
+        self.call(|m| m.add_triangles(abc.to_vec()))
     }
     pub fn remove_triangle(&self, triangle: u32) -> Edit<()> {
-        self.unit(Op::RemoveTriangles { ids: vec![triangle] })
+        self.call(|m| m.remove_triangle(triangle))
     }
     pub fn remove_triangles(&self, ids: &[u32]) -> Edit<()> {
-        self.unit(Op::RemoveTriangles { ids: ids.to_vec() })
+        self.call(|m| m.remove_triangles(ids.to_vec()))
     }
     pub fn flip_triangle(&self, triangle: u32) -> Edit<()> {
-        self.unit(Op::FlipTriangles { ids: vec![triangle] })
+        self.call(|m| m.flip_triangle(triangle))
     }
     pub fn flip_triangles(&self, ids: &[u32]) -> Edit<()> {
-        self.unit(Op::FlipTriangles { ids: ids.to_vec() })
+        self.call(|m| m.flip_triangles(ids.to_vec()))
     }
     pub fn split_triangle(&self, triangle: u32) -> Edit<u32> {
-        self.id(Op::SplitTriangle { triangle, at: None })
+        self.call(|m| m.split_triangle(triangle))
     }
     pub fn split_triangle_at(&self, triangle: u32, x: f32, y: f32, z: f32) -> Edit<u32> {
-        self.id(Op::SplitTriangle { triangle, at: Some([x, y, z]) })
+        self.call(|m| m.split_triangle_at(triangle, x, y, z))
     }
     pub fn extend_edge(&self, edge: u32, vertex: u32) -> Edit<u32> {
-        self.id(Op::ExtendEdge { edge, vertex })
+        self.call(|m| m.extend_edge(edge, vertex))
     }
     pub fn split_edge(&self, edge: u32) -> Edit<u32> {
-        self.id(Op::SplitEdge { edge, at: None })
+        self.call(|m| m.split_edge(edge))
     }
     pub fn split_edge_at(&self, edge: u32, x: f32, y: f32, z: f32) -> Edit<u32> {
-        self.id(Op::SplitEdge { edge, at: Some([x, y, z]) })
+        self.call(|m| m.split_edge_at(edge, x, y, z))
     }
     pub fn swap_edge(&self, edge: u32) -> Edit<()> {
-        self.unit(Op::SwapEdge { edge })
+        self.call(|m| m.swap_edge(edge))
     }
     pub fn collapse_edge(&self, edge: u32) -> Edit<()> {
-        self.unit(Op::CollapseEdge { edge })
+        self.call(|m| m.collapse_edge(edge))
     }
     pub fn remove_component(&self, triangle: u32) -> Edit<()> {
-        self.unit(Op::RemoveComponent { triangle })
+        self.call(|m| m.remove_component(triangle))
     }
     pub fn transform_component(&self, triangle: u32, matrix: &[f32]) -> Edit<()> {
-        self.unit(Op::TransformComponent { triangle, matrix: affine(matrix)? })
+        self.call(|m| m.transform_component(triangle, matrix))
     }
     pub fn transform(&self, matrix: &[f32]) -> Edit<()> {
-        self.unit(Op::Transform { matrix: affine(matrix)? })
+        self.call(|m| m.transform(matrix))
     }
     pub fn clear(&self) -> Edit<()> {
-        self.unit(Op::Clear)
+        self.call(|m| m.clear())
     }
 }

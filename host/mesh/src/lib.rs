@@ -1,10 +1,13 @@
 //! The mesh model every host shares: [`MeshData`] (a compact indexed triangle set) with its
 //! canonical [`ContentHash`], and the recording [`store`] through which every edit passes
-//! and is logged as an [`store::Op`] — the vocabulary corrections are made of.
+//! and is logged as an [`store::Op`] — the vocabulary corrections are made of — and the
+//! WIT `mesh` interface's checked [`calls`] on that store, which the runtime and the SDK's
+//! native runs both wrap.
 //!
 //! This crate must not depend on file formats, codecs, wasmtime or HTTP: everything else
 //! builds on it.
 
+pub mod calls;
 mod data;
 pub mod store;
 

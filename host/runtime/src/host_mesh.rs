@@ -1,62 +1,51 @@
 //! The host side of the WIT `mesh` interface: every call is a read of, or an [`Op`] on, the
-//! run's [`MeshStore`](meshflow_mesh::store::MeshStore).
+//! run's [`MeshStore`], through the checks shared with the SDK's native runs
+//! ([`MeshCalls`]); the run adds its edit budget, whose exhaustion traps.
+//!
+//! [`Op`]: meshflow_mesh::store::Op
 
 use wasmtime::component::Resource;
 
 use super::bindings::meshflow::geometry::mesh::{Host, HostMesh};
 use super::bindings::{EditError, EditErrorKind};
 use super::state::{MeshHandle, RunState};
-use meshflow_mesh::store::{self, Op};
+use meshflow_mesh::calls::{Called, MeshCalls};
+use meshflow_mesh::store::{MeshStore, OpKind};
 
 type EditResult<T> = wasmtime::Result<Result<T, EditError>>;
 
-impl RunState {
-    /// Performs an edit after the read-only and budget checks. `elements` is the size of
-    /// the arguments, charged against the run's edit budget.
-    fn edit(&mut self, op: Op, elements: usize) -> EditResult<Option<u32>> {
-        if self.read_only {
-            return Ok(Err(EditError {
-                kind: EditErrorKind::ReadOnly,
-                message: format!("{} refused: a check may not edit the mesh", op.kind().name()),
-            }));
-        }
+impl MeshCalls for RunState {
+    type Stop = wasmtime::Error;
+
+    fn store(&self) -> &MeshStore {
+        &self.mesh
+    }
+
+    fn store_mut(&mut self) -> &mut MeshStore {
+        &mut self.mesh
+    }
+
+    fn read_only(&self) -> bool {
+        self.read_only
+    }
+
+    /// `elements + 1` against the run's edit budget; past it the run is stopped.
+    fn charge(&mut self, kind: OpKind, elements: usize) -> wasmtime::Result<()> {
         let cost = elements as u64 + 1;
         if cost > self.edit_budget {
             self.edit_budget_exceeded = true;
-            wasmtime::bail!("edit budget exhausted at {}", op.kind().name());
+            wasmtime::bail!("edit budget exhausted at {}", kind.name());
         }
         self.edit_budget -= cost;
-        Ok(self.mesh.apply(op).map_err(to_wit))
-    }
-
-    fn edit_unit(&mut self, op: Op, elements: usize) -> EditResult<()> {
-        Ok(self.edit(op, elements)?.map(|_| ()))
-    }
-
-    fn edit_id(&mut self, op: Op, elements: usize) -> EditResult<u32> {
-        Ok(self.edit(op, elements)?.map(|id| id.expect("this op creates an element")))
+        Ok(())
     }
 }
 
-fn to_wit(e: store::EditError) -> EditError {
-    use store::EditErrorKind as K;
-    let kind = match e.kind {
-        K::InvalidVertex => EditErrorKind::InvalidVertex,
-        K::InvalidTriangle => EditErrorKind::InvalidTriangle,
-        K::InvalidEdge => EditErrorKind::InvalidEdge,
-        K::RepeatedVertex => EditErrorKind::RepeatedVertex,
-        K::InvalidArgument => EditErrorKind::InvalidArgument,
-        K::NotApplicable => EditErrorKind::NotApplicable,
-        K::ReadOnly => EditErrorKind::ReadOnly,
-    };
-    EditError { kind, message: e.message }
-}
+meshflow_mesh::wit_edit_error!(fn to_wit -> EditError { kind: EditErrorKind });
 
-fn affine(matrix: &[f32]) -> Result<store::Affine, EditError> {
-    matrix.try_into().map_err(|_| EditError {
-        kind: EditErrorKind::InvalidArgument,
-        message: format!("an affine map has 12 values (row-major 3x4), got {}", matrix.len()),
-    })
+/// A shared call's answer in the generated trait's shape.
+fn wit<T>(called: Called<T, wasmtime::Error>) -> EditResult<T> {
+    Ok(called?.map_err(to_wit))
 }
 
 impl Host for RunState {}
@@ -65,19 +54,19 @@ impl super::bindings::meshflow::geometry::types::Host for RunState {}
 
 impl HostMesh for RunState {
     fn vertex_slots(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<u32> {
-        Ok(self.mesh.vertex_slots())
+        Ok(MeshCalls::vertex_slots(self))
     }
 
     fn triangle_slots(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<u32> {
-        Ok(self.mesh.triangle_slots())
+        Ok(MeshCalls::triangle_slots(self))
     }
 
     fn vertex_count(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<u32> {
-        Ok(self.mesh.vertex_count())
+        Ok(MeshCalls::vertex_count(self))
     }
 
     fn triangle_count(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<u32> {
-        Ok(self.mesh.triangle_count())
+        Ok(MeshCalls::triangle_count(self))
     }
 
     // The bulk reads are redefined in the linker to lower without a copy (see
@@ -91,32 +80,31 @@ impl HostMesh for RunState {
     }
 
     fn removed_vertices(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<Vec<u32>> {
-        Ok(self.mesh.removed_vertices())
+        Ok(MeshCalls::removed_vertices(self))
     }
 
     fn position(&mut self, _: Resource<MeshHandle>, v: u32) -> EditResult<(f32, f32, f32)> {
-        Ok(self.mesh.position(v).map(|[x, y, z]| (x, y, z)).map_err(to_wit))
+        Ok(MeshCalls::position(self, v).map_err(to_wit))
     }
 
     fn triangle(&mut self, _: Resource<MeshHandle>, t: u32) -> EditResult<(u32, u32, u32)> {
-        Ok(self.mesh.triangle(t).map(|[a, b, c]| (a, b, c)).map_err(to_wit))
+        Ok(MeshCalls::triangle(self, t).map_err(to_wit))
     }
 
     fn is_vertex_live(&mut self, _: Resource<MeshHandle>, v: u32) -> wasmtime::Result<bool> {
-        Ok(self.mesh.is_vertex_live(v))
+        Ok(MeshCalls::is_vertex_live(self, v))
     }
 
     fn is_triangle_live(&mut self, _: Resource<MeshHandle>, t: u32) -> wasmtime::Result<bool> {
-        Ok(self.mesh.is_triangle_live(t))
+        Ok(MeshCalls::is_triangle_live(self, t))
     }
 
     fn add_vertex(&mut self, _: Resource<MeshHandle>, x: f32, y: f32, z: f32) -> EditResult<u32> {
-        self.edit_id(Op::AddVertices { xyz: vec![x, y, z] }, 3)
+        wit(MeshCalls::add_vertex(self, x, y, z))
     }
 
     fn add_vertices(&mut self, _: Resource<MeshHandle>, xyz: Vec<f32>) -> EditResult<u32> {
-        let n = xyz.len();
-        self.edit_id(Op::AddVertices { xyz }, n)
+        wit(MeshCalls::add_vertices(self, xyz))
     }
 
     fn move_vertex(
@@ -127,7 +115,7 @@ impl HostMesh for RunState {
         y: f32,
         z: f32,
     ) -> EditResult<()> {
-        self.edit_unit(Op::MoveVertices { ids: vec![vertex], xyz: vec![x, y, z] }, 4)
+        wit(MeshCalls::move_vertex(self, vertex, x, y, z))
     }
 
     fn move_vertices(
@@ -136,53 +124,47 @@ impl HostMesh for RunState {
         ids: Vec<u32>,
         xyz: Vec<f32>,
     ) -> EditResult<()> {
-        let n = ids.len() + xyz.len();
-        self.edit_unit(Op::MoveVertices { ids, xyz }, n)
+        wit(MeshCalls::move_vertices(self, ids, xyz))
     }
 
     fn set_positions(&mut self, _: Resource<MeshHandle>, xyz: Vec<f32>) -> EditResult<()> {
-        let n = xyz.len();
-        self.edit_unit(Op::SetPositions { xyz }, n)
+        wit(MeshCalls::set_positions(self, xyz))
     }
 
     fn remove_vertex(&mut self, _: Resource<MeshHandle>, vertex: u32) -> EditResult<()> {
-        self.edit_unit(Op::RemoveVertices { ids: vec![vertex] }, 1)
+        wit(MeshCalls::remove_vertex(self, vertex))
     }
 
     fn remove_vertices(&mut self, _: Resource<MeshHandle>, ids: Vec<u32>) -> EditResult<()> {
-        let n = ids.len();
-        self.edit_unit(Op::RemoveVertices { ids }, n)
+        wit(MeshCalls::remove_vertices(self, ids))
     }
 
     fn add_triangle(&mut self, _: Resource<MeshHandle>, a: u32, b: u32, c: u32) -> EditResult<u32> {
-        self.edit_id(Op::AddTriangles { abc: vec![a, b, c] }, 3)
+        wit(MeshCalls::add_triangle(self, a, b, c))
     }
 
     fn add_triangles(&mut self, _: Resource<MeshHandle>, abc: Vec<u32>) -> EditResult<u32> {
-        let n = abc.len();
-        self.edit_id(Op::AddTriangles { abc }, n)
+        wit(MeshCalls::add_triangles(self, abc))
     }
 
     fn remove_triangle(&mut self, _: Resource<MeshHandle>, triangle: u32) -> EditResult<()> {
-        self.edit_unit(Op::RemoveTriangles { ids: vec![triangle] }, 1)
+        wit(MeshCalls::remove_triangle(self, triangle))
     }
 
     fn remove_triangles(&mut self, _: Resource<MeshHandle>, ids: Vec<u32>) -> EditResult<()> {
-        let n = ids.len();
-        self.edit_unit(Op::RemoveTriangles { ids }, n)
+        wit(MeshCalls::remove_triangles(self, ids))
     }
 
     fn flip_triangle(&mut self, _: Resource<MeshHandle>, triangle: u32) -> EditResult<()> {
-        self.edit_unit(Op::FlipTriangles { ids: vec![triangle] }, 1)
+        wit(MeshCalls::flip_triangle(self, triangle))
     }
 
     fn flip_triangles(&mut self, _: Resource<MeshHandle>, ids: Vec<u32>) -> EditResult<()> {
-        let n = ids.len();
-        self.edit_unit(Op::FlipTriangles { ids }, n)
+        wit(MeshCalls::flip_triangles(self, ids))
     }
 
     fn split_triangle(&mut self, _: Resource<MeshHandle>, triangle: u32) -> EditResult<u32> {
-        self.edit_id(Op::SplitTriangle { triangle, at: None }, 1)
+        wit(MeshCalls::split_triangle(self, triangle))
     }
 
     fn split_triangle_at(
@@ -193,15 +175,15 @@ impl HostMesh for RunState {
         y: f32,
         z: f32,
     ) -> EditResult<u32> {
-        self.edit_id(Op::SplitTriangle { triangle, at: Some([x, y, z]) }, 4)
+        wit(MeshCalls::split_triangle_at(self, triangle, x, y, z))
     }
 
     fn extend_edge(&mut self, _: Resource<MeshHandle>, edge: u32, vertex: u32) -> EditResult<u32> {
-        self.edit_id(Op::ExtendEdge { edge, vertex }, 2)
+        wit(MeshCalls::extend_edge(self, edge, vertex))
     }
 
     fn split_edge(&mut self, _: Resource<MeshHandle>, edge: u32) -> EditResult<u32> {
-        self.edit_id(Op::SplitEdge { edge, at: None }, 1)
+        wit(MeshCalls::split_edge(self, edge))
     }
 
     fn split_edge_at(
@@ -212,19 +194,19 @@ impl HostMesh for RunState {
         y: f32,
         z: f32,
     ) -> EditResult<u32> {
-        self.edit_id(Op::SplitEdge { edge, at: Some([x, y, z]) }, 4)
+        wit(MeshCalls::split_edge_at(self, edge, x, y, z))
     }
 
     fn swap_edge(&mut self, _: Resource<MeshHandle>, edge: u32) -> EditResult<()> {
-        self.edit_unit(Op::SwapEdge { edge }, 1)
+        wit(MeshCalls::swap_edge(self, edge))
     }
 
     fn collapse_edge(&mut self, _: Resource<MeshHandle>, edge: u32) -> EditResult<()> {
-        self.edit_unit(Op::CollapseEdge { edge }, 1)
+        wit(MeshCalls::collapse_edge(self, edge))
     }
 
     fn remove_component(&mut self, _: Resource<MeshHandle>, triangle: u32) -> EditResult<()> {
-        self.edit_unit(Op::RemoveComponent { triangle }, 1)
+        wit(MeshCalls::remove_component(self, triangle))
     }
 
     fn transform_component(
@@ -233,21 +215,15 @@ impl HostMesh for RunState {
         triangle: u32,
         matrix: Vec<f32>,
     ) -> EditResult<()> {
-        match affine(&matrix) {
-            Ok(matrix) => self.edit_unit(Op::TransformComponent { triangle, matrix }, 13),
-            Err(e) => Ok(Err(e)),
-        }
+        wit(MeshCalls::transform_component(self, triangle, &matrix))
     }
 
     fn transform(&mut self, _: Resource<MeshHandle>, matrix: Vec<f32>) -> EditResult<()> {
-        match affine(&matrix) {
-            Ok(matrix) => self.edit_unit(Op::Transform { matrix }, 12),
-            Err(e) => Ok(Err(e)),
-        }
+        wit(MeshCalls::transform(self, &matrix))
     }
 
     fn clear(&mut self, _: Resource<MeshHandle>) -> EditResult<()> {
-        self.edit_unit(Op::Clear, 1)
+        wit(MeshCalls::clear(self))
     }
 
     fn drop(&mut self, handle: Resource<MeshHandle>) -> wasmtime::Result<()> {
