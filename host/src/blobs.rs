@@ -10,9 +10,15 @@ use super::meshes;
 use meshflow_mesh::MeshData;
 use meshflow_meshio as io;
 
-/// Why a blob could not be stored or evicted.
+/// Why a blob could not be read, stored or evicted.
 #[derive(Debug, thiserror::Error)]
 pub enum BlobError {
+    #[error("blob {name}: {source}")]
+    Read {
+        name: String,
+        #[source]
+        source: std::io::Error,
+    },
     #[error("storing blob {name}: {message}")]
     Store { name: String, message: String },
     #[error("evicting blobs: {0}")]
@@ -72,8 +78,10 @@ impl BlobStore {
         Ok(Stored { _gate: gate })
     }
 
-    pub async fn read(&self, name: &str) -> Result<Vec<u8>, String> {
-        tokio::fs::read(self.path(name)).await.map_err(|e| format!("blob {name}: {e}"))
+    pub async fn read(&self, name: &str) -> Result<Vec<u8>, BlobError> {
+        tokio::fs::read(self.path(name))
+            .await
+            .map_err(|source| BlobError::Read { name: name.to_owned(), source })
     }
 
     /// Remembers an output mesh so its full blob can be made later; returns that name.

@@ -1,21 +1,26 @@
 //! Meshes written for people and other tools (DESIGN §6): a mesh this host holds, or fetches
 //! where the request says, as PLY, OBJ, OFF, STL, packed or `raw`, its content hash checked
 //! before a byte is written. The engine serves its downloads from here: it links no mesh
-//! codec (DESIGN §1).
+//! codec (DESIGN §1). Also the packing of an output mesh on its first request.
 
 use std::sync::Arc;
 
+use tokio::sync::Semaphore;
+
+use meshflow_api::ClientError;
 use meshflow_api::fetch_rules::FetchScope;
 use meshflow_api::host::MeshFileFormat;
 use meshflow_api::raw_mesh;
-use meshflow_codec::pack;
+use meshflow_codec::pack::{self, PackError};
 use meshflow_codec::quantize::Grid;
 use meshflow_mesh::{MeshData, as_le_bytes_f32, as_le_bytes_u32};
 use meshflow_meshio::{self as io, Format};
 
-use crate::meshes::{self, MeshEncoding};
-use crate::rebuild;
-use crate::state::Host;
+use crate::blobs::{BlobError, BlobStore};
+use crate::config::MAX_CONCURRENT_CONVERSIONS;
+use crate::downloads::Downloads;
+use crate::meshes::{self, MeshEncoding, MeshError, PACKED};
+use crate::sessions::Sessions;
 
 /// Why a mesh cannot be written.
 #[derive(Debug, thiserror::Error)]
@@ -23,11 +28,28 @@ pub enum ConvertError {
     #[error("this host holds no mesh with content hash {0}")]
     NotHeld(String),
     #[error("fetching the mesh: {0}")]
-    Fetch(String),
+    Download(#[source] ClientError),
+    #[error("fetching the mesh: {0}")]
+    Decode(#[source] MeshError),
     #[error("the mesh from {url} has content hash {actual}, not {expected}")]
     HashMismatch { url: String, expected: String, actual: String },
     #[error("writing the mesh as {format}: {message}")]
     Write { format: &'static str, message: String },
+}
+
+/// Why an output mesh could not be packed as its full blob.
+#[derive(Debug, thiserror::Error)]
+pub enum PackOutputError {
+    #[error("packing {name}: {source}")]
+    Pack {
+        name: String,
+        #[source]
+        source: PackError,
+    },
+    #[error(transparent)]
+    Blob(#[from] BlobError),
+    #[error("background task failed: {0}")]
+    Task(#[from] tokio::task::JoinError),
 }
 
 /// The mesh a conversion writes: its content hash, where to fetch it if this host does not
@@ -38,58 +60,133 @@ pub struct Source<'a> {
     pub grid: Option<Grid>,
 }
 
-/// Mesh `source.hash` as `format`: from this host's outputs, sessions or packed blobs, else
-/// downloaded from `source.from` within `scope`.
-pub async fn convert(
-    host: &Host,
-    source: Source<'_>,
-    scope: &FetchScope,
-    format: MeshFileFormat,
-) -> Result<Vec<u8>, ConvertError> {
-    let Source { hash, from, grid } = source;
-    // The packed blob as stored, not packed again (a run's result is packed as the run
-    // ends): its sealed header states the hash, which every reader's decode holds it to.
-    if format == MeshFileFormat::Mfm
-        && let Some(packed) = stored_packed(host, hash).await
-    {
-        return Ok(packed);
+/// Where this host holds meshes: its blobs (recent outputs in memory, packed ones on disk)
+/// and its sessions' current meshes.
+#[derive(Clone, Copy)]
+pub struct Held<'a> {
+    pub blobs: &'a BlobStore,
+    pub sessions: &'a Sessions,
+}
+
+impl Held<'_> {
+    /// The mesh with content hash `hash` decoded in memory here: a recent output or a
+    /// session's.
+    fn in_memory(self, hash: &str) -> Option<Arc<MeshData>> {
+        let name = meshes::full_mesh_name(hash);
+        self.blobs.recent(&name).or_else(|| self.sessions.mesh_with_hash(hash))
     }
-    // No slot is held over a download: a slow source must not stall other conversions.
-    let on_disk = host.blobs.path(&meshes::full_mesh_name(hash)).exists();
-    let fetched = match from {
-        Some(url) if !on_disk && held_in_memory(host, hash).is_none() => {
-            Some((url, host.download(url, scope).await))
+
+    /// The mesh behind a full-mesh blob name that is not packed yet: a recent output or a
+    /// session's current mesh.
+    pub fn unpacked_output(self, name: &str) -> Option<Arc<MeshData>> {
+        let hash = name.strip_suffix(&format!(".{PACKED}"))?;
+        self.blobs.recent(name).or_else(|| self.sessions.mesh_with_hash(hash))
+    }
+
+    /// This host's packed blob of mesh `hash`, if its header states that hash.
+    async fn stored_packed(self, hash: &str) -> Option<Vec<u8>> {
+        let packed = self.blobs.read(&meshes::full_mesh_name(hash)).await.ok()?;
+        let stated = pack::stated_hash(&packed).ok()?;
+        (stated.to_hex() == hash).then_some(packed)
+    }
+
+    /// The mesh with content hash `hash` if this host has it: in memory, or packed in its
+    /// blob store, decoded (which checks the hash) here.
+    async fn mesh(self, hash: &str) -> Option<(Arc<MeshData>, Option<Vec<u8>>)> {
+        if let Some(mesh) = self.in_memory(hash) {
+            return Some((mesh, None));
         }
-        _ => None,
-    };
-    // A slot before decoding and writing: memory stays bounded by the slots.
-    let _slot = host.conversions.acquire().await.expect("the semaphore is never closed");
-    let (mesh, packed) = match fetched {
-        Some((url, bytes)) => {
-            let bytes = bytes.map_err(|e| ConvertError::Fetch(e.to_string()))?;
-            let fetched = rebuild::decode_fetched(url, bytes).await.map_err(ConvertError::Fetch)?;
-            let (mesh, actual, packed) = match grid {
-                // Snapped, it is no longer the mesh its packed bytes hold.
-                Some(grid) => {
-                    let (mesh, hash) = snapped(fetched.mesh.mesh, grid).await;
-                    (mesh, hash, None)
-                }
-                None => {
-                    let packed = fetched.encoding == MeshEncoding::Packed;
-                    (fetched.mesh.mesh, fetched.mesh.hash, packed.then_some(fetched.bytes))
-                }
-            };
-            if actual != hash {
-                let (url, expected) = (url.to_owned(), hash.to_owned());
-                return Err(ConvertError::HashMismatch { url, expected, actual });
+        let packed = self.stored_packed(hash).await?;
+        let decoded = tokio::task::spawn_blocking(move || {
+            let mesh = pack::decode(&packed).ok()?;
+            Some((Arc::new(mesh), Some(packed)))
+        });
+        decoded.await.ok().flatten()
+    }
+}
+
+/// Meshes being written in a file format: at most [`MAX_CONCURRENT_CONVERSIONS`] at once.
+pub struct Conversions {
+    slots: Semaphore,
+}
+
+impl Default for Conversions {
+    fn default() -> Self {
+        Self { slots: Semaphore::new(MAX_CONCURRENT_CONVERSIONS) }
+    }
+}
+
+impl Conversions {
+    /// Mesh `source.hash` as `format`: from what this host `held`s, else downloaded from
+    /// `source.from` within `scope`.
+    pub async fn convert(
+        &self,
+        held: Held<'_>,
+        downloads: &Downloads,
+        source: Source<'_>,
+        scope: &FetchScope,
+        format: MeshFileFormat,
+    ) -> Result<Vec<u8>, ConvertError> {
+        let Source { hash, from, grid } = source;
+        // The packed blob as stored, not packed again (a run's result is packed as the run
+        // ends): its sealed header states the hash, which every reader's decode holds it to.
+        if format == MeshFileFormat::Mfm
+            && let Some(packed) = held.stored_packed(hash).await
+        {
+            return Ok(packed);
+        }
+        // No slot is held over a download: a slow source must not stall other conversions.
+        let on_disk = held.blobs.path(&meshes::full_mesh_name(hash)).exists();
+        let fetched = match from {
+            Some(url) if !on_disk && held.in_memory(hash).is_none() => {
+                Some((url, downloads.get(url, scope).await))
             }
-            (mesh, packed)
-        }
-        None => held(host, hash).await.ok_or_else(|| ConvertError::NotHeld(hash.to_owned()))?,
-    };
-    tokio::task::spawn_blocking(move || write(&mesh, packed, format))
-        .await
-        .expect("writing a mesh does not panic")
+            _ => None,
+        };
+        // A slot before decoding and writing: memory stays bounded by the slots.
+        let _slot = self.slots.acquire().await.expect("the semaphore is never closed");
+        let (mesh, packed) = match fetched {
+            Some((url, bytes)) => {
+                let bytes = bytes.map_err(ConvertError::Download)?;
+                let fetched =
+                    meshes::decode_hashed(url, bytes).await.map_err(ConvertError::Decode)?;
+                let (mesh, actual, packed) = match grid {
+                    // Snapped, it is no longer the mesh its packed bytes hold.
+                    Some(grid) => {
+                        let (mesh, hash) = snapped(fetched.mesh.mesh, grid).await;
+                        (mesh, hash, None)
+                    }
+                    None => {
+                        let packed = fetched.encoding == MeshEncoding::Packed;
+                        (fetched.mesh.mesh, fetched.mesh.hash, packed.then_some(fetched.bytes))
+                    }
+                };
+                if actual != hash {
+                    let (url, expected) = (url.to_owned(), hash.to_owned());
+                    return Err(ConvertError::HashMismatch { url, expected, actual });
+                }
+                (mesh, packed)
+            }
+            None => held.mesh(hash).await.ok_or_else(|| ConvertError::NotHeld(hash.to_owned()))?,
+        };
+        tokio::task::spawn_blocking(move || write(&mesh, packed, format))
+            .await
+            .expect("writing a mesh does not panic")
+    }
+}
+
+/// Packs an output mesh and stores it as its full blob `name`.
+pub async fn pack_output(
+    blobs: &BlobStore,
+    name: &str,
+    mesh: Arc<MeshData>,
+) -> Result<(), PackOutputError> {
+    let packed = tokio::task::spawn_blocking(move || pack::encode(&mesh))
+        .await?
+        .map_err(|source| PackOutputError::Pack { name: name.to_owned(), source })?;
+    // No session record names a packed output: nothing to hold against eviction.
+    drop(blobs.put(name, Arc::new(packed)).await?);
+    Ok(())
 }
 
 /// `mesh` on `grid`, with its content hash.
@@ -102,33 +199,6 @@ async fn snapped(mesh: Arc<MeshData>, grid: Grid) -> (Arc<MeshData>, String) {
     })
     .await
     .expect("snapping a mesh does not panic")
-}
-
-/// The mesh with content hash `hash` decoded in memory here: a recent output or a session's.
-fn held_in_memory(host: &Host, hash: &str) -> Option<Arc<MeshData>> {
-    let name = meshes::full_mesh_name(hash);
-    host.blobs.recent(&name).or_else(|| host.sessions.mesh_with_hash(hash))
-}
-
-/// This host's packed blob of mesh `hash`, if its header states that hash.
-async fn stored_packed(host: &Host, hash: &str) -> Option<Vec<u8>> {
-    let packed = host.blobs.read(&meshes::full_mesh_name(hash)).await.ok()?;
-    let stated = pack::stated_hash(&packed).ok()?;
-    (stated.to_hex() == hash).then_some(packed)
-}
-
-/// The mesh with content hash `hash` if this host has it: in memory, or packed in its blob
-/// store, decoded (which checks the hash) here.
-async fn held(host: &Host, hash: &str) -> Option<(Arc<MeshData>, Option<Vec<u8>>)> {
-    if let Some(mesh) = held_in_memory(host, hash) {
-        return Some((mesh, None));
-    }
-    let packed = stored_packed(host, hash).await?;
-    let decoded = tokio::task::spawn_blocking(move || {
-        let mesh = pack::decode(&packed).ok()?;
-        Some((Arc::new(mesh), Some(packed)))
-    });
-    decoded.await.ok().flatten()
 }
 
 /// `mesh` written as `format`; `packed` is its packed form when it came packed.

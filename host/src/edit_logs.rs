@@ -13,12 +13,12 @@ use std::time::Duration;
 
 use tokio::sync::{Semaphore, watch};
 
+use super::blobs::BlobStore;
 use super::config::{
     DEFAULT_EDIT_LOG_BYTES_PER_EDIT, EDIT_LOG_WAIT, MAX_EDIT_LOG_ESTIMATES, MAX_ENCODING_EDIT_LOGS,
     MIN_EDIT_LOG_BYTES,
 };
 use super::meshes;
-use super::state::Host;
 use meshflow_codec::correction;
 use meshflow_mesh::store::Op;
 use meshflow_mesh::{ContentHash, MeshData};
@@ -40,7 +40,7 @@ pub struct StepLog {
 pub struct EditLogs {
     pending: Pending,
     /// Bytes per edit of each kind of step's last encoded log: the next estimate.
-    bytes_per_edit: Mutex<HashMap<String, f64>>,
+    bytes_per_edit: Arc<Mutex<HashMap<String, f64>>>,
     /// Each encoding holds a base and a result mesh: a step waits for a slot before its
     /// answer rather than letting them pile up.
     slots: Arc<Semaphore>,
@@ -50,7 +50,7 @@ impl Default for EditLogs {
     fn default() -> Self {
         Self {
             pending: Pending::default(),
-            bytes_per_edit: Mutex::default(),
+            bytes_per_edit: Arc::default(),
             slots: Arc::new(Semaphore::new(MAX_ENCODING_EDIT_LOGS)),
         }
     }
@@ -100,21 +100,20 @@ impl Pending {
 
 impl EditLogs {
     fn rates(&self) -> std::sync::MutexGuard<'_, HashMap<String, f64>> {
-        self.bytes_per_edit.lock().expect("edit log estimates lock")
+        lock_rates(&self.bytes_per_edit)
     }
 
-    /// Starts encoding `step`'s edit log in the background, once a slot is free. Returns
-    /// the log's blob name and its estimated size.
-    pub async fn encode_later(host: &Arc<Host>, step: StepLog) -> (String, u64) {
-        let slots = host.edit_logs.slots.clone();
-        let permit = slots.acquire_owned().await.expect("the slots are never closed");
+    /// Starts encoding `step`'s edit log in the background, once a slot is free, and then
+    /// stores it in `blobs`. Returns the log's blob name and its estimated size.
+    pub async fn encode_later(&self, blobs: &Arc<BlobStore>, step: StepLog) -> (String, u64) {
+        let permit = self.slots.clone().acquire_owned().await.expect("the slots are never closed");
         let name = meshes::edit_log_name(step.base_hash, step.result_hash);
         let edits: usize = step.log.iter().map(Op::edit_count).sum();
         let params = blake3::hash(step.params.as_bytes()).to_hex();
         let key = format!("{}/{}/{params}", step.plugin, step.service);
-        let estimate = host.edit_logs.estimate(&key, edits);
-        let encoding = host.edit_logs.pending.begin(&name);
-        let host = host.clone();
+        let estimate = self.estimate(&key, edits);
+        let encoding = self.pending.begin(&name);
+        let (rates, blobs) = (self.bytes_per_edit.clone(), blobs.clone());
         tokio::spawn(async move {
             let _permit = permit;
             let StepLog { base, base_hash, log, result, result_hash, .. } = step;
@@ -131,9 +130,9 @@ impl EditLogs {
                     return;
                 }
             };
-            host.edit_logs.learn(&key, edits, bytes.len());
+            learn(&mut lock_rates(&rates), &key, edits, bytes.len());
             // The session record already names the log: nothing to hold against eviction.
-            match host.blobs.put(&encoding.name, Arc::new(bytes)).await {
+            match blobs.put(&encoding.name, Arc::new(bytes)).await {
                 Ok(stored) => drop(stored),
                 Err(e) => tracing::warn!("{e}"),
             }
@@ -161,13 +160,24 @@ impl EditLogs {
         ((edits as f64 * rate) as u64).max(MIN_EDIT_LOG_BYTES)
     }
 
+    #[cfg(test)]
     fn learn(&self, key: &str, edits: usize, bytes: usize) {
-        let mut rates = self.rates();
-        if rates.len() >= MAX_EDIT_LOG_ESTIMATES && !rates.contains_key(key) {
-            rates.clear();
-        }
-        rates.insert(key.to_owned(), bytes as f64 / edits.max(1) as f64);
+        learn(&mut self.rates(), key, edits, bytes)
     }
+}
+
+fn lock_rates(
+    rates: &Mutex<HashMap<String, f64>>,
+) -> std::sync::MutexGuard<'_, HashMap<String, f64>> {
+    rates.lock().expect("edit log estimates lock")
+}
+
+/// Keeps the bytes per edit of `key`'s last log, within [`MAX_EDIT_LOG_ESTIMATES`] keys.
+fn learn(rates: &mut HashMap<String, f64>, key: &str, edits: usize, bytes: usize) {
+    if rates.len() >= MAX_EDIT_LOG_ESTIMATES && !rates.contains_key(key) {
+        rates.clear();
+    }
+    rates.insert(key.to_owned(), bytes as f64 / edits.max(1) as f64);
 }
 
 #[cfg(test)]

@@ -2,15 +2,24 @@
 //! mesh from a URL and then run services or take other hosts' steps, and blobs.
 //!
 //! The engine must not link this crate: it runs plugins (wasmtime). Domain modules know
-//! no HTTP and return typed errors: `config` (settings and limits), `state` (what handlers
-//! share), `plugins` (the plugin set), `sessions` (table and records), `rebuild` (loading
-//! and replaying a session), `replay` (naming a step, re-running a named one), `meshes`
-//! (formats and blob names), `conversions` (meshes written as files), `blobs` (storage), `eviction`. Only `routes/` speaks HTTP: one file per resource, and `routes/error.rs`
-//! maps every domain error to a status and code.
+//! no HTTP and return typed errors, and depend one way, each only on those listed after it:
+//! - orchestration over the whole host: `steps` (a session runs a service or takes another
+//!   host's step), `rebuild` (loading and replaying a session), `eviction`;
+//! - `state` (the `Host` every handler shares: it holds what follows);
+//! - its parts: `edit_logs` (encoded after the answer, into the blobs), `replay` (naming a
+//!   step, re-running a named one with the offered or fetched plugins), `conversions`
+//!   (meshes written as files, from the blobs and sessions);
+//! - `plugins` (the plugin set), `sessions` (table and records), `blobs` (storage),
+//!   `downloads` (the client and fetch scopes);
+//! - `meshes` (formats, decoding, blob names), `config` (settings and limits).
+//!
+//! Only `routes/` speaks HTTP: one file per resource, each a thin adapter over the above,
+//! and `routes/error.rs` maps every domain error to a status and code.
 
 mod blobs;
 mod config;
 mod conversions;
+mod downloads;
 mod edit_logs;
 mod eviction;
 mod meshes;
@@ -20,6 +29,7 @@ pub mod replay;
 mod routes;
 mod sessions;
 mod state;
+mod steps;
 
 pub use config::*;
 pub use plugins::MAX_PLUGIN_BYTES;
@@ -85,8 +95,7 @@ pub async fn start(config: HostConfig, listener: TcpListener) -> anyhow::Result<
     };
     let host = Arc::new(Host::new(config, public_url.clone(), runtime, plugins, &dirs)?);
     for (id, record) in host.sessions.saved_records() {
-        host.sessions.insert(&id, record.clone()).map_err(|e| anyhow::anyhow!(e))?;
-        tokio::spawn(rebuild::load(host.clone(), id, record));
+        rebuild::start(&host, id, record)?;
     }
 
     let (shutdown, stop) = tokio::sync::oneshot::channel::<()>();
@@ -117,7 +126,7 @@ pub async fn serve(config: HostConfig, listener: TcpListener) -> anyhow::Result<
 async fn register(host: Arc<Host>, engine: String, url: String) {
     let endpoint = format!("{}/hosts", engine.trim_end_matches('/'));
     for attempt in 1..=REGISTER_ATTEMPTS {
-        let mut request = host.http.post(&endpoint).timeout(REGISTER_TIMEOUT);
+        let mut request = host.downloads.client().post(&endpoint).timeout(REGISTER_TIMEOUT);
         if let Some(token) = &host.config.cluster_token {
             request = request.bearer_auth(token);
         }

@@ -1,9 +1,47 @@
 //! Mesh bytes as they travel: packed (`.mfm`) or any file format `io` reads; how to tell
-//! which, decode them, and the blob name they are kept under.
+//! which, decode them, and the blob name they are kept under; a decoded mesh with its
+//! content hash ([`CurrentMesh`]).
 
-use meshflow_codec::pack;
+use std::sync::Arc;
+
+use meshflow_codec::pack::{self, PackError};
 use meshflow_mesh::{ContentHash, MeshData};
-use meshflow_meshio::{self as io, Format};
+use meshflow_meshio::{self as io, Format, LoadError};
+
+/// Why mesh bytes could not be read as a mesh.
+#[derive(Debug, thiserror::Error)]
+pub enum MeshError {
+    #[error("{url}: cannot tell the mesh format from the name or the first bytes")]
+    UnknownFormat { url: String },
+    #[error("blob {0} is not a mesh")]
+    NotAMesh(String),
+    #[error("{name}: {source}")]
+    Packed {
+        name: String,
+        #[source]
+        source: PackError,
+    },
+    #[error(transparent)]
+    File(#[from] LoadError),
+    /// The blocking task decoding or hashing it panicked or was cancelled.
+    #[error(transparent)]
+    Task(#[from] tokio::task::JoinError),
+}
+
+/// A mesh in memory with its content hash (computed once): a session's, or one just
+/// decoded or made.
+#[derive(Clone)]
+pub struct CurrentMesh {
+    pub mesh: Arc<MeshData>,
+    pub hash: String,
+}
+
+/// Mesh bytes decoded, with how they were encoded and the bytes themselves (kept as a blob).
+pub struct Decoded {
+    pub mesh: CurrentMesh,
+    pub bytes: Vec<u8>,
+    pub encoding: MeshEncoding,
+}
 
 const PACKED_MAGIC: &[u8] = b"MFM\x1a";
 /// Extension of packed full meshes and of corrections.
@@ -28,15 +66,21 @@ impl MeshEncoding {
     }
 
     /// By the extension of the URL's path, else by the first bytes.
-    pub fn detect(url: &str, bytes: &[u8]) -> Result<Self, String> {
+    pub fn detect(url: &str, bytes: &[u8]) -> Result<Self, MeshError> {
         let by_name = reqwest::Url::parse(url).ok().and_then(|url| {
             let file = url.path_segments()?.next_back()?.to_owned();
             let (_, extension) = file.rsplit_once('.')?;
             MeshEncoding::from_extension(extension)
         });
-        by_name.or_else(|| sniff(bytes)).ok_or_else(|| {
-            format!("{url}: cannot tell the mesh format from the name or the first bytes")
-        })
+        by_name
+            .or_else(|| sniff(bytes))
+            .ok_or_else(|| MeshError::UnknownFormat { url: url.to_owned() })
+    }
+
+    /// By a blob's extension.
+    pub fn of_blob(name: &str) -> Result<Self, MeshError> {
+        let extension = name.rsplit_once('.').map(|(_, e)| e).unwrap_or_default();
+        Self::from_extension(extension).ok_or_else(|| MeshError::NotAMesh(name.to_owned()))
     }
 }
 
@@ -71,13 +115,34 @@ fn is_binary_stl(bytes: &[u8]) -> bool {
 }
 
 /// Decodes mesh bytes; errors name `name` (a URL or blob).
-pub fn decode(bytes: &[u8], encoding: MeshEncoding, name: &str) -> Result<MeshData, String> {
+pub fn decode(bytes: &[u8], encoding: MeshEncoding, name: &str) -> Result<MeshData, MeshError> {
     match encoding {
-        MeshEncoding::Packed => pack::decode(bytes).map_err(|e| format!("{name}: {e}")),
-        MeshEncoding::File(format) => {
-            io::load_bytes(bytes, format, name).map_err(|e| e.to_string())
-        }
+        MeshEncoding::Packed => pack::decode(bytes)
+            .map_err(|source| MeshError::Packed { name: name.to_owned(), source }),
+        MeshEncoding::File(format) => Ok(io::load_bytes(bytes, format, name)?),
     }
+}
+
+/// Decodes mesh bytes from `url` (by its extension or their first bytes) and hashes the
+/// mesh, on a blocking thread; the bytes come back with it, not copied.
+pub async fn decode_hashed(url: &str, bytes: Vec<u8>) -> Result<Decoded, MeshError> {
+    let encoding = MeshEncoding::detect(url, &bytes)?;
+    let url = url.to_owned();
+    tokio::task::spawn_blocking(move || {
+        let mesh = decode(&bytes, encoding, &url)?;
+        let hash = mesh.content_hash().to_hex();
+        Ok(Decoded { mesh: CurrentMesh { mesh: Arc::new(mesh), hash }, bytes, encoding })
+    })
+    .await?
+}
+
+/// A mesh with its content hash, hashed off the async threads.
+pub async fn hashed(mesh: MeshData) -> Result<CurrentMesh, tokio::task::JoinError> {
+    tokio::task::spawn_blocking(move || {
+        let hash = mesh.content_hash().to_hex();
+        CurrentMesh { mesh: Arc::new(mesh), hash }
+    })
+    .await
 }
 
 /// The blob a mesh's bytes are kept as: a packed mesh under its content hash (so it is the
@@ -138,7 +203,7 @@ mod tests {
             MeshEncoding::File(Format::Obj)
         );
         assert_eq!(detect("http://h/in", b"OFF\n3 1 0").unwrap(), MeshEncoding::File(Format::Off));
-        let error = detect("http://h/in", b"\x00\x01garbage").unwrap_err();
+        let error = detect("http://h/in", b"\x00\x01garbage").unwrap_err().to_string();
         assert!(error.contains("http://h/in") && error.contains("cannot tell"), "{error}");
     }
 

@@ -4,16 +4,66 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use super::blobs::Stored;
-use super::meshes::{self, CORRECTION, MeshEncoding, REPLAY};
-use super::sessions::{CurrentMesh, LoadTimes, SessionRecord};
-use super::state::Host;
-use meshflow_api::fetch_rules::FetchScope;
-use meshflow_api::host::GridSpec;
-use meshflow_api::host::millis;
-use meshflow_codec::quantize::{self, Grid};
-use meshflow_codec::{correction, replay};
+use meshflow_api::ClientError;
+use meshflow_api::host::{GridSpec, millis};
+use meshflow_codec::correction::{self, CorrectionError};
+use meshflow_codec::quantize::{self, Grid, QuantizeError};
+use meshflow_codec::replay::{self, ReplayError};
 use meshflow_mesh::MeshData;
+
+use super::blobs::{BlobError, Stored};
+use super::downloads::PeersError;
+use super::meshes::{self, CORRECTION, CurrentMesh, MeshEncoding, MeshError, REPLAY, hashed};
+use super::replay::{PluginSource, ReplayFailure};
+use super::sessions::{LoadTimes, SessionError, SessionRecord};
+use super::state::Host;
+
+/// Why a session's mesh could not be loaded; the session fails with this message.
+#[derive(Debug, thiserror::Error)]
+pub enum RebuildError {
+    #[error(transparent)]
+    Peers(#[from] PeersError),
+    #[error(transparent)]
+    Download(#[from] ClientError),
+    #[error(transparent)]
+    Blob(#[from] BlobError),
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    #[error("{url}: the mesh has content hash {found}, not the expected {expected}")]
+    HashMismatch { url: String, found: String, expected: String },
+    #[error(transparent)]
+    Quantize(#[from] QuantizeError),
+    #[error("grid exponents {0:?} are out of range")]
+    GridExponents([i32; 3]),
+    #[error("replaying {name}: {source}")]
+    Correction {
+        name: String,
+        #[source]
+        source: CorrectionError,
+    },
+    #[error("{name}: {source}")]
+    UnreadableReplay {
+        name: String,
+        #[source]
+        source: ReplayError,
+    },
+    #[error("replaying {name}: {source}")]
+    Replay {
+        name: String,
+        #[source]
+        source: ReplayFailure,
+    },
+    #[error(transparent)]
+    Task(#[from] tokio::task::JoinError),
+}
+
+/// Adds a session on `record` (its input not yet loaded) and starts loading it in the
+/// background.
+pub fn start(host: &Arc<Host>, id: String, record: SessionRecord) -> Result<(), SessionError> {
+    host.sessions.insert(&id, record.clone())?;
+    tokio::spawn(load(host.clone(), id, record));
+    Ok(())
+}
 
 /// Loads session `id` from its record; on failure the session is failed with the reason.
 pub async fn load(host: Arc<Host>, id: String, record: SessionRecord) {
@@ -22,17 +72,17 @@ pub async fn load(host: Arc<Host>, id: String, record: SessionRecord) {
         Ok((input, current, grid, times, _stored)) => {
             host.sessions.loaded(&id, input, current, grid, times)
         }
-        Err(error) => host.sessions.fail(&id, error),
+        Err(error) => host.sessions.fail(&id, error.to_string()),
     }
 }
 
 type Built<'a> = (String, CurrentMesh, Option<Grid>, LoadTimes, Option<Stored<'a>>);
 
-async fn build<'a>(host: &'a Host, record: &SessionRecord) -> Result<Built<'a>, String> {
+async fn build<'a>(host: &'a Host, record: &SessionRecord) -> Result<Built<'a>, RebuildError> {
     let (input, mut current, times, stored) = match &record.input {
         Some(name) => {
             let mesh = read_mesh_blob(host, name).await?;
-            let current = hashed(mesh).await.map_err(|e| e.to_string())?;
+            let current = hashed(mesh).await?;
             (name.clone(), current, LoadTimes::default(), None)
         }
         None => {
@@ -44,7 +94,7 @@ async fn build<'a>(host: &'a Host, record: &SessionRecord) -> Result<Built<'a>, 
         None => None,
         Some(spec) => {
             let (mesh, grid) = on_grid(Arc::unwrap_or_clone(current.mesh), spec).await?;
-            current = hashed(mesh).await.map_err(|e| e.to_string())?;
+            current = hashed(mesh).await?;
             expect_hash(record, &current.hash)?;
             Some(grid)
         }
@@ -55,51 +105,51 @@ async fn build<'a>(host: &'a Host, record: &SessionRecord) -> Result<Built<'a>, 
             None => step.clone(),
         };
         let mesh = apply_blob(host, Arc::unwrap_or_clone(current.mesh), &step, grid).await?;
-        current = hashed(mesh).await.map_err(|e| e.to_string())?;
+        current = hashed(mesh).await?;
     }
     Ok((input, current, grid, times, stored))
 }
 
 /// The loaded input must be the mesh the engine named, when it named one.
-fn expect_hash(record: &SessionRecord, hash: &str) -> Result<(), String> {
+fn expect_hash(record: &SessionRecord, hash: &str) -> Result<(), RebuildError> {
     match &record.input_hash {
-        Some(expected) if !expected.eq_ignore_ascii_case(hash) => Err(format!(
-            "{}: the mesh has content hash {hash}, not the expected {expected}",
-            record.input_url
-        )),
+        Some(expected) if !expected.eq_ignore_ascii_case(hash) => Err(RebuildError::HashMismatch {
+            url: record.input_url.clone(),
+            found: hash.to_owned(),
+            expected: expected.clone(),
+        }),
         _ => Ok(()),
     }
 }
 
 /// The input snapped onto the session's grid (DESIGN §4: a workflow's `quantize`).
-async fn on_grid(mut mesh: MeshData, spec: GridSpec) -> Result<(MeshData, Grid), String> {
+async fn on_grid(mut mesh: MeshData, spec: GridSpec) -> Result<(MeshData, Grid), RebuildError> {
     tokio::task::spawn_blocking(move || {
         let grid = match spec {
-            GridSpec::Bits(bits) => {
-                quantize::quantize(&mut mesh, bits).map_err(|e| e.to_string())?
-            }
+            GridSpec::Bits(bits) => quantize::quantize(&mut mesh, bits)?,
             GridSpec::Exponents(exponents) => {
                 let grid = Grid::from_exponents(exponents)
-                    .ok_or_else(|| format!("grid exponents {exponents:?} are out of range"))?;
+                    .ok_or(RebuildError::GridExponents(exponents))?;
                 grid.snap_all(&mut mesh.positions);
                 grid
             }
         };
         Ok((mesh, grid))
     })
-    .await
-    .map_err(|e| e.to_string())?
+    .await?
 }
 
 async fn download_input<'a>(
     host: &'a Host,
     record: &SessionRecord,
-) -> Result<(String, CurrentMesh, LoadTimes, Stored<'a>), String> {
+) -> Result<(String, CurrentMesh, LoadTimes, Stored<'a>), RebuildError> {
     let started = Instant::now();
-    let fetched = fetch_mesh(host, &record.input_url, &host.scope(&record.peers)?).await?;
-    let download_ms = fetched.download_ms;
-    let input_bytes = fetched.bytes.len() as u64;
-    let (current, bytes, encoding) = (fetched.mesh, fetched.bytes, fetched.encoding);
+    let scope = host.downloads.scope(&record.peers)?;
+    let bytes = host.downloads.get(&record.input_url, &scope).await?;
+    let download_ms = millis(started.elapsed());
+    let input_bytes = bytes.len() as u64;
+    let decoded = meshes::decode_hashed(&record.input_url, bytes).await?;
+    let (current, bytes, encoding) = (decoded.mesh, decoded.bytes, decoded.encoding);
     let hash = &current.hash;
     // On a grid, the expected hash is the snapped mesh's: checked once it is snapped.
     if record.grid.is_none() {
@@ -107,7 +157,7 @@ async fn download_input<'a>(
     }
     let load_ms = millis(started.elapsed()) - download_ms;
     let name = meshes::blob_name(&bytes, encoding, hash);
-    let stored = host.blobs.put(&name, Arc::new(bytes)).await.map_err(|e| e.to_string())?;
+    let stored = host.blobs.put(&name, Arc::new(bytes)).await?;
     let times = LoadTimes {
         download_ms: Some(download_ms),
         load_ms: Some(load_ms),
@@ -116,45 +166,13 @@ async fn download_input<'a>(
     Ok((name, current, times, stored))
 }
 
-/// A mesh downloaded and decoded, with its content hash.
-pub struct FetchedMesh {
-    pub mesh: CurrentMesh,
-    /// As they came, and how they are encoded.
-    pub bytes: Vec<u8>,
-    pub encoding: MeshEncoding,
-    pub download_ms: f64,
-}
-
-/// Downloads `url` within `scope` and decodes it by its extension or its first bytes.
-pub async fn fetch_mesh(host: &Host, url: &str, scope: &FetchScope) -> Result<FetchedMesh, String> {
-    let started = Instant::now();
-    let bytes = host.download(url, scope).await.map_err(|e| e.to_string())?;
-    let download_ms = millis(started.elapsed());
-    Ok(FetchedMesh { download_ms, ..decode_fetched(url, bytes).await? })
-}
-
-/// Decodes mesh bytes downloaded from `url` by its extension or their first bytes.
-pub async fn decode_fetched(url: &str, bytes: Vec<u8>) -> Result<FetchedMesh, String> {
-    let encoding = MeshEncoding::detect(url, &bytes)?;
-    let url = url.to_owned();
-    let (mesh, bytes) = tokio::task::spawn_blocking(move || {
-        let mesh = meshes::decode(&bytes, encoding, &url)?;
-        let hash = mesh.content_hash().to_hex();
-        Ok::<_, String>((CurrentMesh { mesh: Arc::new(mesh), hash }, bytes))
-    })
-    .await
-    .map_err(|e| e.to_string())??;
-    Ok(FetchedMesh { mesh, bytes, encoding, download_ms: 0.0 })
-}
-
 /// A stored mesh blob, decoded by its extension.
-pub async fn read_mesh_blob(host: &Host, name: &str) -> Result<MeshData, String> {
+async fn read_mesh_blob(host: &Host, name: &str) -> Result<MeshData, RebuildError> {
     let bytes = host.blobs.read(name).await?;
-    let encoding = encoding_of(name)?;
+    let encoding = MeshEncoding::of_blob(name)?;
     let name = name.to_owned();
-    tokio::task::spawn_blocking(move || meshes::decode(&bytes, encoding, &name))
-        .await
-        .map_err(|e| e.to_string())?
+    let decoded = tokio::task::spawn_blocking(move || meshes::decode(&bytes, encoding, &name));
+    Ok(decoded.await??)
 }
 
 /// One replayed step: a correction applied to `mesh`, a named step run again, or a full
@@ -164,7 +182,7 @@ async fn apply_blob(
     mesh: MeshData,
     name: &str,
     grid: Option<Grid>,
-) -> Result<MeshData, String> {
+) -> Result<MeshData, RebuildError> {
     if name.ends_with(&format!(".{REPLAY}")) {
         return rerun_blob(host, mesh, name, grid).await;
     }
@@ -174,10 +192,9 @@ async fn apply_blob(
     let bytes = host.blobs.read(name).await?;
     let name = name.to_owned();
     tokio::task::spawn_blocking(move || {
-        correction::apply(mesh, &bytes).map_err(|e| format!("replaying {name}: {e}"))
+        correction::apply(mesh, &bytes).map_err(|source| RebuildError::Correction { name, source })
     })
-    .await
-    .map_err(|e| e.to_string())?
+    .await?
 }
 
 /// A step this host re-ran from a replay correction: run again with the same plugin (one it
@@ -187,16 +204,17 @@ async fn rerun_blob(
     mesh: MeshData,
     name: &str,
     grid: Option<Grid>,
-) -> Result<MeshData, String> {
+) -> Result<MeshData, RebuildError> {
     let bytes = host.blobs.read(name).await?;
-    let step = replay::decode(&bytes).map_err(|e| format!("{name}: {e}"))?;
-    let scope = host.scope(&[])?;
-    let plugin = crate::replay::plugin_for(host, &scope, None, &step.plugin_hex())
-        .await
-        .map_err(|e| format!("replaying {name}: {e}"))?;
-    crate::replay::rerun_off_thread(host.runtime.clone(), plugin, step, Arc::new(mesh), grid)
-        .await
-        .map_err(|e| format!("replaying {name}: {e}"))
+    let step = replay::decode(&bytes)
+        .map_err(|source| RebuildError::UnreadableReplay { name: name.to_owned(), source })?;
+    let scope = host.downloads.scope(&[])?;
+    let failed = |source| RebuildError::Replay { name: name.to_owned(), source };
+    let source = PluginSource { scope: &scope, producer: None };
+    let replays = &host.replay_plugins;
+    let plugin =
+        replays.plugin_for(&host.plugins, source, &step.plugin_hex()).await.map_err(failed)?;
+    replays.rerun_off_thread(plugin, step, Arc::new(mesh), grid).await.map_err(failed)
 }
 
 /// For a step whose edit log was never written (the host stopped between answering the step
@@ -217,18 +235,4 @@ async fn unwritten_log_replay(host: &Host, record: &SessionRecord, step: &str) -
         }
     }
     None
-}
-
-fn encoding_of(name: &str) -> Result<MeshEncoding, String> {
-    let extension = name.rsplit_once('.').map(|(_, e)| e).unwrap_or_default();
-    MeshEncoding::from_extension(extension).ok_or_else(|| format!("blob {name} is not a mesh"))
-}
-
-/// A mesh with its content hash, hashed off the async threads.
-pub async fn hashed(mesh: MeshData) -> Result<CurrentMesh, tokio::task::JoinError> {
-    tokio::task::spawn_blocking(move || {
-        let hash = mesh.content_hash().to_hex();
-        CurrentMesh { mesh: Arc::new(mesh), hash }
-    })
-    .await
 }

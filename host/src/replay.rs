@@ -17,13 +17,12 @@ use meshflow_codec::quantize::{self, Grid};
 use meshflow_codec::replay::{self, Replay};
 use meshflow_mesh::{ContentHash, MeshData};
 use meshflow_meshio as io;
-use meshflow_params::{ServiceInfo, from_json as params_from_json, value_json};
-use meshflow_runtime::{Plugin, Runtime, digest as sha256_hex};
+use meshflow_params::{ParamError, ServiceInfo, from_json as params_from_json, value_json};
+use meshflow_runtime::{Invocation, Plugin, Runtime, digest as sha256_hex};
 
 use crate::config::DOWNLOAD_TIMEOUT;
-use crate::plugins::MAX_PLUGIN_BYTES;
-use crate::sessions::CurrentMesh;
-use crate::state::Host;
+use crate::meshes::CurrentMesh;
+use crate::plugins::{MAX_PLUGIN_BYTES, PluginSet};
 
 /// Why a replay did not give the step's result; the host then falls back to the edit log.
 #[derive(Debug, thiserror::Error)]
@@ -45,9 +44,30 @@ pub enum ReplayFailure {
     Diverged { service: String, expected: String, found: String },
 }
 
-/// The plugins fetched for replays, on disk and, once used, loaded.
+/// Why a step could not be named.
+#[derive(Debug, thiserror::Error)]
+pub enum NameError {
+    #[error(transparent)]
+    Params(#[from] ParamError),
+    #[error("the plugin digest is not SHA-256 hex")]
+    Digest,
+}
+
+/// Where a plugin a replay needs may come from: the origin that served the replay
+/// correction (`producer`), fetched within `scope`.
+#[derive(Clone, Copy)]
+pub(crate) struct PluginSource<'a> {
+    pub scope: &'a FetchScope,
+    pub producer: Option<&'a str>,
+}
+
+/// The plugins fetched for replays, on disk and, once used, loaded; and what replays run
+/// with: the runtime, and the plugins the host offers.
 pub(crate) struct ReplayPlugins {
     dir: PathBuf,
+    runtime: Arc<Runtime>,
+    /// The host's download client: plugins come from the cluster's hosts.
+    http: reqwest::Client,
     loaded: Mutex<HashMap<String, Plugin>>,
     /// One fetch and compilation per digest at a time: updates that need the same plugin
     /// at once wait for the first one's instead of each compiling it.
@@ -55,8 +75,8 @@ pub(crate) struct ReplayPlugins {
 }
 
 impl ReplayPlugins {
-    pub fn new(dir: PathBuf) -> Self {
-        Self { dir, loaded: Mutex::default(), pending: Mutex::default() }
+    pub fn new(dir: PathBuf, runtime: Arc<Runtime>, http: reqwest::Client) -> Self {
+        Self { dir, runtime, http, loaded: Mutex::default(), pending: Mutex::default() }
     }
 
     fn pending(&self, digest: &str) -> Arc<tokio::sync::OnceCell<Plugin>> {
@@ -76,10 +96,12 @@ impl ReplayPlugins {
         self.loaded.lock().expect("replay plugins lock").get(digest).cloned()
     }
 
-    fn keep(&self, plugin: Plugin, bytes: &[u8]) -> Result<Plugin, String> {
+    fn keep(&self, plugin: Plugin, bytes: &[u8]) -> Result<Plugin, ReplayFailure> {
         let path = self.path(&plugin.digest);
-        io::write_file(&path, |out| out.write_all(bytes))
-            .map_err(|e| format!("storing the fetched plugin: {e}"))?;
+        io::write_file(&path, |out| out.write_all(bytes)).map_err(|e| ReplayFailure::Plugin {
+            digest: plugin.digest.clone(),
+            message: format!("storing the fetched plugin: {e}"),
+        })?;
         let mut loaded = self.loaded.lock().expect("replay plugins lock");
         loaded.insert(plugin.digest.clone(), plugin.clone());
         Ok(plugin)
@@ -95,14 +117,32 @@ pub fn name(
     base: ContentHash,
     result: &MeshData,
     result_hash: ContentHash,
-) -> Result<Replay, String> {
-    let resolved = meshflow_params::resolve(info, params).map_err(|e| e.to_string())?;
-    let params: serde_json::Map<_, _> =
-        resolved.into_iter().map(|(name, value)| (name, value_json(&value))).collect();
+) -> Result<Replay, NameError> {
+    let resolved = meshflow_params::resolve(info, params)?;
+    let params = serde_json::Value::Object(params_json(&resolved)).to_string();
+    name_resolved(&plugin.digest, &info.name, params, base, result, result_hash)
+}
+
+/// Resolved parameters as the JSON object a replay and an answer carry.
+pub fn params_json(
+    resolved: &[(String, meshflow_params::Value)],
+) -> serde_json::Map<String, serde_json::Value> {
+    resolved.iter().map(|(name, value)| (name.clone(), value_json(value))).collect()
+}
+
+/// [`name`] of a step whose parameters are already resolved, as JSON text (`params`).
+pub(crate) fn name_resolved(
+    digest: &str,
+    service: &str,
+    params: String,
+    base: ContentHash,
+    result: &MeshData,
+    result_hash: ContentHash,
+) -> Result<Replay, NameError> {
     Ok(Replay {
-        plugin: parse_digest(&plugin.digest).ok_or("the plugin digest is not SHA-256 hex")?,
-        service: info.name.clone(),
-        params: serde_json::Value::Object(params).to_string(),
+        plugin: parse_digest(digest).ok_or(NameError::Digest)?,
+        service: service.to_owned(),
+        params,
         base,
         result: result_hash,
         result_counts: [result.vertex_count() as u64, result.triangle_count() as u64],
@@ -128,9 +168,11 @@ pub fn rerun(
         serde_json::from_str(&step.params).map_err(|e| ReplayFailure::Params(e.to_string()))?;
     let params =
         params_from_json(info, &given).map_err(|e| ReplayFailure::Params(e.to_string()))?;
-    let output = runtime
-        .run(plugin, &step.service, Arc::clone(&mesh), &params)
+    // Looked up and resolved once: the run does neither again.
+    let invocation = Invocation::resolve(plugin.clone(), info.clone(), &params)
         .map_err(|e| failed(e.to_string()))?;
+    let output =
+        runtime.invoke(&invocation, Arc::clone(&mesh)).map_err(|e| failed(e.to_string()))?;
     let result = output.mesh.ok_or_else(|| failed("the service is a check".into()))?;
     let mesh = match grid {
         Some(grid) => {
@@ -148,103 +190,100 @@ pub fn rerun(
     Ok(mesh)
 }
 
-/// Re-runs the step `bytes` names on `base` (whose hash is known) and checks it reaches
-/// `expected`. `producer` is the origin that served the replay correction: where a missing
-/// plugin is fetched from.
-pub(crate) async fn apply(
-    host: &Host,
-    scope: &FetchScope,
-    producer: Option<&str>,
-    base: &CurrentMesh,
-    grid: Option<Grid>,
-    bytes: &[u8],
-    expected: &str,
-) -> Result<CurrentMesh, ReplayFailure> {
-    let step = replay::decode(bytes)?;
-    if !step.base.to_hex().eq_ignore_ascii_case(&base.hash) {
-        let (expected, found) = (step.base.to_hex(), base.hash.clone());
-        return Err(ReplayFailure::OtherBase { expected, found });
-    }
-    if !step.result.to_hex().eq_ignore_ascii_case(expected) {
-        let (expected, found) = (expected.to_owned(), step.result.to_hex());
-        return Err(ReplayFailure::OtherResult { expected, found });
-    }
-    let plugin = plugin_for(host, scope, producer, &step.plugin_hex()).await?;
-    let hash = step.result.to_hex();
-    let mesh =
-        rerun_off_thread(host.runtime.clone(), plugin, step, base.mesh.clone(), grid).await?;
-    Ok(CurrentMesh { mesh: Arc::new(mesh), hash })
-}
-
-/// [`rerun`] on a blocking thread.
-pub(crate) async fn rerun_off_thread(
-    runtime: Arc<Runtime>,
-    plugin: Plugin,
-    step: Replay,
-    mesh: Arc<MeshData>,
-    grid: Option<Grid>,
-) -> Result<MeshData, ReplayFailure> {
-    let service = step.service.clone();
-    tokio::task::spawn_blocking(move || rerun(&runtime, &plugin, &step, mesh, grid))
-        .await
-        .map_err(|e| ReplayFailure::Run { service, message: e.to_string() })?
-}
-
-/// The plugin with `digest`: offered here, fetched before, or fetched now from `producer`.
-pub(crate) async fn plugin_for(
-    host: &Host,
-    scope: &FetchScope,
-    producer: Option<&str>,
-    digest: &str,
-) -> Result<Plugin, ReplayFailure> {
-    if let Some(plugin) = host.plugins.by_digest(digest).or_else(|| host.replay_plugins.get(digest))
-    {
-        return Ok(plugin);
-    }
-    let pending = host.replay_plugins.pending(digest);
-    let plugin = pending.get_or_try_init(|| obtain(host, scope, producer, digest)).await.cloned();
-    host.replay_plugins.done(digest);
-    plugin
-}
-
-/// Reads the plugin kept from an earlier replay, or fetches it from `producer`; checks its
-/// digest, loads (compiles) and keeps it.
-async fn obtain(
-    host: &Host,
-    scope: &FetchScope,
-    producer: Option<&str>,
-    digest: &str,
-) -> Result<Plugin, ReplayFailure> {
-    let fail = |message: String| ReplayFailure::Plugin { digest: digest.to_owned(), message };
-    let stored = host.replay_plugins.path(digest);
-    let bytes = match tokio::fs::read(&stored).await {
-        Ok(bytes) => bytes,
-        Err(_) => {
-            let producer =
-                producer.ok_or_else(|| fail("not here, and no host to fetch it from".into()))?;
-            let url = format!("{producer}/plugins/{digest}/wasm");
-            meshflow_api::fetch(
-                &host.http,
-                &url,
-                scope,
-                MAX_PLUGIN_BYTES as u64,
-                PLUGIN_FETCH_TIMEOUT,
-            )
-            .await
-            .map_err(|e| fail(format!("fetching it: {e}")))?
+impl ReplayPlugins {
+    /// Re-runs the step `bytes` names on `base` (whose hash is known) and checks it reaches
+    /// `expected`. A plugin neither `offered` nor kept is fetched from `source`.
+    pub async fn apply(
+        &self,
+        offered: &PluginSet,
+        source: PluginSource<'_>,
+        base: &CurrentMesh,
+        grid: Option<Grid>,
+        bytes: &[u8],
+        expected: &str,
+    ) -> Result<CurrentMesh, ReplayFailure> {
+        let step = replay::decode(bytes)?;
+        if !step.base.to_hex().eq_ignore_ascii_case(&base.hash) {
+            let (expected, found) = (step.base.to_hex(), base.hash.clone());
+            return Err(ReplayFailure::OtherBase { expected, found });
         }
-    };
-    let found = sha256_hex(&bytes);
-    if found != digest {
-        return Err(fail(format!("the bytes fetched have digest {found}")));
+        if !step.result.to_hex().eq_ignore_ascii_case(expected) {
+            let (expected, found) = (expected.to_owned(), step.result.to_hex());
+            return Err(ReplayFailure::OtherResult { expected, found });
+        }
+        let plugin = self.plugin_for(offered, source, &step.plugin_hex()).await?;
+        let hash = step.result.to_hex();
+        let mesh = self.rerun_off_thread(plugin, step, base.mesh.clone(), grid).await?;
+        Ok(CurrentMesh { mesh: Arc::new(mesh), hash })
     }
-    let runtime = host.runtime.clone();
-    let loaded = bytes.clone();
-    let plugin = tokio::task::spawn_blocking(move || runtime.load(&loaded))
-        .await
-        .map_err(|e| fail(e.to_string()))?
-        .map_err(|e| fail(e.to_string()))?;
-    host.replay_plugins.keep(plugin, &bytes).map_err(fail)
+
+    /// [`rerun`] on a blocking thread.
+    pub async fn rerun_off_thread(
+        &self,
+        plugin: Plugin,
+        step: Replay,
+        mesh: Arc<MeshData>,
+        grid: Option<Grid>,
+    ) -> Result<MeshData, ReplayFailure> {
+        let service = step.service.clone();
+        let runtime = self.runtime.clone();
+        tokio::task::spawn_blocking(move || rerun(&runtime, &plugin, &step, mesh, grid))
+            .await
+            .map_err(|e| ReplayFailure::Run { service, message: e.to_string() })?
+    }
+
+    /// The plugin with `digest`: `offered` here, fetched before, or fetched now from
+    /// `source`.
+    pub async fn plugin_for(
+        &self,
+        offered: &PluginSet,
+        source: PluginSource<'_>,
+        digest: &str,
+    ) -> Result<Plugin, ReplayFailure> {
+        if let Some(plugin) = offered.by_digest(digest).or_else(|| self.get(digest)) {
+            return Ok(plugin);
+        }
+        let pending = self.pending(digest);
+        let plugin = pending.get_or_try_init(|| self.obtain(source, digest)).await.cloned();
+        self.done(digest);
+        plugin
+    }
+
+    /// Reads the plugin kept from an earlier replay, or fetches it from `source`; checks
+    /// its digest, loads (compiles) and keeps it.
+    async fn obtain(
+        &self,
+        source: PluginSource<'_>,
+        digest: &str,
+    ) -> Result<Plugin, ReplayFailure> {
+        let fail = |message: String| ReplayFailure::Plugin { digest: digest.to_owned(), message };
+        let stored = self.path(digest);
+        let bytes = match tokio::fs::read(&stored).await {
+            Ok(bytes) => bytes,
+            Err(_) => {
+                let producer = source
+                    .producer
+                    .ok_or_else(|| fail("not here, and no host to fetch it from".into()))?;
+                let url = format!("{producer}/plugins/{digest}/wasm");
+                let (limit, deadline) = (MAX_PLUGIN_BYTES as u64, PLUGIN_FETCH_TIMEOUT);
+                meshflow_api::fetch(&self.http, &url, source.scope, limit, deadline)
+                    .await
+                    .map_err(|e| fail(format!("fetching it: {e}")))?
+            }
+        };
+        let found = sha256_hex(&bytes);
+        if found != digest {
+            return Err(fail(format!("the bytes fetched have digest {found}")));
+        }
+        let runtime = self.runtime.clone();
+        let bytes = Arc::new(bytes);
+        let loaded = bytes.clone();
+        let plugin = tokio::task::spawn_blocking(move || runtime.load(&loaded))
+            .await
+            .map_err(|e| fail(e.to_string()))?
+            .map_err(|e| fail(e.to_string()))?;
+        self.keep(plugin, &bytes)
+    }
 }
 
 /// A plugin is at most [`MAX_PLUGIN_BYTES`]; fetching it is held to the download deadline.

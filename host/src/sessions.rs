@@ -14,6 +14,8 @@ use meshflow_codec::quantize::{Grid, Spacing};
 use meshflow_mesh::MeshData;
 use meshflow_meshio as io;
 
+use super::meshes::CurrentMesh;
+
 /// Why a session cannot be used or saved.
 #[derive(Debug, thiserror::Error)]
 pub enum SessionError {
@@ -38,7 +40,7 @@ pub struct SessionRecord {
     /// `None` until the input has been downloaded and stored.
     pub input: Option<String>,
     pub steps: Vec<String>,
-    /// The cluster's origins the engine named with the input (see `Host::scope`).
+    /// The cluster's origins the engine named with the input (see `Downloads::scope`).
     #[serde(default)]
     pub peers: Vec<String>,
     /// The grid the session keeps its mesh on, as asked.
@@ -48,13 +50,6 @@ pub struct SessionRecord {
     /// as the session is, though the session itself does not need them.
     #[serde(default)]
     pub offered: Vec<String>,
-}
-
-/// A session's mesh once loaded, with its content hash (computed once).
-#[derive(Clone)]
-pub struct CurrentMesh {
-    pub mesh: Arc<MeshData>,
-    pub hash: String,
 }
 
 /// How loading went, for the status.

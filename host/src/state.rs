@@ -1,20 +1,18 @@
-//! What every request handler shares: one host's runtime, plugins, sessions and blobs.
+//! What every request handler shares: one host's runtime, plugins, sessions, blobs and
+//! downloads, and the work in flight over them.
 
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::blobs::BlobStore;
-use super::config::{
-    DOWNLOAD_CONNECT_TIMEOUT, DOWNLOAD_READ_TIMEOUT, DOWNLOAD_TIMEOUT, HostConfig,
-    MAX_CONCURRENT_CONVERSIONS,
-};
+use super::config::HostConfig;
+use super::conversions::Conversions;
+use super::downloads::Downloads;
 use super::edit_logs::EditLogs;
 use super::plugins::PluginSet;
 use super::replay::ReplayPlugins;
 use super::sessions::Sessions;
-use meshflow_api::ClientError;
-use meshflow_api::fetch_rules::{FetchScope, Origins, guarded_client, origin, parse_origin};
 use meshflow_runtime::Runtime;
 
 pub struct Host {
@@ -24,17 +22,16 @@ pub struct Host {
     pub runtime: Arc<Runtime>,
     pub plugins: PluginSet,
     pub sessions: Sessions,
-    pub blobs: BlobStore,
+    /// Shared with the edit logs being encoded in the background.
+    pub blobs: Arc<BlobStore>,
     /// Edit logs being encoded after their steps were answered.
     pub edit_logs: EditLogs,
     /// Plugins fetched from other hosts to replay their steps.
     pub replay_plugins: ReplayPlugins,
-    /// Slots for meshes being written in a file format ([`MAX_CONCURRENT_CONVERSIONS`]).
-    pub conversions: tokio::sync::Semaphore,
-    /// For downloads: inputs, corrections and full meshes of other hosts.
-    pub http: reqwest::Client,
-    /// What every download may reach before a request names its peers (see [`Host::scope`]).
-    fetch: FetchScope,
+    /// Meshes being written in a file format.
+    pub conversions: Conversions,
+    /// Inputs, corrections and full meshes of other hosts, within the fetch rules.
+    pub downloads: Downloads,
     running: AtomicUsize,
 }
 
@@ -72,27 +69,25 @@ impl Host {
         plugins: PluginSet,
         dirs: &DataDirs,
     ) -> anyhow::Result<Self> {
-        let http = guarded_client()
-            .connect_timeout(DOWNLOAD_CONNECT_TIMEOUT)
-            .read_timeout(DOWNLOAD_READ_TIMEOUT)
-            .build()?;
-        let fetch = base_scope(&config, &public_url)?;
+        let downloads = Downloads::new(&config, &public_url)?;
+        let replay_plugins = ReplayPlugins::new(
+            dirs.replay_plugins.clone(),
+            runtime.clone(),
+            downloads.client().clone(),
+        );
+        let blobs =
+            BlobStore::new(dirs.blobs.clone(), config.blob_budget_bytes, config.recent_outputs);
         Ok(Self {
             sessions: Sessions::new(dirs.sessions.clone()),
-            blobs: BlobStore::new(
-                dirs.blobs.clone(),
-                config.blob_budget_bytes,
-                config.recent_outputs,
-            ),
+            blobs: Arc::new(blobs),
             edit_logs: EditLogs::default(),
-            replay_plugins: ReplayPlugins::new(dirs.replay_plugins.clone()),
-            conversions: tokio::sync::Semaphore::new(MAX_CONCURRENT_CONVERSIONS),
+            replay_plugins,
+            conversions: Conversions::default(),
+            downloads,
             config,
             public_url,
             runtime,
             plugins,
-            http,
-            fetch,
             running: AtomicUsize::new(0),
         })
     }
@@ -110,24 +105,6 @@ impl Host {
         self.running.fetch_add(1, Ordering::Relaxed);
         RunningGuard(&self.running)
     }
-
-    /// What a request naming `peers` (the cluster's origins, as the engine sent them) may
-    /// fetch: this host's own origins plus the peers, which also get the cluster token.
-    pub fn scope(&self, peers: &[String]) -> Result<FetchScope, String> {
-        let mut scope = self.fetch.clone();
-        for peer in peers {
-            let peer = parse_origin(peer).map_err(|e| format!("peers: {e}"))?;
-            scope.allowed.add(peer.clone());
-            scope.cluster.insert(peer);
-        }
-        Ok(scope)
-    }
-
-    /// Downloads `url` within `scope`, held to the size cap and the download deadlines.
-    pub async fn download(&self, url: &str, scope: &FetchScope) -> Result<Vec<u8>, ClientError> {
-        let limit = self.config.max_download_bytes;
-        meshflow_api::fetch(&self.http, url, scope, limit, DOWNLOAD_TIMEOUT).await
-    }
 }
 
 pub struct RunningGuard<'a>(&'a AtomicUsize);
@@ -136,23 +113,4 @@ impl Drop for RunningGuard<'_> {
     fn drop(&mut self) {
         self.0.fetch_sub(1, Ordering::Relaxed);
     }
-}
-
-/// The origins a host fetches from whatever the request: its engine's and its own (which
-/// also get the cluster token) and its `--allow-input-from`. A host with neither a cluster
-/// token nor an allow-list (loopback only, see `start`) fetches from any origin.
-fn base_scope(config: &HostConfig, public_url: &str) -> anyhow::Result<FetchScope> {
-    let mut cluster = std::collections::BTreeSet::new();
-    for url in Some(public_url).into_iter().chain(config.engine.as_deref()) {
-        cluster.insert(origin(&reqwest::Url::parse(url)?));
-    }
-    let mut listed = Vec::new();
-    for text in &config.allow_input_from {
-        listed.push(parse_origin(text).map_err(anyhow::Error::msg)?);
-    }
-    let allowed = match config.cluster_token.is_none() && listed.is_empty() {
-        true => Origins::any(),
-        false => Origins::of(listed.into_iter().chain(cluster.iter().cloned())),
-    };
-    Ok(FetchScope { allowed, cluster, token: config.cluster_token.clone() })
 }

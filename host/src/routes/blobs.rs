@@ -9,10 +9,9 @@ use axum::http::{HeaderMap, Method, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 
 use super::error::ApiError;
-use crate::meshes::{self, PACKED};
+use crate::conversions::{self, Held};
+use crate::meshes;
 use crate::state::Host;
-use meshflow_codec::pack;
-use meshflow_mesh::MeshData;
 
 /// `GET` and `HEAD /blobs/{name}`.
 pub async fn serve(
@@ -28,8 +27,9 @@ pub async fn serve(
     host.edit_logs.wait_for(&name).await;
     let etag = format!("\"{name}\"");
     let path = host.blobs.path(&name);
+    let held = Held { blobs: &host.blobs, sessions: &host.sessions };
     if !path.exists()
-        && let Some(mesh) = unpacked_output(&host, &name)
+        && let Some(mesh) = held.unpacked_output(&name)
     {
         // A HEAD asks for headers only: it must not cost a packing, so its answer has no
         // length until someone GETs the mesh.
@@ -38,7 +38,7 @@ pub async fn serve(
             let body = Body::from_stream(unknown_length);
             return Ok((StatusCode::OK, [(header::ETAG, etag)], body).into_response());
         }
-        pack_full_mesh(&host, &name, mesh).await?;
+        conversions::pack_output(&host.blobs, &name, mesh).await?;
     }
     let file = match tokio::fs::File::open(&path).await {
         Ok(file) => file,
@@ -69,21 +69,4 @@ pub async fn serve(
         Body::from_stream(tokio_util::io::ReaderStream::new(file))
     };
     Ok((content_headers, body).into_response())
-}
-
-/// The mesh behind a full-mesh blob name that is not packed yet: a recent output or a
-/// session's current mesh.
-fn unpacked_output(host: &Host, name: &str) -> Option<Arc<MeshData>> {
-    let hash = name.strip_suffix(&format!(".{PACKED}"))?;
-    host.blobs.recent(name).or_else(|| host.sessions.mesh_with_hash(hash))
-}
-
-/// Packs an output mesh and stores it as its full blob.
-async fn pack_full_mesh(host: &Host, name: &str, mesh: Arc<MeshData>) -> Result<(), ApiError> {
-    let packed = tokio::task::spawn_blocking(move || pack::encode(&mesh))
-        .await?
-        .map_err(|e| ApiError::internal(format!("packing {name}: {e}")))?;
-    // No session record names a packed output: nothing to hold against eviction.
-    drop(host.blobs.put(name, Arc::new(packed)).await?);
-    Ok(())
 }

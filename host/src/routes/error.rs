@@ -7,8 +7,12 @@ use axum::response::{IntoResponse, Response};
 
 use crate::blobs::BlobError;
 use crate::config::BUSY_RETRY_AFTER;
+use crate::conversions::{ConvertError, PackOutputError};
+use crate::downloads::PeersError;
+use crate::meshes::MeshError;
 use crate::plugins::PluginSetError;
 use crate::sessions::SessionError;
+use crate::steps::StepError;
 use meshflow_api::ClientError;
 use meshflow_api::host::{ErrorBody, ErrorDetail};
 use meshflow_runtime::RunError;
@@ -103,6 +107,66 @@ impl From<PluginSetError> for ApiError {
 
 impl From<BlobError> for ApiError {
     fn from(error: BlobError) -> Self {
+        Self::internal(error)
+    }
+}
+
+/// A peer the request names that is not an origin.
+impl From<PeersError> for ApiError {
+    fn from(error: PeersError) -> Self {
+        Self::bad_request("bad-peers", error.to_string())
+    }
+}
+
+/// Mesh bytes a request pointed to that are no mesh (422); a failed decoding task is ours.
+impl From<MeshError> for ApiError {
+    fn from(error: MeshError) -> Self {
+        match error {
+            MeshError::Task(error) => error.into(),
+            _ => Self::unprocessable("bad-mesh", error.to_string()),
+        }
+    }
+}
+
+impl From<StepError> for ApiError {
+    fn from(error: StepError) -> Self {
+        match error {
+            StepError::Peers(error) => error.into(),
+            StepError::Session(error) => error.into(),
+            StepError::Plugins(error) => error.into(),
+            StepError::Params(error) => Self::bad_request("bad-params", error.to_string()),
+            StepError::Run(error) => error.into(),
+            StepError::Download(error) => error.into(),
+            StepError::Mesh(error) => error.into(),
+            StepError::HashMismatch { .. } => {
+                Self::unprocessable("hash-mismatch", error.to_string())
+            }
+            StepError::Blob(error) => error.into(),
+            StepError::Task(error) => error.into(),
+            StepError::SessionHash(_) | StepError::Snap(_) | StepError::Name(_) => {
+                Self::internal(error)
+            }
+        }
+    }
+}
+
+/// A mesh this host does not hold is 404; a source that fails or serves another mesh, 502.
+impl From<ConvertError> for ApiError {
+    fn from(error: ConvertError) -> Self {
+        let message = error.to_string();
+        match error {
+            ConvertError::NotHeld(_) => Self::new(StatusCode::NOT_FOUND, "not-found", message),
+            ConvertError::Download(_) | ConvertError::Decode(_) => Self::upstream(message),
+            ConvertError::HashMismatch { .. } => {
+                Self::new(StatusCode::BAD_GATEWAY, "hash-mismatch", message)
+            }
+            ConvertError::Write { .. } => Self::internal(message),
+        }
+    }
+}
+
+impl From<PackOutputError> for ApiError {
+    fn from(error: PackOutputError) -> Self {
         Self::internal(error)
     }
 }

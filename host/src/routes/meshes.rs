@@ -3,11 +3,11 @@
 use std::sync::Arc;
 
 use axum::extract::State;
-use axum::http::{StatusCode, header};
+use axum::http::header;
 use axum::response::{IntoResponse, Response};
 
 use super::error::{ApiError, ApiJson};
-use crate::conversions::{self, ConvertError};
+use crate::conversions::{self, Held};
 use crate::meshes;
 use crate::state::Host;
 use meshflow_api::host::{ConvertMesh, Vouched};
@@ -34,23 +34,11 @@ pub async fn convert(
         })?),
         None => None,
     };
-    let scope = host.scope(&peers).map_err(|e| ApiError::bad_request("bad-peers", e))?;
+    let scope = host.downloads.scope(&peers)?;
     let source = conversions::Source { hash: &request.hash, from: from.as_deref(), grid };
-    let bytes = conversions::convert(&host, source, &scope, request.format).await?;
+    let held = Held { blobs: &host.blobs, sessions: &host.sessions };
+    let bytes =
+        host.conversions.convert(held, &host.downloads, source, &scope, request.format).await?;
     let headers = [(header::CONTENT_TYPE, "application/octet-stream")];
     Ok((headers, bytes).into_response())
-}
-
-impl From<ConvertError> for ApiError {
-    fn from(error: ConvertError) -> Self {
-        let message = error.to_string();
-        match error {
-            ConvertError::NotHeld(_) => Self::new(StatusCode::NOT_FOUND, "not-found", message),
-            ConvertError::Fetch(_) => Self::upstream(message),
-            ConvertError::HashMismatch { .. } => {
-                Self::new(StatusCode::BAD_GATEWAY, "hash-mismatch", message)
-            }
-            ConvertError::Write { .. } => Self::internal(message),
-        }
-    }
 }

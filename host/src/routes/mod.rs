@@ -55,7 +55,7 @@ fn allowed_url(host: &Host, text: &str, peers: &[String]) -> Result<String, ApiE
     }
     let url = reqwest::Url::parse(text)
         .map_err(|_| ApiError::bad_request("bad-url", format!("{} is not a URL", quoted(text))))?;
-    let scope = host.scope(peers).map_err(|e| ApiError::bad_request("bad-peers", e))?;
+    let scope = host.downloads.scope(peers)?;
     let refused = |e: Refusal| ApiError::bad_request("url-not-allowed", e.to_string());
     scope.allowed.check(&url).map_err(refused)?;
     Ok(url.into())

@@ -30,8 +30,7 @@ pub async fn create(
         grid: request.grid,
         offered: Vec::new(),
     };
-    host.sessions.insert(&id, record.clone())?;
-    tokio::spawn(rebuild::load(host.clone(), id.clone(), record));
+    rebuild::start(&host, id.clone(), record)?;
     let created = SessionCreated { id, state: SessionState::Loading };
     Ok((StatusCode::ACCEPTED, axum::Json(created)))
 }

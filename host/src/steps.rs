@@ -1,0 +1,350 @@
+//! The two things a ready session does: take another host's step (`update`: re-run its
+//! replay, replay its edit log, or take its full mesh) and run a service (`run`: a filter
+//! replaces the session's mesh and is named for other hosts, a check yields its value).
+//! No HTTP here: `routes/steps.rs` adapts requests and [`StepError`]s.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use meshflow_api::ClientError;
+use meshflow_api::fetch_rules::{FetchScope, origin};
+use meshflow_api::host::{
+    BlobRef, CheckResult, FilterResult, FullRef, RunRequest, RunResult, Transfer, Update, Updated,
+    millis,
+};
+use meshflow_codec::correction::{self, CorrectionError};
+use meshflow_codec::quantize::{Grid, snap_step};
+use meshflow_mesh::ContentHash;
+use meshflow_mesh::store::EditError;
+use meshflow_params::{ParamError, from_json as params_from_json, value_json};
+use meshflow_runtime::{Invocation, RunError, ServiceKind};
+
+use crate::blobs::{BlobError, Stored};
+use crate::downloads::PeersError;
+use crate::edit_logs::StepLog;
+use crate::meshes::{self, CurrentMesh, MeshError};
+use crate::plugins::PluginSetError;
+use crate::replay::{self, NameError, PluginSource, ReplayFailure};
+use crate::sessions::SessionError;
+use crate::state::Host;
+
+/// Why a step was not taken or run; the session's mesh is then unchanged.
+#[derive(Debug, thiserror::Error)]
+pub enum StepError {
+    #[error(transparent)]
+    Peers(#[from] PeersError),
+    #[error(transparent)]
+    Session(#[from] SessionError),
+    #[error(transparent)]
+    Plugins(#[from] PluginSetError),
+    #[error(transparent)]
+    Params(#[from] ParamError),
+    #[error(transparent)]
+    Run(#[from] RunError),
+    /// The full mesh could not be downloaded.
+    #[error(transparent)]
+    Download(#[from] ClientError),
+    /// The full mesh is not a mesh.
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    /// The full mesh is not the announced one.
+    #[error("{url}: the mesh has content hash {found}, not the expected {expected}")]
+    HashMismatch { url: String, found: String, expected: String },
+    #[error(transparent)]
+    Blob(#[from] BlobError),
+    #[error(transparent)]
+    Task(#[from] tokio::task::JoinError),
+    #[error("session hash `{0}` is not a hash")]
+    SessionHash(String),
+    #[error("snapping to the grid: {0}")]
+    Snap(#[source] EditError),
+    #[error("naming the step: {0}")]
+    Name(#[source] NameError),
+}
+
+/// Why a replay or an edit log was not used; the update falls back to the next transfer.
+#[derive(Debug, thiserror::Error)]
+pub enum TransferFailure {
+    #[error(transparent)]
+    Download(#[from] ClientError),
+    #[error(transparent)]
+    Replay(#[from] ReplayFailure),
+    #[error("{0:?} is not a content hash")]
+    NotAHash(String),
+    #[error("{url}: {source}")]
+    Correction {
+        url: String,
+        #[source]
+        source: CorrectionError,
+    },
+    #[error(transparent)]
+    Task(#[from] tokio::task::JoinError),
+    #[error(transparent)]
+    Blob(#[from] BlobError),
+}
+
+/// Session `id` takes another host's step: re-run it (`replay`) or replay its edit log
+/// (`correction`), as asked, falling back to the edit log and then to the full mesh.
+/// `peers` are the cluster's origins the engine vouched for.
+pub async fn update(
+    host: &Host,
+    id: &str,
+    update: Update,
+    peers: &[String],
+) -> Result<Updated, StepError> {
+    let scope = host.downloads.scope(peers)?;
+    let session = host.sessions.begin(id)?;
+    let mut downloaded = 0;
+    let mut download_ms = 0.0;
+    let mut reasons = Vec::new();
+    let order: &[Transfer] = match update.use_ {
+        Transfer::Replay => &[Transfer::Replay, Transfer::Correction],
+        Transfer::Correction => &[Transfer::Correction],
+        Transfer::Full => &[],
+    };
+    for &via in order {
+        let blob = match via {
+            Transfer::Replay => update.replay.as_ref(),
+            _ => update.correction.as_ref(),
+        };
+        let Some(blob) = blob else {
+            reasons.push(format!("no {} was given", via.name()));
+            continue;
+        };
+        let (base, grid) = (&session.current, session.grid);
+        let attempt = apply_step(host, &scope, base, grid, blob, via, &update.full.hash).await;
+        downloaded += attempt.bytes;
+        download_ms += attempt.download_ms;
+        match attempt.result {
+            Ok((next, name, _stored)) => {
+                let updated = Updated {
+                    hash: next.hash.clone(),
+                    via,
+                    bytes: downloaded,
+                    download_ms,
+                    apply_ms: attempt.apply_ms,
+                    fallback: fallback(&reasons),
+                };
+                session.commit(next, name)?;
+                return Ok(updated);
+            }
+            Err(reason) => reasons.push(format!("{}: {reason}", via.name())),
+        }
+    }
+    let fallback = fallback(&reasons);
+    if let Some(reason) = &fallback {
+        tracing::info!("session {id}: using the full mesh: {reason}");
+    }
+    let url = &update.full.url;
+    let started = Instant::now();
+    let bytes = host.downloads.get(url, &scope).await?;
+    download_ms += millis(started.elapsed());
+    downloaded += bytes.len() as u64;
+    let started = Instant::now();
+    let decoded = meshes::decode_hashed(url, bytes).await?;
+    let (next, bytes, encoding) = (decoded.mesh, decoded.bytes, decoded.encoding);
+    if !next.hash.eq_ignore_ascii_case(&update.full.hash) {
+        return Err(StepError::HashMismatch {
+            url: url.clone(),
+            found: next.hash,
+            expected: update.full.hash,
+        });
+    }
+    let name = meshes::blob_name(&bytes, encoding, &next.hash);
+    let stored = host.blobs.put(&name, Arc::new(bytes)).await?;
+    let updated = Updated {
+        hash: next.hash.clone(),
+        via: Transfer::Full,
+        bytes: downloaded,
+        download_ms,
+        apply_ms: millis(started.elapsed()),
+        fallback,
+    };
+    session.commit(next, name)?;
+    drop(stored);
+    crate::eviction::enforce_budget(host).await;
+    Ok(updated)
+}
+
+fn fallback(reasons: &[String]) -> Option<String> {
+    (!reasons.is_empty()).then(|| reasons.join("; "))
+}
+
+struct Attempt<'a> {
+    bytes: u64,
+    download_ms: f64,
+    apply_ms: f64,
+    /// The new mesh, the stored blob's name and its hold against eviction, or why the
+    /// blob was not used.
+    result: Result<(CurrentMesh, String, Stored<'a>), TransferFailure>,
+}
+
+/// Downloads a correction or replay correction and applies it to `base`; the result must
+/// be `expected`. The blob is kept, so a restart can apply it again.
+async fn apply_step<'a>(
+    host: &'a Host,
+    scope: &FetchScope,
+    base: &CurrentMesh,
+    grid: Option<Grid>,
+    blob: &BlobRef,
+    via: Transfer,
+    expected: &str,
+) -> Attempt<'a> {
+    let started = Instant::now();
+    let downloaded = host.downloads.get(&blob.url, scope).await;
+    let download_ms = millis(started.elapsed());
+    let bytes = match downloaded {
+        // Shared from here on: applied, named and stored without another copy.
+        Ok(bytes) => Arc::new(bytes),
+        Err(error) => {
+            let result = Err(error.into());
+            return Attempt { bytes: 0, download_ms, apply_ms: 0.0, result };
+        }
+    };
+    let size = bytes.len() as u64;
+    let started = Instant::now();
+    let (applied, name) = match via {
+        Transfer::Replay => {
+            let producer = reqwest::Url::parse(&blob.url).ok().map(|url| origin(&url));
+            let source = PluginSource { scope, producer: producer.as_deref() };
+            let next = host
+                .replay_plugins
+                .apply(&host.plugins, source, base, grid, &bytes, expected)
+                .await
+                .map_err(TransferFailure::from);
+            (next, meshes::replay_name(&bytes))
+        }
+        _ => (
+            apply_correction(base, bytes.clone(), expected, &blob.url).await,
+            meshes::correction_name(&bytes),
+        ),
+    };
+    let apply_ms = millis(started.elapsed());
+    let result = match applied {
+        Ok(next) => match host.blobs.put(&name, bytes).await {
+            Ok(stored) => Ok((next, name, stored)),
+            Err(e) => Err(e.into()),
+        },
+        Err(reason) => Err(reason),
+    };
+    Attempt { bytes: size, download_ms, apply_ms, result }
+}
+
+/// Replays an edit log on a thread of its own. The session's hash is known: the base is
+/// not hashed again.
+async fn apply_correction(
+    base: &CurrentMesh,
+    bytes: Arc<Vec<u8>>,
+    expected: &str,
+    url: &str,
+) -> Result<CurrentMesh, TransferFailure> {
+    let hash = |hex: &str| {
+        ContentHash::from_hex(hex).ok_or_else(|| TransferFailure::NotAHash(hex.to_owned()))
+    };
+    let (base_hash, result_hash) = (hash(&base.hash)?, hash(expected)?);
+    let (mesh, url) = (base.mesh.clone(), url.to_owned());
+    let next = tokio::task::spawn_blocking(move || {
+        correction::apply_known(mesh, base_hash, &bytes, result_hash)
+            .map_err(|source| TransferFailure::Correction { url, source })
+    })
+    .await??;
+    Ok(CurrentMesh { mesh: Arc::new(next), hash: expected.to_ascii_lowercase() })
+}
+
+/// Runs a service on session `id`: a filter replaces the session's mesh and yields a
+/// correction, a replay and a full-mesh URL; a check yields its value.
+pub async fn run(host: &Host, id: &str, request: RunRequest) -> Result<RunResult, StepError> {
+    let (plugin, info) = host.plugins.find(&request.service, request.plugin.as_deref())?;
+    let given = params_from_json(&info, &request.params)?;
+    // The service is looked up and its parameters resolved here, once: the answer, the
+    // replay, the edit log's estimate and the run itself all take these.
+    let invocation = Invocation::resolve(plugin, info, &given)?;
+    let resolved_params = replay::params_json(invocation.params());
+    let session = host.sessions.begin(id)?;
+    let input = session.current.clone();
+    let _running = host.start_run();
+    let runtime = host.runtime.clone();
+    let mesh = input.mesh.clone();
+    let (output, invocation) = tokio::task::spawn_blocking(move || {
+        let output = runtime.invoke(&invocation, mesh);
+        (output, invocation)
+    })
+    .await?;
+    let output = output?;
+    let (compute_ms, queue_ms) = (millis(output.duration), millis(output.queued));
+    let (service, plugin) = (request.service, invocation.plugin().digest.clone());
+    if invocation.info().kind == ServiceKind::Check {
+        let value = output.value.as_ref().map(value_json).unwrap_or_default();
+        let report = output.report;
+        let result =
+            CheckResult { service, plugin, value, compute_ms, queue_ms, report, resolved_params };
+        return Ok(RunResult::Check(result));
+    }
+
+    let result = output.mesh.expect("a filter returns a mesh");
+    let base_hash = ContentHash::from_hex(&input.hash)
+        .ok_or_else(|| StepError::SessionHash(input.hash.clone()))?;
+    // A quantised run: the plugin computes freely, its result goes back onto the grid.
+    let (result, log) = match session.grid {
+        Some(grid) => {
+            let base = input.mesh.clone();
+            tokio::task::spawn_blocking(move || snap_step(&grid, &base, result, output.log))
+                .await?
+                .map_err(StepError::Snap)?
+        }
+        None => (result, output.log),
+    };
+    let edits = log.iter().map(|op| op.edit_count()).sum();
+    let result = Arc::new(result);
+    let hashing = result.clone();
+    let result_hash = tokio::task::spawn_blocking(move || hashing.content_hash()).await?;
+    let next = CurrentMesh { mesh: result.clone(), hash: result_hash.to_hex() };
+    let params = serde_json::Value::Object(resolved_params.clone()).to_string();
+    let service_name = &invocation.info().name;
+    let named = replay::name_resolved(
+        &plugin,
+        service_name,
+        params.clone(),
+        base_hash,
+        &next.mesh,
+        result_hash,
+    )
+    .map(|step| meshflow_codec::replay::encode(&step))
+    .map_err(StepError::Name)?;
+    let (replay_name, replay_bytes) = (meshes::replay_name(&named), named.len() as u64);
+    // Before the replay is stored: no eviction hold may be kept while waiting for a slot.
+    let step_log = StepLog {
+        plugin: plugin.clone(),
+        service: service.clone(),
+        params,
+        base: input.mesh,
+        base_hash,
+        log,
+        result,
+        result_hash,
+    };
+    let (correction_name, correction_bytes) =
+        host.edit_logs.encode_later(&host.blobs, step_log).await;
+    let stored = host.blobs.put(&replay_name, Arc::new(named)).await?;
+    let full_name = host.blobs.remember(next.mesh.clone(), &next.hash);
+    let result = FilterResult {
+        service,
+        plugin,
+        input_hash: session.current.hash.clone(),
+        output_hash: next.hash.clone(),
+        vertices: next.mesh.vertex_count(),
+        triangles: next.mesh.triangle_count(),
+        edits,
+        compute_ms,
+        queue_ms,
+        report: output.report,
+        resolved_params,
+        correction: BlobRef { url: host.blob_url(&correction_name), bytes: correction_bytes },
+        replay: BlobRef { url: host.blob_url(&replay_name), bytes: replay_bytes },
+        full: FullRef { url: host.blob_url(&full_name), hash: next.hash.clone() },
+    };
+    session.commit_offering(next, correction_name, Some(replay_name))?;
+    drop(stored);
+    crate::eviction::enforce_budget(host).await;
+    Ok(RunResult::Filter(result))
+}
