@@ -5,11 +5,12 @@
 
 use std::sync::Arc;
 
+use crate::engine::{Engine, SubmitError, new_run_id};
 use crate::limits::{BATCH_POLL, MAX_BATCH_INPUTS, MAX_BATCH_RUNS_AT_ONCE};
 use crate::record::{BatchEntry, BatchStatus, SubmitBatch, SummaryRow};
 use crate::store::{self, StoredBatch};
 use crate::workflow::{Workflow, WorkflowError};
-use crate::{Engine, SubmitError, summary, validate};
+use crate::{summary, validate};
 
 impl Engine {
     /// Checks the workflow and every input's origin, stores the batch and starts it; an
@@ -154,5 +155,5 @@ fn file_of(url: &str) -> &str {
 }
 
 fn new_batch_id() -> String {
-    format!("b-{}", crate::new_run_id())
+    format!("b-{}", new_run_id())
 }

@@ -12,7 +12,7 @@ use super::current::Current;
 use super::error::ExecError;
 use super::failure::StepFailed;
 use super::replica::Replica;
-use super::task::load_input;
+use super::session::load_input;
 use crate::plan::{Plan, offering_pinned, pick, placed_by_link};
 use crate::record::{BroadcastRecord, HostLoad};
 use crate::registry::{HostEntry, Registry};

@@ -11,7 +11,7 @@ use serde_json::json;
 
 use super::failure::Failure;
 use super::replica::Replica;
-use super::task::load_input;
+use super::session::load_input;
 use super::verify::{self, full_mesh_url};
 use super::{Executor, busy};
 use crate::registry::HostEntry;

@@ -23,6 +23,7 @@ mod finish;
 mod forward;
 mod replica;
 mod resume;
+mod session;
 mod step_record;
 mod task;
 mod verify;

@@ -5,9 +5,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use meshflow_api::host::{
-    CreateSession, GridSpec, InputRef, RunRequest, RunResult, SessionState, SessionStatus,
-};
+use meshflow_api::host::{RunRequest, RunResult};
 use meshflow_api::params::ValueType;
 
 use super::error::ExecError;
@@ -17,7 +15,6 @@ use super::{Executor, busy, verify};
 use crate::limits::MAX_STEPS_PER_RUN;
 use crate::plan::{offering_pinned, pick, placed_by_link};
 use crate::registry::HostEntry;
-use crate::run::Run;
 use crate::workflow::Task;
 
 impl Executor {
@@ -133,30 +130,6 @@ impl Executor {
         };
         let index = self.run.push_step(ran.record(&answer));
         Ok((index, result))
-    }
-}
-
-/// Opens a session on `host` from `url` (the run deletes it when it ends) and waits until
-/// it is loaded.
-pub(super) async fn load_input(
-    run: &Run,
-    host: Arc<HostEntry>,
-    url: &str,
-    hash: Option<String>,
-    grid: Option<GridSpec>,
-) -> Result<(String, SessionStatus), Failure> {
-    let input = InputRef { url: url.to_owned(), hash: hash.clone() };
-    let created = host.client.create_session_with(CreateSession { input, grid }).await?;
-    run.session_opened(&host.url, &created.id);
-    let status = host.client.wait_ready(&created.id).await?;
-    match status.state {
-        SessionState::Failed => Err(Failure::Step(
-            status.error.unwrap_or_else(|| "the host could not load it".to_owned()),
-        )),
-        _ => {
-            verify::loaded(&status, hash.as_deref())?;
-            Ok((created.id, status))
-        }
     }
 }
 

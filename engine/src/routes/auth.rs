@@ -14,7 +14,7 @@ use axum::response::{IntoResponse, Response};
 use meshflow_api::server::{bearer, require};
 use serde::Deserialize;
 
-use crate::Engine;
+use crate::engine::Engine;
 
 #[derive(Deserialize)]
 struct TokenQuery {

@@ -11,7 +11,7 @@ use meshflow_api::engine::{BatchStatus, SubmitBatch};
 
 use super::client_of;
 use super::error::{ApiError, ApiResult};
-use crate::Engine;
+use crate::engine::Engine;
 
 /// `POST /batches`: `{"workflow", "inputs": [URL, …]}` → 202 with the batch as it starts.
 pub async fn submit(

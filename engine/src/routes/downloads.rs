@@ -11,8 +11,8 @@ use serde::Deserialize;
 
 use super::error::ApiResult;
 use super::runs::find;
-use crate::Engine;
 use crate::downloads::{DownloadError, Which};
+use crate::engine::Engine;
 use crate::record::RunRecord;
 
 #[derive(Deserialize)]

@@ -8,8 +8,8 @@ use axum::http::{StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use meshflow_api::host::{ErrorBody, ErrorDetail};
 
-use crate::SubmitError;
 use crate::downloads::DownloadError;
+use crate::engine::SubmitError;
 use crate::inputs::InputError;
 use crate::limits::RETRY_AFTER;
 use crate::registry::RegisterError;

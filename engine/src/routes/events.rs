@@ -11,7 +11,7 @@ use tokio_stream::wrappers::BroadcastStream;
 
 use super::error::ApiResult;
 use super::runs::find;
-use crate::Engine;
+use crate::engine::Engine;
 use crate::record::Status;
 
 /// First the whole record (`record`), then each change (`status`, `broadcast`, `step`,

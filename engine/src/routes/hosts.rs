@@ -10,7 +10,7 @@ use axum::{Json, body::Bytes};
 use meshflow_api::engine::{HostInfo, RegisterHost, ServiceOffer};
 
 use super::error::{ApiError, ApiResult};
-use crate::Engine;
+use crate::engine::Engine;
 use crate::registry::HostEntry;
 
 pub async fn register(

@@ -12,7 +12,7 @@ use meshflow_api::engine::InputUploaded;
 use serde::Deserialize;
 
 use super::error::{ApiError, ApiResult};
-use crate::Engine;
+use crate::engine::Engine;
 
 #[derive(Deserialize)]
 pub struct InputQuery {

@@ -12,7 +12,7 @@ use serde::Deserialize;
 use serde_json::{Value, json};
 
 use super::error::{ApiError, ApiResult, host_refused};
-use crate::Engine;
+use crate::engine::Engine;
 
 #[derive(Deserialize)]
 pub struct PluginQuery {

@@ -14,7 +14,7 @@ use serde_json::{Value, json};
 
 use super::client_of;
 use super::error::{ApiError, ApiResult};
-use crate::Engine;
+use crate::engine::Engine;
 use crate::record::RunRecord;
 use crate::run::Run;
 

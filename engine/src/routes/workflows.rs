@@ -10,7 +10,7 @@ use serde_json::{Value, json};
 
 use super::error::ApiResult;
 use super::runs::read_submission;
-use crate::Engine;
+use crate::engine::Engine;
 
 /// The workbench validates as the user types with the engine's own rules: 200
 /// `{"valid": true}` or the same 400 `invalid-workflow` (with the step path) that
