@@ -37,7 +37,7 @@ pub fn resolve(
         .iter()
         .map(|spec| {
             let value = match given.iter().find(|(name, _)| name == &spec.name) {
-                Some((_, value)) => coerce(spec, value).map_err(&fail)?,
+                Some((_, value)) => coerce(spec, value).map_err(|e| fail(e.to_string()))?,
                 None => spec.default.clone(),
             };
             Ok((spec.name.clone(), value))
@@ -45,7 +45,20 @@ pub fn resolve(
         .collect()
 }
 
-fn coerce(spec: &ParamInfo, value: &Value) -> Result<Value, String> {
+/// Why one given value was refused: the `problem` of a [`ParamError`].
+#[derive(Debug, thiserror::Error)]
+enum ValueError {
+    #[error("parameter `{name}`: `{text}` is not {expected}")]
+    Unparsed { name: String, text: String, expected: &'static str },
+    #[error("parameter `{name}` must be {expected}, got {given:?}")]
+    WrongType { name: String, expected: &'static str, given: Value },
+    #[error("parameter `{name}` = {value} is out of range {range}")]
+    OutOfRange { name: String, value: f64, range: String },
+    #[error("parameter `{name}` = `{text}` is not one of: {}", .choices.join(", "))]
+    NotAChoice { name: String, text: String, choices: Vec<String> },
+}
+
+fn coerce(spec: &ParamInfo, value: &Value) -> Result<Value, ValueError> {
     let name = &spec.name;
     let typed = match (spec.ty, value) {
         (ValueType::Boolean, Value::Boolean(_))
@@ -56,10 +69,17 @@ fn coerce(spec: &ParamInfo, value: &Value) -> Result<Value, String> {
         (ValueType::Integer, Value::Real(r)) if r.fract() == 0.0 && r.abs() < 9e15 => {
             Value::Integer(*r as i64)
         }
-        (ty, Value::Text(text)) => parse(ty, text)
-            .ok_or_else(|| format!("parameter `{name}`: `{text}` is not {}", type_name(ty)))?,
+        (ty, Value::Text(text)) => parse(ty, text).ok_or_else(|| ValueError::Unparsed {
+            name: name.clone(),
+            text: text.clone(),
+            expected: type_name(ty),
+        })?,
         (ty, other) => {
-            return Err(format!("parameter `{name}` must be {}, got {other:?}", type_name(ty)));
+            return Err(ValueError::WrongType {
+                name: name.clone(),
+                expected: type_name(ty),
+                given: other.clone(),
+            });
         }
     };
     check_bounds(spec, &typed)?;
@@ -79,7 +99,7 @@ fn parse(ty: ValueType, text: &str) -> Option<Value> {
     }
 }
 
-fn check_bounds(spec: &ParamInfo, value: &Value) -> Result<(), String> {
+fn check_bounds(spec: &ParamInfo, value: &Value) -> Result<(), ValueError> {
     let number = match value {
         Value::Integer(i) => Some(*i as f64),
         Value::Real(r) => Some(*r),
@@ -89,22 +109,22 @@ fn check_bounds(spec: &ParamInfo, value: &Value) -> Result<(), String> {
         let below = spec.min.is_some_and(|min| x < min);
         let above = spec.max.is_some_and(|max| x > max);
         if below || above || x.is_nan() {
-            return Err(format!(
-                "parameter `{}` = {x} is out of range {}",
-                spec.name,
-                range_text(spec)
-            ));
+            return Err(ValueError::OutOfRange {
+                name: spec.name.clone(),
+                value: x,
+                range: range_text(spec),
+            });
         }
     }
     if let Value::Text(text) = value
         && !spec.choices.is_empty()
         && !spec.choices.contains(text)
     {
-        return Err(format!(
-            "parameter `{}` = `{text}` is not one of: {}",
-            spec.name,
-            spec.choices.join(", ")
-        ));
+        return Err(ValueError::NotAChoice {
+            name: spec.name.clone(),
+            text: text.clone(),
+            choices: spec.choices.clone(),
+        });
     }
     Ok(())
 }

@@ -51,7 +51,7 @@ pub enum SaveError {
     UnknownFormat { path: PathBuf },
     /// The mesh breaks its own invariants, so the file could not be loaded back.
     #[error("{name}: refusing to save an invalid mesh: {reason}")]
-    InvalidMesh { name: String, reason: String },
+    InvalidMesh { name: String, reason: MeshDefect },
     /// Creating, writing or renaming the file failed.
     #[error("{name}: {action}: {source}")]
     Io {
@@ -60,6 +60,21 @@ pub enum SaveError {
         #[source]
         source: std::io::Error,
     },
+}
+
+/// What makes a mesh impossible to save: a file written from it would not load back.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum MeshDefect {
+    #[error("{values} position values is not a whole number of vertices")]
+    PartialVertex { values: usize },
+    #[error("{corners} corner indices is not a whole number of triangles")]
+    PartialTriangle { corners: usize },
+    #[error("{vertices} vertices do not fit u32 ids")]
+    TooManyVertices { vertices: usize },
+    #[error("vertex {vertex} has a non-finite coordinate {value}")]
+    NonFinite { vertex: usize, value: f32 },
+    #[error("triangle {triangle} uses vertex {vertex}, but there are only {vertices} vertices")]
+    VertexOutOfRange { triangle: usize, vertex: u32, vertices: usize },
 }
 
 fn at_prefix(at: &Option<Position>) -> String {

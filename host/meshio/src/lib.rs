@@ -25,7 +25,7 @@ use std::path::Path;
 use meshflow_mesh::MeshData;
 
 pub use atomic::write_file;
-pub use error::{LoadError, Position, SaveError};
+pub use error::{LoadError, MeshDefect, Position, SaveError};
 
 /// A mesh file format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -173,32 +173,23 @@ fn encode(
 
 /// The invariants a written file needs to load back: whole vertices and triangles, finite
 /// coordinates, indices in range, ids that fit `u32`.
-fn validate(mesh: &MeshData) -> Result<(), String> {
+fn validate(mesh: &MeshData) -> Result<(), MeshDefect> {
     if !mesh.positions.len().is_multiple_of(3) {
-        return Err(format!(
-            "{} position values is not a whole number of vertices",
-            mesh.positions.len()
-        ));
+        return Err(MeshDefect::PartialVertex { values: mesh.positions.len() });
     }
     if !mesh.triangles.len().is_multiple_of(3) {
-        return Err(format!(
-            "{} corner indices is not a whole number of triangles",
-            mesh.triangles.len()
-        ));
+        return Err(MeshDefect::PartialTriangle { corners: mesh.triangles.len() });
     }
     let vertices = mesh.vertex_count();
     if u32::try_from(vertices).is_err() {
-        return Err(format!("{vertices} vertices do not fit u32 ids"));
+        return Err(MeshDefect::TooManyVertices { vertices });
     }
     if let Some(i) = mesh.positions.iter().position(|c| !c.is_finite()) {
-        return Err(format!("vertex {} has a non-finite coordinate {}", i / 3, mesh.positions[i]));
+        return Err(MeshDefect::NonFinite { vertex: i / 3, value: mesh.positions[i] });
     }
     if let Some(i) = mesh.triangles.iter().position(|&v| v as usize >= vertices) {
-        return Err(format!(
-            "triangle {} uses vertex {}, but there are only {vertices} vertices",
-            i / 3,
-            mesh.triangles[i]
-        ));
+        let (triangle, vertex) = (i / 3, mesh.triangles[i]);
+        return Err(MeshDefect::VertexOutOfRange { triangle, vertex, vertices });
     }
     Ok(())
 }

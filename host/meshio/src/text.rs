@@ -24,23 +24,32 @@ pub(crate) fn shown(token: &[u8]) -> String {
     if token.len() > MAX { format!("{text}…") } else { text.into_owned() }
 }
 
+/// A token that is not the number it should be; the token as [`shown`].
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum NumberError {
+    #[error("'{0}' is not a number")]
+    NotANumber(String),
+    #[error("'{0}' is not an integer")]
+    NotAnInteger(String),
+}
+
 /// Parses a decimal number straight to the nearest `f32` (going through `f64` could round
 /// twice). NaN and infinities parse; the caller rejects them with a vertex-level message.
 #[inline]
-pub(crate) fn parse_f32(token: &[u8]) -> Result<f32, String> {
+pub(crate) fn parse_f32(token: &[u8]) -> Result<f32, NumberError> {
     std::str::from_utf8(token)
         .ok()
         .and_then(|s| s.parse().ok())
-        .ok_or_else(|| format!("'{}' is not a number", shown(token)))
+        .ok_or_else(|| NumberError::NotANumber(shown(token)))
 }
 
 /// Parses a decimal integer.
 #[inline]
-pub(crate) fn parse_i64(token: &[u8]) -> Result<i64, String> {
+pub(crate) fn parse_i64(token: &[u8]) -> Result<i64, NumberError> {
     std::str::from_utf8(token)
         .ok()
         .and_then(|s| s.parse().ok())
-        .ok_or_else(|| format!("'{}' is not an integer", shown(token)))
+        .ok_or_else(|| NumberError::NotAnInteger(shown(token)))
 }
 
 /// Writes an `f32` as the shortest decimal that parses back to the same bits (Rust's float

@@ -8,15 +8,27 @@ pub fn surface_area(positions: &[f32], triangles: &[u32]) -> f64 {
     total_area(positions, triangles)
 }
 
+/// Why a mesh has no enclosed volume to measure.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "no closed component: every component has boundary edges, so none encloses a volume \
+     (fill its holes first)"
+)]
+pub struct NoClosedComponent;
+
+impl From<NoClosedComponent> for meshflow_plugin_sdk::Error {
+    fn from(e: NoClosedComponent) -> Self {
+        Self(e.to_string())
+    }
+}
+
 /// The signed volume enclosed by the closed components, summed: positive for outward
 /// winding. Open components enclose nothing and are skipped; a mesh without a closed
 /// component is refused, since 0 would read as a measurement.
-pub fn enclosed_volume(positions: &[f32], triangles: &[u32]) -> Result<f64, String> {
+pub fn enclosed_volume(positions: &[f32], triangles: &[u32]) -> Result<f64, NoClosedComponent> {
     let closed = closed_component_volumes(positions, triangles);
     if closed.is_empty() {
-        return Err("no closed component: every component has boundary edges, so none \
-                    encloses a volume (fill its holes first)"
-            .into());
+        return Err(NoClosedComponent);
     }
     Ok(closed.iter().map(|c| c.volume).sum())
 }
@@ -51,7 +63,7 @@ mod tests {
     #[test]
     fn an_open_mesh_is_refused_and_open_pieces_do_not_count() {
         let open = open_cube();
-        let err = enclosed_volume(&open.positions, &open.triangles).unwrap_err();
+        let err = enclosed_volume(&open.positions, &open.triangles).unwrap_err().to_string();
         assert!(err.contains("no closed component"), "{err}");
         let mut both = cube();
         both.positions.extend(&open.positions);

@@ -183,7 +183,7 @@ pub(super) fn parse(bytes: &[u8]) -> ReadResult<Header> {
                 let element = elements
                     .last_mut()
                     .ok_or_else(|| error("property before any element".into()))?;
-                let property = parse_property(tokens).map_err(error)?;
+                let property = parse_property(tokens).map_err(|e| error(e.to_string()))?;
                 if !property_names.insert(property.name.clone()) {
                     return Err(error(format!("property '{}' is declared twice", property.name)));
                 }
@@ -204,22 +204,35 @@ pub(super) fn parse(bytes: &[u8]) -> ReadResult<Header> {
     Err(Invalid::whole("the PLY header has no 'end_header' line"))
 }
 
-fn parse_property<'a>(mut tokens: impl Iterator<Item = &'a [u8]>) -> Result<Property, String> {
+/// Why a `property` line of the header was refused.
+#[derive(Debug, thiserror::Error)]
+enum PropertyError {
+    #[error("unknown property type '{0}'")]
+    UnknownType(String),
+    #[error("a list count must have an integer type")]
+    ListCountNotInteger,
+    #[error("a property needs a name")]
+    NoName,
+}
+
+fn parse_property<'a>(
+    mut tokens: impl Iterator<Item = &'a [u8]>,
+) -> Result<Property, PropertyError> {
     let scalar = |token: Option<&[u8]>| {
         let token = token.unwrap_or(b"");
-        Scalar::from_name(token).ok_or_else(|| format!("unknown property type '{}'", shown(token)))
+        Scalar::from_name(token).ok_or_else(|| PropertyError::UnknownType(shown(token)))
     };
     let first = tokens.next();
     let kind = if first == Some(b"list") {
         let count = scalar(tokens.next())?;
         let item = scalar(tokens.next())?;
         if !count.is_integer() {
-            return Err("a list count must have an integer type".into());
+            return Err(PropertyError::ListCountNotInteger);
         }
         Kind::List { count, item }
     } else {
         Kind::Scalar(scalar(first)?)
     };
-    let name = tokens.next().ok_or("a property needs a name")?;
+    let name = tokens.next().ok_or(PropertyError::NoName)?;
     Ok(Property { name: String::from_utf8_lossy(name).into_owned(), kind })
 }

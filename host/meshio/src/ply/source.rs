@@ -214,12 +214,12 @@ impl Source for Ascii<'_> {
     fn coordinate(&mut self, _ty: Scalar) -> ReadResult<f32> {
         // Straight to f32 whatever the declared type: one rounding from the decimal text.
         let token = self.token()?;
-        parse_f32(token).map_err(|reason| Invalid::line(self.last_line, reason))
+        parse_f32(token).map_err(|reason| Invalid::line(self.last_line, reason.to_string()))
     }
 
     fn integer(&mut self, _ty: Scalar) -> ReadResult<i64> {
         let token = self.token()?;
-        parse_i64(token).map_err(|reason| Invalid::line(self.last_line, reason))
+        parse_i64(token).map_err(|reason| Invalid::line(self.last_line, reason.to_string()))
     }
 
     fn skip(&mut self, kind: Kind) -> ReadResult<()> {
