@@ -323,15 +323,18 @@ pub fn input_name(connection: &mut Connection, file: &str) -> Result<Option<Stri
     Ok(statement.query_row([file], |row| row.get(0)).optional()?)
 }
 
+/// Upload names by input file.
+pub type InputNames = std::collections::HashMap<String, String>;
+
 /// The names the given files were uploaded under, for those that were (one transaction for
 /// a whole batch's table).
 pub fn input_names(
     connection: &mut Connection,
     files: &[String],
-) -> Result<std::collections::HashMap<String, String>, StoreError> {
+) -> Result<InputNames, StoreError> {
     let mut statement =
         connection.prepare_cached("SELECT name FROM input_names WHERE file = ?1")?;
-    let mut names = std::collections::HashMap::new();
+    let mut names = InputNames::new();
     for file in files {
         if let Some(name) = statement.query_row([file], |row| row.get(0)).optional()? {
             names.insert(file.clone(), name);

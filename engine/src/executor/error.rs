@@ -55,3 +55,23 @@ pub enum CompareError {
     #[error("the check returned {actual}, which cannot be compared with {expected}")]
     Mismatch { actual: Json, expected: Json },
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The record says these in words, as it always has.
+    #[test]
+    fn messages_read_as_the_record_has_them() {
+        let steps = ExecError::TooManySteps { path: "steps[1]".into() };
+        let steps_text = "steps[1]: the run has executed 20000 steps, the most one run may";
+        assert_eq!(steps.to_string(), steps_text);
+        let hashes = ["b".to_owned(), "a".to_owned()].into_iter().collect();
+        let decoded = ExecError::InputDecodedDifferently { input: "http://in".into(), hashes };
+        let decoded_text = "input http://in: hosts decoded it differently ({\"a\", \"b\"})";
+        assert_eq!(decoded.to_string(), decoded_text);
+        let source = CompareError::Unordered(f64::NAN, 1.0);
+        let condition = ExecError::Condition { path: "steps[0].while".into(), source };
+        assert_eq!(condition.to_string(), "steps[0].while: cannot compare NaN with 1");
+    }
+}
