@@ -3,15 +3,32 @@
 //! peers gets.
 
 use super::config::{
-    DOWNLOAD_CONNECT_TIMEOUT, DOWNLOAD_READ_TIMEOUT, DOWNLOAD_TIMEOUT, HostConfig,
+    DOWNLOAD_CONNECT_TIMEOUT, DOWNLOAD_READ_TIMEOUT, DOWNLOAD_TIMEOUT, HostConfig, MAX_URL_CHARS,
 };
 use meshflow_api::ClientError;
-use meshflow_api::fetch_rules::{FetchScope, Origins, guarded_client, origin, parse_origin};
+use meshflow_api::fetch_rules::{
+    FetchScope, OriginError, Origins, Refusal, check_origin, guarded_client, origin, quoted,
+};
 
 /// A request named a peer that is not an origin.
 #[derive(Debug, thiserror::Error)]
 #[error("peers: {0}")]
-pub struct PeersError(String);
+pub struct PeersError(#[source] OriginError);
+
+/// Why a URL a request names for this host to fetch is refused.
+#[derive(Debug, thiserror::Error)]
+pub enum UrlError {
+    #[error("a URL may have at most {MAX_URL_CHARS} characters")]
+    TooLong,
+    /// Not a URL; the text quoted.
+    #[error("{0} is not a URL")]
+    NotAUrl(String),
+    #[error(transparent)]
+    Peers(#[from] PeersError),
+    /// Outside what the host fetches from.
+    #[error(transparent)]
+    NotAllowed(#[from] Refusal),
+}
 
 pub struct Downloads {
     /// For downloads: inputs, corrections, full meshes and plugins of other hosts.
@@ -42,11 +59,23 @@ impl Downloads {
     pub fn scope(&self, peers: &[String]) -> Result<FetchScope, PeersError> {
         let mut scope = self.base.clone();
         for peer in peers {
-            let peer = parse_origin(peer).map_err(PeersError)?;
+            let peer = check_origin(peer).map_err(PeersError)?;
             scope.allowed.add(peer.clone());
             scope.cluster.insert(peer);
         }
         Ok(scope)
+    }
+
+    /// A URL a request names for this host to fetch, normalised (parsed, so quoting it in
+    /// an error later repeats no raw bytes), if it is within what the host fetches from
+    /// with these `peers`.
+    pub fn allowed_url(&self, text: &str, peers: &[String]) -> Result<String, UrlError> {
+        if text.len() > MAX_URL_CHARS {
+            return Err(UrlError::TooLong);
+        }
+        let url = reqwest::Url::parse(text).map_err(|_| UrlError::NotAUrl(quoted(text)))?;
+        self.scope(peers)?.allowed.check(&url)?;
+        Ok(url.into())
     }
 
     /// Downloads `url` within `scope`, held to the size cap and the download deadlines.
@@ -65,7 +94,7 @@ fn base_scope(config: &HostConfig, public_url: &str) -> anyhow::Result<FetchScop
     }
     let mut listed = Vec::new();
     for text in &config.allow_input_from {
-        listed.push(parse_origin(text).map_err(anyhow::Error::msg)?);
+        listed.push(check_origin(text)?);
     }
     let allowed = match config.cluster_token.is_none() && listed.is_empty() {
         true => Origins::any(),

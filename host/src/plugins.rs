@@ -2,11 +2,11 @@
 //! `DATA/plugins/<digest>.wasm`, reloaded at restart). The routes are `routes/plugins.rs`.
 
 use std::path::PathBuf;
-use std::sync::RwLock;
+use std::sync::{Arc, RwLock};
 
 use meshflow_api::host::{PluginEntry, ServiceEntry};
 use meshflow_meshio as io;
-use meshflow_runtime::{Catalog, Plugin, RunError, Runtime, ServiceInfo};
+use meshflow_runtime::{Catalog, Plugin, PluginError, RunError, Runtime, ServiceInfo, digest};
 
 /// Largest plugin component accepted by upload.
 pub const MAX_PLUGIN_BYTES: usize = 64 << 20;
@@ -28,6 +28,11 @@ pub enum PluginSetError {
     Collides { digest: String, taken: String },
     #[error("built-in plugins cannot be deleted")]
     Builtin,
+    /// The uploaded bytes are not a plugin.
+    #[error(transparent)]
+    Invalid(PluginError),
+    #[error("background task failed: {0}")]
+    Task(#[from] tokio::task::JoinError),
     #[error("{0}")]
     Storage(String),
 }
@@ -38,6 +43,15 @@ pub enum PluginSetError {
 pub struct Uploaded {
     pub new: Vec<String>,
     pub replaced: Vec<String>,
+}
+
+/// An upload: its digest, the services it offers, and what it changed (nothing when the
+/// same bytes were here already).
+pub struct Upload {
+    pub digest: String,
+    pub services: Vec<ServiceInfo>,
+    pub present: bool,
+    pub outcome: Uploaded,
 }
 
 pub struct PluginSet {
@@ -181,6 +195,32 @@ impl PluginSet {
     pub fn known(&self, digest: &str) -> Option<Vec<ServiceInfo>> {
         let loaded = self.read();
         loaded.catalog.plugins().iter().find(|p| p.digest == digest).map(|p| p.services.clone())
+    }
+
+    /// Validates (loads, on a blocking thread, with `runtime`) and adds uploaded component
+    /// `bytes`, unless the same bytes are here already; see [`PluginSet::add`].
+    pub async fn upload<B>(
+        &self,
+        runtime: &Arc<Runtime>,
+        bytes: B,
+        replace: bool,
+    ) -> Result<Upload, PluginSetError>
+    where
+        B: AsRef<[u8]> + Clone + Send + 'static,
+    {
+        let digest = digest(bytes.as_ref());
+        if let Some(services) = self.known(&digest) {
+            let outcome = Uploaded::default();
+            return Ok(Upload { digest, services, present: true, outcome });
+        }
+        let (runtime, loaded) = (runtime.clone(), bytes.clone());
+        let plugin = tokio::task::spawn_blocking(move || runtime.load(loaded.as_ref()))
+            .await?
+            .map_err(PluginSetError::Invalid)?;
+        let services = plugin.services.clone();
+        let outcome = self.add(plugin, bytes.as_ref(), replace)?;
+        tracing::info!("plugin {digest} uploaded (replacing: {:?})", outcome.replaced);
+        Ok(Upload { digest, services, present: false, outcome })
     }
 
     /// Stores an uploaded plugin's bytes and offers its services. A plugin offering a

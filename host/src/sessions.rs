@@ -272,6 +272,19 @@ impl Sessions {
     }
 }
 
+/// Unique among this host's sessions, also across restarts.
+pub fn new_id() -> String {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let mut hasher = blake3::Hasher::new();
+    let now =
+        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
+    hasher.update(&now.as_nanos().to_le_bytes());
+    hasher.update(&COUNTER.fetch_add(1, Ordering::Relaxed).to_le_bytes());
+    hasher.update(&std::process::id().to_le_bytes());
+    hasher.finalize().to_hex()[..16].to_owned()
+}
+
 /// A session marked busy; unless [`BusyGuard::commit`] is called it goes back to ready
 /// with its mesh unchanged.
 pub struct BusyGuard<'a> {

@@ -8,7 +8,7 @@ use axum::response::{IntoResponse, Response};
 use crate::blobs::BlobError;
 use crate::config::BUSY_RETRY_AFTER;
 use crate::conversions::{ConvertError, PackOutputError};
-use crate::downloads::PeersError;
+use crate::downloads::{PeersError, UrlError};
 use crate::meshes::MeshError;
 use crate::plugins::PluginSetError;
 use crate::sessions::SessionError;
@@ -101,6 +101,10 @@ impl From<PluginSetError> for ApiError {
                 Self::new(StatusCode::FORBIDDEN, "builtin", error.to_string())
             }
             PluginSetError::Storage(message) => Self::internal(message),
+            PluginSetError::Invalid(error) => {
+                Self::unprocessable("invalid-plugin", error.to_string())
+            }
+            PluginSetError::Task(error) => error.into(),
         }
     }
 }
@@ -115,6 +119,19 @@ impl From<BlobError> for ApiError {
 impl From<PeersError> for ApiError {
     fn from(error: PeersError) -> Self {
         Self::bad_request("bad-peers", error.to_string())
+    }
+}
+
+/// A URL the request names for this host to fetch.
+impl From<UrlError> for ApiError {
+    fn from(error: UrlError) -> Self {
+        match error {
+            UrlError::TooLong | UrlError::NotAUrl(_) => {
+                Self::bad_request("bad-url", error.to_string())
+            }
+            UrlError::Peers(error) => error.into(),
+            UrlError::NotAllowed(_) => Self::bad_request("url-not-allowed", error.to_string()),
+        }
     }
 }
 

@@ -15,11 +15,9 @@ use axum::Router;
 use axum::extract::{DefaultBodyLimit, State};
 use axum::routing::{delete, get, post};
 
-use crate::config::MAX_URL_CHARS;
 use crate::plugins::MAX_PLUGIN_BYTES;
 use crate::state::Host;
 use error::ApiError;
-use meshflow_api::fetch_rules::{Refusal, quoted};
 use meshflow_api::host::Health;
 
 pub fn router(host: Arc<Host>) -> Router {
@@ -45,20 +43,11 @@ pub fn router(host: Arc<Host>) -> Router {
         .with_state(host)
 }
 
-/// A URL a request names for this host to fetch, normalised (parsed, so quoting it in an
-/// error later repeats no raw bytes), or why it is refused: too long or not a URL
-/// (`bad-url`), or outside what the host fetches from with these `peers` (`url-not-allowed`).
+/// A URL a request names for this host to fetch, normalised, or why it is refused: too
+/// long or not a URL (`bad-url`), or outside what the host fetches from with these `peers`
+/// (`url-not-allowed`).
 fn allowed_url(host: &Host, text: &str, peers: &[String]) -> Result<String, ApiError> {
-    if text.len() > MAX_URL_CHARS {
-        let message = format!("a URL may have at most {MAX_URL_CHARS} characters");
-        return Err(ApiError::bad_request("bad-url", message));
-    }
-    let url = reqwest::Url::parse(text)
-        .map_err(|_| ApiError::bad_request("bad-url", format!("{} is not a URL", quoted(text))))?;
-    let scope = host.downloads.scope(peers)?;
-    let refused = |e: Refusal| ApiError::bad_request("url-not-allowed", e.to_string());
-    scope.allowed.check(&url).map_err(refused)?;
-    Ok(url.into())
+    Ok(host.downloads.allowed_url(text, peers)?)
 }
 
 async fn health(State(host): State<Arc<Host>>) -> axum::Json<Health> {

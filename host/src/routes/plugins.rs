@@ -10,9 +10,9 @@ use axum::http::StatusCode;
 use serde::Deserialize;
 
 use super::error::ApiError;
+use crate::plugins::Upload;
 use crate::state::Host;
 use meshflow_api::host::{PluginEntry, ServiceEntry, UploadedPlugin};
-use meshflow_runtime::digest;
 
 /// `POST /plugins?replace=true`.
 #[derive(Deserialize)]
@@ -27,20 +27,13 @@ pub async fn upload(
     Query(query): Query<UploadQuery>,
     body: Bytes,
 ) -> Result<(StatusCode, Json<UploadedPlugin>), ApiError> {
-    let digest = digest(&body);
-    if let Some(services) = host.plugins.known(&digest) {
+    let upload = host.plugins.upload(&host.runtime, body, query.replace).await?;
+    let Upload { digest, services, present, outcome } = upload;
+    if present {
         let present = services.iter().map(|s| s.name.clone()).collect();
         let answer = UploadedPlugin { digest, services, present, ..UploadedPlugin::default() };
         return Ok((StatusCode::OK, Json(answer)));
     }
-    let runtime = host.runtime.clone();
-    let bytes = body.clone();
-    let plugin = tokio::task::spawn_blocking(move || runtime.load(&bytes))
-        .await?
-        .map_err(|e| ApiError::unprocessable("invalid-plugin", e.to_string()))?;
-    let services = plugin.services.clone();
-    let outcome = host.plugins.add(plugin, &body, query.replace)?;
-    tracing::info!("plugin {digest} uploaded (replacing: {:?})", outcome.replaced);
     let (new, replaced) = (outcome.new, outcome.replaced);
     let answer = UploadedPlugin { digest, services, new, replaced, present: Vec::new() };
     Ok((StatusCode::CREATED, Json(answer)))

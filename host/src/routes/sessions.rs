@@ -10,7 +10,7 @@ use serde::Deserialize;
 use super::error::{ApiError, ApiJson};
 use crate::config::LONG_POLL;
 use crate::rebuild;
-use crate::sessions::SessionRecord;
+use crate::sessions::{self, SessionRecord};
 use crate::state::Host;
 use meshflow_api::host::{CreateSession, SessionCreated, SessionState, SessionStatus, Vouched};
 
@@ -20,7 +20,7 @@ pub async fn create(
     ApiJson(Vouched { body: request, peers }): ApiJson<Vouched<CreateSession>>,
 ) -> Result<(StatusCode, axum::Json<SessionCreated>), ApiError> {
     let input_url = super::allowed_url(&host, &request.input.url, &peers)?;
-    let id = new_id();
+    let id = sessions::new_id();
     let record = SessionRecord {
         input_url,
         input_hash: request.input.hash,
@@ -69,17 +69,4 @@ pub async fn delete(
     } else {
         Err(ApiError::not_found("session", &id))
     }
-}
-
-/// Unique among this host's sessions, also across restarts.
-fn new_id() -> String {
-    use std::sync::atomic::{AtomicU64, Ordering};
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let mut hasher = blake3::Hasher::new();
-    let now =
-        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
-    hasher.update(&now.as_nanos().to_le_bytes());
-    hasher.update(&COUNTER.fetch_add(1, Ordering::Relaxed).to_le_bytes());
-    hasher.update(&std::process::id().to_le_bytes());
-    hasher.finalize().to_hex()[..16].to_owned()
 }
