@@ -18,9 +18,9 @@ use futures_util::StreamExt;
 use meshflow_api::HostClient;
 use tokio::io::AsyncWriteExt;
 
-const API_TOKEN: &str = "attacks-api";
-const CLUSTER_TOKEN: &str = "attacks-cluster";
-const UPLOAD_TOKEN: &str = "attacks-upload";
+const API_TOKEN: &str = "attacks-api-token-0001";
+const CLUSTER_TOKEN: &str = "attacks-cluster-token-01";
+const UPLOAD_TOKEN: &str = "attacks-upload-token-001";
 const GIB: u64 = 1 << 30;
 const MIB: u64 = 1 << 20;
 /// The host's download cap in this bench (its default is 2 GiB).

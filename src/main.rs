@@ -7,6 +7,7 @@ mod embedded;
 mod mlx;
 mod output;
 mod plugins;
+mod throwaway_tls;
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -25,6 +26,8 @@ use meshflow_runtime::{DEFAULT_DEADLINE, MAX_DEADLINE};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    #[command(flatten)]
+    client_tls: commands::options::ClientTlsArgs,
 }
 
 #[derive(Subcommand)]
@@ -135,7 +138,7 @@ impl SandboxArgs {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result = match cli.command {
+    let result = cli.client_tls.install().and_then(|()| match cli.command {
         Command::Services { plugins, json } => commands::services::run(&plugins, json),
         Command::Apply(args) => commands::apply::run(&args),
         Command::Check(args) => commands::check::run(&args),
@@ -156,7 +159,7 @@ fn main() -> ExitCode {
         Command::Cancel(args) => commands::submit::cancel(args),
         Command::Rerun(args) => commands::rerun::run(args),
         Command::Workflow(command) => commands::workflow::run(command),
-    };
+    });
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {

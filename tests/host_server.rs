@@ -14,7 +14,7 @@ use meshflow_meshio as io;
 use meshflow_runtime::Limits;
 use meshflow_runtime::{Catalog, Runtime};
 
-const TOKEN: &str = "sesame";
+const TOKEN: &str = "sesame-upload-token";
 
 fn bunny_path() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data/bunny.obj")
@@ -706,7 +706,7 @@ fn the_cli_serves_a_host_and_uploads_a_plugin_to_it() {
             .output()
             .unwrap()
     };
-    let refused = upload("wrong");
+    let refused = upload("wrong-token-0123456789");
     let uploaded = upload(TOKEN);
     host.kill().unwrap();
     host.wait().unwrap();

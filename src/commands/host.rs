@@ -58,6 +58,7 @@ pub struct HostArgs {
 
 pub fn run(args: HostArgs) -> anyhow::Result<()> {
     init_logging();
+    tokens::warn_if_in_argv("--token", "--token-file", "MESHFLOW_UPLOAD_TOKEN");
     let config = HostConfig {
         token: tokens::read(args.token.as_deref(), args.token_file.as_deref())?,
         cluster_token: args.cluster.token.get()?,

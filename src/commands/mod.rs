@@ -8,7 +8,7 @@ pub mod engine;
 pub mod generate;
 pub mod host;
 pub mod inspect;
-mod options;
+pub mod options;
 pub mod pack;
 pub mod plugin;
 mod remote;

@@ -3,6 +3,8 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use meshflow_api::server::TlsFiles;
+use meshflow_api::tls::ClientPolicy;
 
 use super::tokens::{ApiTokenArgs, ClusterArgs};
 use crate::embedded::{self, Embedded, Layout, Tokens};
@@ -47,5 +49,48 @@ impl EmbeddedArgs {
         let tokens = Tokens::given_or_fresh(self.api_token.get()?, self.cluster.token.get()?)?;
         let allowed = self.cluster.allow_input_from.clone();
         embedded::start(self.hosts, listen, data, layout, tokens, allowed, self.sandbox).await
+    }
+}
+
+/// Whom this process's HTTPS clients trust, and whether tokens may cross plain http
+/// (every subcommand).
+#[derive(Args, Clone, Debug, Default)]
+pub struct ClientTlsArgs {
+    /// Also trust the certificates in this PEM file (a lab's private CA), besides the
+    /// system's roots.
+    #[arg(long, global = true, env = "MESHFLOW_CA_FILE", value_name = "PEM")]
+    pub ca_file: Option<PathBuf>,
+    /// Send tokens over plain http to addresses beyond loopback (only on a network you
+    /// trust end to end).
+    #[arg(long, global = true)]
+    pub insecure_plain_http: bool,
+}
+
+impl ClientTlsArgs {
+    /// Makes this the policy of every client the process builds.
+    pub fn install(&self) -> anyhow::Result<()> {
+        let mut policy = ClientPolicy::default().allow_plain_http(self.insecure_plain_http);
+        if let Some(path) = &self.ca_file {
+            policy = policy.with_ca_file(path)?;
+        }
+        policy.install();
+        Ok(())
+    }
+}
+
+/// A server's certificate and key (`engine`, `host`).
+#[derive(Args, Clone, Debug, Default)]
+pub struct ServerTlsArgs {
+    /// Serve https with this certificate chain (PEM); re-read when the file changes.
+    #[arg(long, value_name = "PEM", requires = "tls_key")]
+    pub tls_cert: Option<PathBuf>,
+    /// The certificate's private key (PEM).
+    #[arg(long, value_name = "PEM", requires = "tls_cert")]
+    pub tls_key: Option<PathBuf>,
+}
+
+impl ServerTlsArgs {
+    pub fn files(&self) -> Option<TlsFiles> {
+        Some(TlsFiles { cert: self.tls_cert.clone()?, key: self.tls_key.clone()? })
     }
 }

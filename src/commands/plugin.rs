@@ -78,6 +78,7 @@ pub struct UploadToken {
 
 impl UploadToken {
     fn get(&self) -> anyhow::Result<String> {
+        super::tokens::warn_if_in_argv("--token", "--token-file", "MESHFLOW_UPLOAD_TOKEN");
         super::tokens::read(self.token.as_deref(), self.token_file.as_deref())?
             .context("give the host's upload token: --token, MESHFLOW_UPLOAD_TOKEN or --token-file")
     }

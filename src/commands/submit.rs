@@ -27,6 +27,7 @@ pub struct EngineTarget {
 impl EngineTarget {
     pub fn client(&self) -> anyhow::Result<EngineClient> {
         let client = EngineClient::new(self.engine.trim_end_matches('/'));
+        super::tokens::warn_if_in_argv("--token", "--token-file", "MESHFLOW_API_TOKEN");
         Ok(match super::tokens::read(self.token.as_deref(), self.token_file.as_deref())? {
             Some(token) => client.with_token(&token),
             None => client,

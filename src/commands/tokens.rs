@@ -10,6 +10,9 @@ use clap::Args;
 /// Random bytes in a generated token.
 const TOKEN_BYTES: usize = 32;
 
+/// A shorter token is refused: it could be guessed.
+pub const MIN_TOKEN_CHARS: usize = 16;
+
 /// The engine's API token: what users send.
 #[derive(Args, Clone, Debug, Default)]
 pub struct ApiTokenArgs {
@@ -46,12 +49,14 @@ pub struct ClusterArgs {
 
 impl ApiTokenArgs {
     pub fn get(&self) -> anyhow::Result<Option<String>> {
+        warn_if_in_argv("--api-token", "--api-token-file", "MESHFLOW_API_TOKEN");
         read(self.api_token.as_deref(), self.api_token_file.as_deref())
     }
 }
 
 impl ClusterTokenArgs {
     pub fn get(&self) -> anyhow::Result<Option<String>> {
+        warn_if_in_argv("--cluster-token", "--cluster-token-file", "MESHFLOW_CLUSTER_TOKEN");
         read(self.cluster_token.as_deref(), self.cluster_token_file.as_deref())
     }
 }
@@ -70,7 +75,25 @@ pub fn read(value: Option<&str>, file: Option<&Path>) -> anyhow::Result<Option<S
         },
     };
     anyhow::ensure!(!token.is_empty(), "an empty token was given");
+    anyhow::ensure!(
+        token.chars().count() >= MIN_TOKEN_CHARS,
+        "a token of {} characters was given; at least {MIN_TOKEN_CHARS} are needed \
+         (`openssl rand -hex 32` makes one)",
+        token.chars().count()
+    );
     Ok(Some(token))
+}
+
+/// Tokens given as flags show in `ps` and shell history: say so, and where they belong.
+/// `flags` are the flag and its file twin (`--api-token`, `--api-token-file`).
+pub fn warn_if_in_argv(flag: &str, file_flag: &str, env: &str) {
+    let given = std::env::args().any(|arg| arg == flag || arg.starts_with(&format!("{flag}=")));
+    if given {
+        eprintln!(
+            "warning: {flag} puts the token where other users can read it (ps, shell history); \
+             use {env} or {file_flag} instead"
+        );
+    }
 }
 
 /// A new random token: 32 bytes from the operating system, in hex.
@@ -88,11 +111,14 @@ mod tests {
     fn a_file_wins_and_fresh_tokens_differ() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("token");
-        std::fs::write(&path, "from-file\n").unwrap();
-        assert_eq!(read(Some("flag"), Some(&path)).unwrap().as_deref(), Some("from-file"));
-        assert_eq!(read(Some("flag"), None).unwrap().as_deref(), Some("flag"));
+        std::fs::write(&path, "from-file-0123456789\n").unwrap();
+        let flag = Some("from-flag-0123456789");
+        assert_eq!(read(flag, Some(&path)).unwrap().as_deref(), Some("from-file-0123456789"));
+        assert_eq!(read(flag, None).unwrap().as_deref(), flag);
         assert_eq!(read(None, None).unwrap(), None);
         assert!(read(Some(" "), None).is_err());
+        let short = read(Some("sesame"), None).unwrap_err().to_string();
+        assert!(short.contains("at least 16"), "{short}");
         let (a, b) = (fresh().unwrap(), fresh().unwrap());
         assert_eq!(a.len(), 64);
         assert_ne!(a, b);

@@ -18,7 +18,7 @@ use serde_json::Value as Json;
 use tokio::net::TcpListener;
 
 /// The upload token of every in-process host.
-pub const TOKEN: &str = "sesame";
+pub const TOKEN: &str = "sesame-upload-token";
 /// The API token of every test engine, which the cluster's client sends.
 pub const API_TOKEN: &str = "api-token-for-tests";
 /// The cluster token of every test engine and its hosts.
