@@ -10,7 +10,7 @@ use axum::http::{HeaderMap, StatusCode};
 use meshflow_api::engine::{BatchStatus, SubmitBatch};
 
 use super::client_of;
-use super::error::{ApiError, ApiResult};
+use super::error::{ApiError, ApiResult, not_found, rejected};
 use crate::engine::Engine;
 
 /// `POST /batches`: `{"workflow", "inputs": [URL, …]}` → 202 with the batch as it starts.
@@ -19,7 +19,7 @@ pub async fn submit(
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult<(StatusCode, Json<BatchStatus>)> {
-    let body = body?;
+    let body = body.map_err(rejected)?;
     let request: SubmitBatch = serde_json::from_slice(&body)
         .map_err(|e| ApiError::bad_request("bad-json", e.to_string()))?;
     let batch = engine.submit_batch(request, &client_of(&headers)).await?;
@@ -32,5 +32,5 @@ pub async fn status(
     Path(id): Path<String>,
 ) -> ApiResult<Json<BatchStatus>> {
     let batch = engine.batch(&id).await?;
-    Ok(Json(batch.ok_or_else(|| ApiError::not_found("batch", &id))?))
+    Ok(Json(batch.ok_or_else(|| not_found("batch", &id))?))
 }

@@ -1,12 +1,10 @@
-//! The engine API's errors: an HTTP status with a kebab-case code and a human message, sent
-//! as `{"error": {"code", "message"}}` (a 429 also says when to come back). Every refusal
-//! of a route is made here, from the error that caused it.
+//! The engine API's errors: the servers' one envelope ([`ApiError`]: an HTTP status with a
+//! kebab-case code and a human message, sent as `{"error": {"code", "message"}}`, a 429 also
+//! saying when to come back). Every refusal of a route is made here, from the error that
+//! caused it.
 
-use axum::Json;
 use axum::extract::rejection::BytesRejection;
-use axum::http::{StatusCode, header};
-use axum::response::{IntoResponse, Response};
-use meshflow_api::host::{ErrorBody, ErrorDetail};
+use axum::http::StatusCode;
 
 use crate::downloads::DownloadError;
 use crate::engine::SubmitError;
@@ -15,58 +13,26 @@ use crate::limits::RETRY_AFTER;
 use crate::registry::RegisterError;
 use crate::workflow::WorkflowError;
 
-#[derive(Debug)]
-pub struct ApiError {
-    pub status: StatusCode,
-    pub code: &'static str,
-    pub message: String,
-}
+pub use meshflow_api::server::ApiError;
 
 pub type ApiResult<T> = Result<T, ApiError>;
 
-impl ApiError {
-    pub fn new(status: StatusCode, code: &'static str, message: impl Into<String>) -> Self {
-        Self { status, code, message: message.into() }
-    }
-
-    pub fn bad_request(code: &'static str, message: impl Into<String>) -> Self {
-        Self::new(StatusCode::BAD_REQUEST, code, message)
-    }
-
-    pub fn not_found(what: &str, id: &str) -> Self {
-        Self::new(StatusCode::NOT_FOUND, "not-found", format!("no {what} \"{id}\""))
-    }
-
-    pub fn conflict(code: &'static str, message: impl Into<String>) -> Self {
-        Self::new(StatusCode::CONFLICT, code, message)
-    }
-
-    /// A failure of the engine itself, logged.
-    pub fn internal(error: impl std::fmt::Display) -> Self {
-        tracing::error!("{error}");
-        Self::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", error.to_string())
-    }
+/// 404 `not-found`: `no {what} "{id}"`.
+pub fn not_found(what: &str, id: &str) -> ApiError {
+    ApiError::new(StatusCode::NOT_FOUND, "not-found", format!("no {what} \"{id}\""))
 }
 
-impl IntoResponse for ApiError {
-    fn into_response(self) -> Response {
-        let body =
-            ErrorBody { error: ErrorDetail { code: self.code.to_owned(), message: self.message } };
-        let mut response = (self.status, Json(body)).into_response();
-        if self.status == StatusCode::TOO_MANY_REQUESTS {
-            response.headers_mut().insert(header::RETRY_AFTER, RETRY_AFTER.as_secs().into());
-        }
-        response
-    }
+/// A failure of the engine itself, logged.
+pub fn internal(error: impl std::fmt::Display) -> ApiError {
+    tracing::error!("{error}");
+    ApiError::internal(error)
 }
 
-/// A body over its route's limit, or one that broke off.
-impl From<BytesRejection> for ApiError {
-    fn from(rejection: BytesRejection) -> Self {
-        let status = rejection.status();
-        let code = if status == StatusCode::PAYLOAD_TOO_LARGE { "too-large" } else { "bad-body" };
-        Self::new(status, code, rejection.body_text())
-    }
+/// A body over its route's limit, or one that broke off (`body.map_err(rejected)?`).
+pub fn rejected(rejection: BytesRejection) -> ApiError {
+    let status = rejection.status();
+    let code = if status == StatusCode::PAYLOAD_TOO_LARGE { "too-large" } else { "bad-body" };
+    ApiError::new(status, code, rejection.body_text())
 }
 
 impl From<WorkflowError> for ApiError {
@@ -81,11 +47,9 @@ impl From<SubmitError> for ApiError {
         match e {
             SubmitError::Invalid(error) => error.into(),
             SubmitError::NoInput => Self::bad_request("no-input", e.to_string()),
-            SubmitError::Busy(_) => {
-                Self::new(StatusCode::TOO_MANY_REQUESTS, "too-many-runs", e.to_string())
-            }
+            SubmitError::Busy(_) => Self::busy("too-many-runs", e.to_string(), RETRY_AFTER),
             SubmitError::InputRefused(_) => Self::bad_request("input-not-allowed", e.to_string()),
-            SubmitError::Store(error) => Self::internal(error),
+            SubmitError::Store(error) => internal(error),
             SubmitError::NotRerunnable(_) => Self::conflict("not-rerunnable", e.to_string()),
         }
     }
@@ -96,7 +60,7 @@ impl From<RegisterError> for ApiError {
         match e {
             RegisterError::BadUrl(_) => Self::bad_request("bad-url", e.to_string()),
             RegisterError::Full => Self::conflict("too-many-hosts", e.to_string()),
-            RegisterError::Store(error) => Self::internal(error),
+            RegisterError::Store(error) => internal(error),
         }
     }
 }
@@ -107,7 +71,7 @@ impl From<InputError> for ApiError {
             InputError::TooLarge(_) => {
                 Self::new(StatusCode::PAYLOAD_TOO_LARGE, "too-large", e.to_string())
             }
-            InputError::Io(error) => Self::internal(error),
+            InputError::Io(error) => internal(error),
             _ => Self::bad_request("bad-input", e.to_string()),
         }
     }

@@ -9,7 +9,7 @@ use axum::http::StatusCode;
 use axum::{Json, body::Bytes};
 use meshflow_api::engine::{HostInfo, RegisterHost, ServiceOffer};
 
-use super::error::{ApiError, ApiResult};
+use super::error::{ApiError, ApiResult, rejected};
 use crate::engine::Engine;
 use crate::registry::HostEntry;
 
@@ -17,7 +17,7 @@ pub async fn register(
     State(engine): State<Arc<Engine>>,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult<(StatusCode, Json<HostInfo>)> {
-    let body = body?;
+    let body = body.map_err(rejected)?;
     let registration: RegisterHost = serde_json::from_slice(&body).map_err(|e| {
         ApiError::bad_request("bad-request", format!("expected {{\"url\": ...}}: {e}"))
     })?;

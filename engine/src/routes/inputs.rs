@@ -11,7 +11,7 @@ use axum::response::{IntoResponse, Response};
 use meshflow_api::engine::InputUploaded;
 use serde::Deserialize;
 
-use super::error::{ApiError, ApiResult};
+use super::error::{ApiError, ApiResult, internal, not_found};
 use crate::engine::Engine;
 
 #[derive(Deserialize)]
@@ -36,9 +36,9 @@ pub async fn download(
     State(engine): State<Arc<Engine>>,
     Path(file): Path<String>,
 ) -> ApiResult<Response> {
-    let path = engine.inputs.path(&file).ok_or_else(|| ApiError::not_found("input", &file))?;
-    let opened = tokio::fs::File::open(&path).await.map_err(ApiError::internal)?;
-    let length = opened.metadata().await.map_err(ApiError::internal)?.len();
+    let path = engine.inputs.path(&file).ok_or_else(|| not_found("input", &file))?;
+    let opened = tokio::fs::File::open(&path).await.map_err(internal)?;
+    let length = opened.metadata().await.map_err(internal)?.len();
     let body = Body::from_stream(tokio_util::io::ReaderStream::new(opened));
     let headers = [
         (header::CONTENT_TYPE, "application/octet-stream".to_owned()),

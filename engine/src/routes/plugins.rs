@@ -11,7 +11,7 @@ use axum::http::{HeaderMap, StatusCode};
 use serde::Deserialize;
 use serde_json::{Value, json};
 
-use super::error::{ApiError, ApiResult, host_refused};
+use super::error::{ApiError, ApiResult, host_refused, rejected};
 use crate::engine::Engine;
 
 #[derive(Deserialize)]
@@ -34,7 +34,7 @@ pub async fn forward(
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult<(StatusCode, Json<Value>)> {
-    let wasm = body?;
+    let wasm = body.map_err(rejected)?;
     let host = query.host.unwrap_or_default();
     // Only registered hosts: the engine must not post to any address a client names.
     if !engine.registry.hosts().iter().any(|h| h.url == host) {

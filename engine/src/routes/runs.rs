@@ -13,7 +13,7 @@ use meshflow_api::engine::{Comparison, RerunRequest, RunSubmitted, RunSummary};
 use serde_json::{Value, json};
 
 use super::client_of;
-use super::error::{ApiError, ApiResult};
+use super::error::{ApiError, ApiResult, not_found, rejected};
 use crate::engine::Engine;
 use crate::record::RunRecord;
 use crate::run::Run;
@@ -38,7 +38,7 @@ pub fn read_submission(body: &[u8]) -> ApiResult<(Value, Option<String>)> {
 
 /// The run `id`, or 404.
 pub fn find(engine: &Engine, id: &str) -> ApiResult<Arc<Run>> {
-    engine.run(id).ok_or_else(|| ApiError::not_found("run", id))
+    engine.run(id).ok_or_else(|| not_found("run", id))
 }
 
 pub async fn submit(
@@ -46,7 +46,7 @@ pub async fn submit(
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult<(StatusCode, Json<RunSubmitted>)> {
-    let (workflow, input) = read_submission(&body?)?;
+    let (workflow, input) = read_submission(&body.map_err(rejected)?)?;
     let run = engine.submit(workflow, input, &client_of(&headers)).await?;
     Ok((StatusCode::ACCEPTED, Json(RunSubmitted { id: run.id.clone(), status: run.status() })))
 }
@@ -60,7 +60,7 @@ pub async fn rerun(
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult<(StatusCode, Json<RunSubmitted>)> {
-    let body = body?;
+    let body = body.map_err(rejected)?;
     let request: RerunRequest = if body.is_empty() {
         RerunRequest::default()
     } else {

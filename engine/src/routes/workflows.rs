@@ -8,7 +8,7 @@ use axum::extract::State;
 use axum::extract::rejection::BytesRejection;
 use serde_json::{Value, json};
 
-use super::error::ApiResult;
+use super::error::{ApiResult, rejected};
 use super::runs::read_submission;
 use crate::engine::Engine;
 
@@ -19,7 +19,7 @@ pub async fn validate(
     State(engine): State<Arc<Engine>>,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult<Json<Value>> {
-    let (workflow, _) = read_submission(&body?)?;
+    let (workflow, _) = read_submission(&body.map_err(rejected)?)?;
     engine.check_workflow(&workflow)?;
     Ok(Json(json!({"valid": true})))
 }
