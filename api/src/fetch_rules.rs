@@ -189,9 +189,10 @@ impl Resolve for GuardedResolver {
 }
 
 /// A client builder whose names resolve through [`GuardedResolver`] and which follows no
-/// redirect by itself ([`fetch`](crate::fetch) re-checks each hop).
+/// redirect by itself ([`fetch`](crate::fetch) re-checks each hop), with the process's TLS
+/// trust ([`crate::tls`]).
 pub fn guarded_client() -> reqwest::ClientBuilder {
-    reqwest::Client::builder()
+    crate::tls::client_builder()
         .dns_resolver(Arc::new(GuardedResolver))
         .redirect(reqwest::redirect::Policy::none())
 }

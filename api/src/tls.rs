@@ -81,8 +81,8 @@ pub fn client_builder() -> reqwest::ClientBuilder {
 }
 
 /// Why a token may not go to `url`: plain http to an address that is not loopback, unless
-/// the installed policy allows it.
-pub(crate) fn plain_http_refusal(url: &reqwest::Url) -> Option<String> {
+/// the installed policy allows it. Every client that sends a token asks this first.
+pub fn plain_http_refusal(url: &reqwest::Url) -> Option<String> {
     token_over_plain_http(url, ClientPolicy::current().plain_http)
 }
 

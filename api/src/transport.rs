@@ -264,7 +264,11 @@ async fn fetch_following(
     for _ in 0..=MAX_REDIRECTS {
         scope.allowed.check(&next)?;
         let shown = quoted(next.as_str());
-        let request = authorized(http.get(next.clone()), scope.token_for(&next));
+        let token = scope.token_for(&next);
+        if let Some(message) = token.and_then(|_| crate::tls::plain_http_refusal(&next)) {
+            return Err(ClientError::PlainHttp { url: shown, message });
+        }
+        let request = authorized(http.get(next.clone()), token);
         let response = request.send().await.map_err(|e| ClientError::transport(&shown, e))?;
         let status = response.status();
         if status.is_redirection() {

@@ -70,7 +70,7 @@ impl BlobStore {
             if path.exists() {
                 return Ok(());
             }
-            io::write_file(&path, |out| out.write_all(&bytes))
+            io::write_private_file(&path, |out| out.write_all(&bytes))
                 .map_err(|e| BlobError::Store { name: owned, message: e.to_string() })
         })
         .await

@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
+use meshflow_api::server::TlsFiles;
 use meshflow_runtime::Limits;
 
 /// Largest download (input mesh, correction or full mesh) a host accepts.
@@ -64,8 +65,11 @@ pub struct HostConfig {
     pub insecure_no_auth: bool,
     /// An engine to register with at start (`POST {engine}/hosts`).
     pub engine: Option<String>,
-    /// The URL others reach this host at; by default `http://` + the listening address.
+    /// The URL others reach this host at; by default `http://` (`https://` with `tls`) +
+    /// the listening address.
     pub public_url: Option<String>,
+    /// Serve https with this certificate and key (re-read when the files change).
+    pub tls: Option<TlsFiles>,
     /// Built-in plugin components, offered after uploaded ones.
     pub builtins: Vec<&'static [u8]>,
     /// Compiled-component cache; `data_dir/cache` by default. Hosts may share one.
@@ -88,6 +92,7 @@ impl HostConfig {
             insecure_no_auth: false,
             engine: None,
             public_url: None,
+            tls: None,
             builtins: Vec::new(),
             artefact_cache: None,
             limits: Limits::default(),

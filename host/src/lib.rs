@@ -39,7 +39,8 @@ use std::sync::Arc;
 use anyhow::Context;
 use tokio::net::TcpListener;
 
-use meshflow_api::server::{check_exposure, serve as serve_http};
+use meshflow_api::server::{TlsFiles, check_exposure, serve_with};
+use meshflow_api::tls::plain_http_refusal;
 use meshflow_runtime::Runtime;
 use state::{DataDirs, Host};
 
@@ -78,10 +79,12 @@ pub async fn start(config: HostConfig, listener: TcpListener) -> anyhow::Result<
     let dirs = DataDirs::create(&config).with_context(|| {
         format!("creating the data folders under {}", config.data_dir.display())
     })?;
+    let tls = config.tls.as_ref().map(TlsFiles::server_config).transpose()?;
+    let scheme = if tls.is_some() { "https" } else { "http" };
     let public_url = match &config.public_url {
         Some(url) => url.trim_end_matches('/').to_owned(),
-        None if address.ip().is_unspecified() => format!("http://127.0.0.1:{}", address.port()),
-        None => format!("http://{address}"),
+        None if address.ip().is_unspecified() => format!("{scheme}://127.0.0.1:{}", address.port()),
+        None => format!("{scheme}://{address}"),
     };
     let (runtime, plugins) = {
         let (limits, cache) = (config.limits.clone(), dirs.cache.clone());
@@ -100,7 +103,7 @@ pub async fn start(config: HostConfig, listener: TcpListener) -> anyhow::Result<
 
     let (shutdown, stop) = tokio::sync::oneshot::channel::<()>();
     let app = routes::router(host.clone());
-    let server = tokio::spawn(serve_http(listener, app, async {
+    let server = tokio::spawn(serve_with(listener, app, tls, async {
         let _ = stop.await;
     }));
     let mut background =
@@ -125,6 +128,11 @@ pub async fn serve(config: HostConfig, listener: TcpListener) -> anyhow::Result<
 /// not fatal.
 async fn register(host: Arc<Host>, engine: String, url: String) {
     let endpoint = format!("{}/hosts", engine.trim_end_matches('/'));
+    let plain = reqwest::Url::parse(&endpoint).ok().and_then(|url| plain_http_refusal(&url));
+    if let Some(refusal) = plain.filter(|_| host.config.cluster_token.is_some()) {
+        tracing::error!("not registering with the engine: {refusal}");
+        return;
+    }
     for attempt in 1..=REGISTER_ATTEMPTS {
         let mut request = host.downloads.client().post(&endpoint).timeout(REGISTER_TIMEOUT);
         if let Some(token) = &host.config.cluster_token {

@@ -258,7 +258,7 @@ impl PluginSet {
         // Written under the lock, so a concurrent delete cannot remove the file between
         // writing and listing it; plugins are small and uploads rare.
         let path = self.dir.join(format!("{}.wasm", plugin.digest));
-        io::write_file(&path, |out| out.write_all(bytes))
+        io::write_private_file(&path, |out| out.write_all(bytes))
             .map_err(|e| PluginSetError::Storage(format!("storing the plugin: {e}")))?;
         let mut uploaded = std::mem::take(&mut loaded.uploaded);
         uploaded.insert(0, plugin);

@@ -98,9 +98,11 @@ impl ReplayPlugins {
 
     fn keep(&self, plugin: Plugin, bytes: &[u8]) -> Result<Plugin, ReplayFailure> {
         let path = self.path(&plugin.digest);
-        io::write_file(&path, |out| out.write_all(bytes)).map_err(|e| ReplayFailure::Plugin {
-            digest: plugin.digest.clone(),
-            message: format!("storing the fetched plugin: {e}"),
+        io::write_private_file(&path, |out| out.write_all(bytes)).map_err(|e| {
+            ReplayFailure::Plugin {
+                digest: plugin.digest.clone(),
+                message: format!("storing the fetched plugin: {e}"),
+            }
         })?;
         let mut loaded = self.loaded.lock().expect("replay plugins lock");
         loaded.insert(plugin.digest.clone(), plugin.clone());

@@ -267,7 +267,7 @@ impl Sessions {
     fn save(&self, id: &str, record: &SessionRecord) -> Result<(), SessionError> {
         let fail = |message: String| SessionError::Save { id: id.to_owned(), message };
         let json = serde_json::to_vec_pretty(record).map_err(|e| fail(e.to_string()))?;
-        io::write_file(&self.record_path(id), |out| out.write_all(&json))
+        io::write_private_file(&self.record_path(id), |out| out.write_all(&json))
             .map_err(|e| fail(e.to_string()))
     }
 }

@@ -57,6 +57,9 @@ impl DataDirs {
         for dir in [&dirs.blobs, &dirs.plugins, &dirs.replay_plugins, &dirs.sessions, &dirs.cache] {
             std::fs::create_dir_all(dir)?;
         }
+        // Sessions' inputs and uploaded plugins are the users': no one else on the machine
+        // reads them (an existing folder is tightened too).
+        std::fs::set_permissions(data, std::os::unix::fs::PermissionsExt::from_mode(0o700))?;
         Ok(dirs)
     }
 }

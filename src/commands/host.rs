@@ -6,6 +6,7 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::Args;
 
+use super::options::ServerTlsArgs;
 use super::tokens::{self, ClusterArgs};
 use meshflow_host::{
     DEFAULT_BLOB_BUDGET_BYTES, DEFAULT_MAX_DOWNLOAD_BYTES, DEFAULT_SESSION_TTL, HostConfig, serve,
@@ -53,6 +54,8 @@ pub struct HostArgs {
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]
     builtin: Option<Vec<String>>,
     #[command(flatten)]
+    tls: ServerTlsArgs,
+    #[command(flatten)]
     sandbox: crate::SandboxArgs,
 }
 
@@ -66,6 +69,7 @@ pub fn run(args: HostArgs) -> anyhow::Result<()> {
         insecure_no_auth: args.insecure_no_auth,
         engine: args.engine,
         public_url: args.public_url,
+        tls: args.tls.files(),
         builtins: builtin_components(args.builtin.as_deref())?,
         blob_budget_bytes: args.blob_budget_mib << 20,
         session_ttl: Duration::from_secs(args.session_ttl),

@@ -7,9 +7,27 @@ use super::error::SaveError;
 
 /// Runs `write` into a temporary file in `path`'s directory and renames it to `path` only
 /// after everything was written and synced. On any error the temporary file is deleted
-/// (when `NamedTempFile` drops), so `path` is either untouched or complete.
+/// (when `NamedTempFile` drops), so `path` is either untouched or complete. The file's
+/// mode is what the umask leaves of 0666, as for any new file a user saves.
 pub fn write_file(
     path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
+) -> Result<(), SaveError> {
+    write_with_mode(path, 0o666, write)
+}
+
+/// [`write_file`] for a server's own data (blobs, plugins, records): readable and writable
+/// by its owner only (0600), whatever the umask.
+pub fn write_private_file(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
+) -> Result<(), SaveError> {
+    write_with_mode(path, 0o600, write)
+}
+
+fn write_with_mode(
+    path: &Path,
+    #[cfg_attr(not(unix), allow(unused_variables))] mode: u32,
     write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
 ) -> Result<(), SaveError> {
     let name = path.display().to_string();
@@ -24,9 +42,9 @@ pub fn write_file(
     };
     let mut builder = tempfile::Builder::new();
     builder.prefix(".meshflow-").suffix(".tmp");
-    // tempfile creates 0600 files; ask for 0666 so the umask decides, as for any new file.
+    // tempfile creates 0600 files; ask for `mode`, of which the umask takes its part.
     #[cfg(unix)]
-    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(mode));
     let mut tmp = builder
         .tempfile_in(dir)
         .map_err(fail("cannot create a temporary file in the target directory"))?;

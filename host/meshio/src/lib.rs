@@ -24,7 +24,7 @@ use std::path::Path;
 
 use meshflow_mesh::MeshData;
 
-pub use atomic::write_file;
+pub use atomic::{write_file, write_private_file};
 pub use error::{LoadError, MeshDefect, Position, SaveError};
 
 /// A mesh file format.

@@ -8,7 +8,7 @@ use axum::extract::{Path, State};
 use axum::http::{HeaderMap, Method, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 
-use super::error::ApiError;
+use super::error::{self, ApiError};
 use crate::conversions::{self, Held};
 use crate::meshes;
 use crate::state::Host;
@@ -21,7 +21,7 @@ pub async fn serve(
     headers: HeaderMap,
 ) -> Result<Response, ApiError> {
     if !meshes::is_blob_name(&name) {
-        return Err(ApiError::not_found("blob", &name));
+        return Err(error::not_found("blob", &name));
     }
     // A step's edit log is written shortly after the step was answered.
     host.edit_logs.wait_for(&name).await;
@@ -43,7 +43,7 @@ pub async fn serve(
     let file = match tokio::fs::File::open(&path).await {
         Ok(file) => file,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            return Err(ApiError::not_found("blob", &name));
+            return Err(error::not_found("blob", &name));
         }
         Err(e) => return Err(ApiError::internal(format!("blob {name}: {e}"))),
     };

@@ -2,8 +2,7 @@
 //! `{"error": {"code", "message"}}`.
 
 use axum::Json;
-use axum::http::{HeaderValue, StatusCode, header};
-use axum::response::{IntoResponse, Response};
+use axum::http::StatusCode;
 
 use crate::blobs::BlobError;
 use crate::config::BUSY_RETRY_AFTER;
@@ -14,60 +13,33 @@ use crate::plugins::PluginSetError;
 use crate::sessions::SessionError;
 use crate::steps::StepError;
 use meshflow_api::ClientError;
-use meshflow_api::host::{ErrorBody, ErrorDetail};
 use meshflow_runtime::RunError;
 
-#[derive(Debug)]
-pub struct ApiError {
-    pub status: StatusCode,
-    pub code: &'static str,
-    pub message: String,
+pub use meshflow_api::server::ApiError;
+
+/// No such resource: 404 `not-found`, naming it.
+pub fn not_found(what: &str, name: &str) -> ApiError {
+    ApiError::new(StatusCode::NOT_FOUND, "not-found", format!("no {what} `{name}`"))
 }
 
-impl ApiError {
-    pub fn new(status: StatusCode, code: &'static str, message: impl Into<String>) -> Self {
-        Self { status, code, message: message.into() }
-    }
+fn unprocessable(code: &'static str, message: impl Into<String>) -> ApiError {
+    ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, code, message)
+}
 
-    pub fn bad_request(code: &'static str, message: impl Into<String>) -> Self {
-        Self::new(StatusCode::BAD_REQUEST, code, message)
-    }
-
-    pub fn not_found(what: &str, name: &str) -> Self {
-        Self::new(StatusCode::NOT_FOUND, "not-found", format!("no {what} `{name}`"))
-    }
-
-    pub fn conflict(code: &'static str, message: impl Into<String>) -> Self {
-        Self::new(StatusCode::CONFLICT, code, message)
-    }
-
-    pub fn unprocessable(code: &'static str, message: impl Into<String>) -> Self {
-        Self::new(StatusCode::UNPROCESSABLE_ENTITY, code, message)
-    }
-
-    pub fn upstream(message: impl Into<String>) -> Self {
-        Self::new(StatusCode::BAD_GATEWAY, "download-failed", message)
-    }
-
-    pub fn internal(message: impl std::fmt::Display) -> Self {
-        Self::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", message.to_string())
-    }
+fn upstream(message: impl Into<String>) -> ApiError {
+    ApiError::new(StatusCode::BAD_GATEWAY, "download-failed", message)
 }
 
 /// A caller's mistake (unknown service, bad parameters) is 400; a full run queue is 429;
 /// anything the plugin did is 422.
-impl From<RunError> for ApiError {
-    fn from(error: RunError) -> Self {
-        match error {
-            RunError::Busy { .. } => {
-                Self::new(StatusCode::TOO_MANY_REQUESTS, "busy", error.to_string())
-            }
-            RunError::UnknownService { .. } => {
-                Self::bad_request("unknown-service", error.to_string())
-            }
-            RunError::Params(_) => Self::bad_request("bad-params", error.to_string()),
-            _ => Self::unprocessable("plugin-failed", error.to_string()),
+fn run_refused(error: RunError) -> ApiError {
+    match error {
+        RunError::Busy { .. } => ApiError::busy("busy", error.to_string(), BUSY_RETRY_AFTER),
+        RunError::UnknownService { .. } => {
+            ApiError::bad_request("unknown-service", error.to_string())
         }
+        RunError::Params(_) => ApiError::bad_request("bad-params", error.to_string()),
+        _ => unprocessable("plugin-failed", error.to_string()),
     }
 }
 
@@ -87,7 +59,7 @@ impl From<SessionError> for ApiError {
 impl From<PluginSetError> for ApiError {
     fn from(error: PluginSetError) -> Self {
         match error {
-            PluginSetError::Run(error) => error.into(),
+            PluginSetError::Run(error) => run_refused(error),
             PluginSetError::NotFound(_) => {
                 Self::new(StatusCode::NOT_FOUND, "not-found", error.to_string())
             }
@@ -101,10 +73,8 @@ impl From<PluginSetError> for ApiError {
                 Self::new(StatusCode::FORBIDDEN, "builtin", error.to_string())
             }
             PluginSetError::Storage(message) => Self::internal(message),
-            PluginSetError::Invalid(error) => {
-                Self::unprocessable("invalid-plugin", error.to_string())
-            }
-            PluginSetError::Task(error) => error.into(),
+            PluginSetError::Invalid(error) => unprocessable("invalid-plugin", error.to_string()),
+            PluginSetError::Task(error) => task_failed(error),
         }
     }
 }
@@ -139,8 +109,8 @@ impl From<UrlError> for ApiError {
 impl From<MeshError> for ApiError {
     fn from(error: MeshError) -> Self {
         match error {
-            MeshError::Task(error) => error.into(),
-            _ => Self::unprocessable("bad-mesh", error.to_string()),
+            MeshError::Task(error) => task_failed(error),
+            _ => unprocessable("bad-mesh", error.to_string()),
         }
     }
 }
@@ -152,14 +122,12 @@ impl From<StepError> for ApiError {
             StepError::Session(error) => error.into(),
             StepError::Plugins(error) => error.into(),
             StepError::Params(error) => Self::bad_request("bad-params", error.to_string()),
-            StepError::Run(error) => error.into(),
-            StepError::Download(error) => error.into(),
+            StepError::Run(error) => run_refused(error),
+            StepError::Download(error) => download_failed(error),
             StepError::Mesh(error) => error.into(),
-            StepError::HashMismatch { .. } => {
-                Self::unprocessable("hash-mismatch", error.to_string())
-            }
+            StepError::HashMismatch { .. } => unprocessable("hash-mismatch", error.to_string()),
             StepError::Blob(error) => error.into(),
-            StepError::Task(error) => error.into(),
+            StepError::Task(error) => task_failed(error),
             StepError::SessionHash(_) | StepError::Snap(_) | StepError::Name(_) => {
                 Self::internal(error)
             }
@@ -173,7 +141,7 @@ impl From<ConvertError> for ApiError {
         let message = error.to_string();
         match error {
             ConvertError::NotHeld(_) => Self::new(StatusCode::NOT_FOUND, "not-found", message),
-            ConvertError::Download(_) | ConvertError::Decode(_) => Self::upstream(message),
+            ConvertError::Download(_) | ConvertError::Decode(_) => upstream(message),
             ConvertError::HashMismatch { .. } => {
                 Self::new(StatusCode::BAD_GATEWAY, "hash-mismatch", message)
             }
@@ -190,36 +158,18 @@ impl From<PackOutputError> for ApiError {
 
 /// A download a request pointed to: a URL the fetch rules refuse is the request's fault
 /// (403); any other failure is the source's (502).
-impl From<ClientError> for ApiError {
-    fn from(error: ClientError) -> Self {
-        match error {
-            ClientError::NotAllowed(refusal) => {
-                Self::new(StatusCode::FORBIDDEN, "url-not-allowed", refusal.to_string())
-            }
-            _ => Self::upstream(error.to_string()),
+fn download_failed(error: ClientError) -> ApiError {
+    match error {
+        ClientError::NotAllowed(refusal) => {
+            ApiError::new(StatusCode::FORBIDDEN, "url-not-allowed", refusal.to_string())
         }
+        _ => upstream(error.to_string()),
     }
 }
 
 /// A blocking task that panicked or was cancelled.
-impl From<tokio::task::JoinError> for ApiError {
-    fn from(error: tokio::task::JoinError) -> Self {
-        Self::internal(format!("background task failed: {error}"))
-    }
-}
-
-/// A 429 says when to come back (`Retry-After`, whole seconds).
-impl IntoResponse for ApiError {
-    fn into_response(self) -> Response {
-        let body =
-            ErrorBody { error: ErrorDetail { code: self.code.to_owned(), message: self.message } };
-        let mut response = (self.status, Json(body)).into_response();
-        if self.status == StatusCode::TOO_MANY_REQUESTS {
-            let seconds = HeaderValue::from(BUSY_RETRY_AFTER.as_secs());
-            response.headers_mut().insert(header::RETRY_AFTER, seconds);
-        }
-        response
-    }
+fn task_failed(error: tokio::task::JoinError) -> ApiError {
+    ApiError::internal(format!("background task failed: {error}"))
 }
 
 /// `axum::Json` whose rejection (malformed or mistyped JSON) is an [`ApiError`].

@@ -19,6 +19,7 @@ use crate::plugins::MAX_PLUGIN_BYTES;
 use crate::state::Host;
 use error::ApiError;
 use meshflow_api::host::Health;
+use meshflow_api::server::{BrowserGuard, browser_guard as guard};
 
 pub fn router(host: Arc<Host>) -> Router {
     Router::new()
@@ -40,7 +41,14 @@ pub fn router(host: Arc<Host>) -> Router {
             ApiError::new(axum::http::StatusCode::NOT_FOUND, "not-found", "no such endpoint")
         })
         .layer(axum::middleware::from_fn_with_state(host.clone(), auth::check))
+        // Outermost: a page on another site is refused before any token is looked at.
+        .layer(axum::middleware::from_fn_with_state(browser_guard(&host), guard))
         .with_state(host)
+}
+
+/// Hosts answer to their public name; only plugin uploads send bytes rather than JSON.
+fn browser_guard(host: &Host) -> Arc<BrowserGuard> {
+    Arc::new(BrowserGuard::new(&[host.public_url.as_str()], &[], &["/plugins"]))
 }
 
 /// A URL a request names for this host to fetch, normalised, or why it is refused: too

@@ -7,7 +7,7 @@ use axum::extract::{Path, Query, State};
 use axum::http::StatusCode;
 use serde::Deserialize;
 
-use super::error::{ApiError, ApiJson};
+use super::error::{self, ApiError, ApiJson};
 use crate::config::LONG_POLL;
 use crate::rebuild;
 use crate::sessions::{self, SessionRecord};
@@ -56,7 +56,7 @@ pub async fn status(
             ));
         }
     };
-    status.map(axum::Json).ok_or_else(|| ApiError::not_found("session", &id))
+    status.map(axum::Json).ok_or_else(|| error::not_found("session", &id))
 }
 
 /// `DELETE /sessions/{id}`.
@@ -67,6 +67,6 @@ pub async fn delete(
     if host.sessions.remove(&id) {
         Ok(StatusCode::NO_CONTENT)
     } else {
-        Err(ApiError::not_found("session", &id))
+        Err(error::not_found("session", &id))
     }
 }
