@@ -60,9 +60,9 @@ pub async fn serve_with(
     let acceptor = tls.map(tokio_rustls::TlsAcceptor::from);
     let mut shutdown = std::pin::pin!(shutdown);
     loop {
-        let stream = tokio::select! {
+        let (stream, peer) = tokio::select! {
             accepted = listener.accept() => match accepted {
-                Ok((stream, _)) => stream,
+                Ok(accepted) => accepted,
                 Err(error) => {
                     tracing::warn!("accepting a connection: {error}");
                     tokio::time::sleep(ACCEPT_RETRY).await;
@@ -73,6 +73,12 @@ pub async fn serve_with(
         };
         let service =
             TowerToHyperService::new(RequestBodyTimeout::new(app.clone(), BODY_IDLE_TIMEOUT));
+        // The peer's address, for handlers that extract `ConnectInfo<SocketAddr>` (who may
+        // read `/metrics` without a token).
+        let service = hyper::service::service_fn(move |mut request: hyper::Request<_>| {
+            request.extensions_mut().insert(axum::extract::ConnectInfo(peer));
+            hyper::service::Service::call(&service, request)
+        });
         let (http, watcher, acceptor) = (http.clone(), graceful.watcher(), acceptor.clone());
         tokio::spawn(async move {
             let stream = match acceptor {
