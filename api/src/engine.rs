@@ -226,6 +226,9 @@ pub struct RunRecord {
     /// The run this one re-runs (`POST /runs/{id}/rerun`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rerun_of: Option<String>,
+    /// The user whose run it is (engines with users; older records have none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub user: Option<String>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -367,6 +370,7 @@ impl RunRecord {
             total_ms: None,
             workflow: Json::Null,
             rerun_of: None,
+            user: None,
         }
     }
 }

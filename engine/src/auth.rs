@@ -1,13 +1,19 @@
-//! The engine's secrets and which input URLs a run may name (DESIGN §10). Which route
-//! takes which token is `routes/auth.rs`.
+//! The engine's secrets, how it is reached, and which input URLs a run may name (DESIGN
+//! §10–11). Which route takes which token is `routes/auth.rs`; users are `users.rs`.
+
+use std::path::PathBuf;
 
 use meshflow_api::fetch_rules::{Origins, Refusal, origin, parse_origin};
+use meshflow_api::server::TlsFiles;
 
 /// The engine's secrets and what it lets runs fetch.
 #[derive(Clone, Debug, Default)]
 pub struct Access {
-    /// Users of the API: submit, upload inputs, read runs.
+    /// The API's single token, the user `default` (an admin): submit, upload inputs, read
+    /// runs.
     pub api_token: Option<String>,
+    /// The API's named users and their tokens (see `users.rs`), besides `api_token`'s.
+    pub users_file: Option<PathBuf>,
     /// The engine and its hosts: registration, and everything the engine asks of hosts.
     pub cluster_token: Option<String>,
     /// Origins (`scheme://host[:port]`) run inputs may come from besides the engine and its
@@ -15,23 +21,37 @@ pub struct Access {
     pub allow_input_from: Vec<String>,
     /// Listen on a non-loopback address without both tokens.
     pub insecure_no_auth: bool,
+    /// Origins (`scheme://host[:port]`) besides the engine's own whose pages may change its
+    /// state (`--allow-origin`).
+    pub allow_origins: Vec<String>,
+    /// Serve https with this certificate and key.
+    pub tls: Option<TlsFiles>,
 }
 
 /// Why an engine will not start with this access.
 #[derive(Debug, thiserror::Error)]
 pub enum AccessError {
-    #[error("an API token needs a cluster token too: hosts fetch uploaded inputs with it")]
+    #[error(
+        "an API token (or --users) needs a cluster token too: hosts fetch uploaded inputs with it"
+    )]
     ApiWithoutCluster,
     #[error("--allow-input-from: {0}")]
     Origin(String),
+    #[error("--allow-origin: {0}")]
+    BrowserOrigin(String),
 }
 
 impl Access {
     /// Checks the combination and normalises the allowed origins.
     pub fn validated(mut self) -> Result<Self, AccessError> {
-        if self.api_token.is_some() && self.cluster_token.is_none() {
+        if self.has_api_tokens() && self.cluster_token.is_none() {
             return Err(AccessError::ApiWithoutCluster);
         }
+        self.allow_origins = self
+            .allow_origins
+            .iter()
+            .map(|text| parse_origin(text).map_err(AccessError::BrowserOrigin))
+            .collect::<Result<_, _>>()?;
         self.allow_input_from = self
             .allow_input_from
             .iter()
@@ -40,10 +60,15 @@ impl Access {
         Ok(self)
     }
 
+    /// Whether the API takes tokens: the single API token or a users file.
+    pub fn has_api_tokens(&self) -> bool {
+        self.api_token.is_some() || self.users_file.is_some()
+    }
+
     /// The tokens a server on a public address must have, that this one lacks.
     pub fn missing(&self) -> Vec<&'static str> {
         let mut missing = Vec::new();
-        if self.api_token.is_none() {
+        if !self.has_api_tokens() {
             missing.push("an API token");
         }
         if self.cluster_token.is_none() {
@@ -56,7 +81,7 @@ impl Access {
     /// its hosts'. With no tokens and no allow-list (a loopback engine among friends), any
     /// origin; the address rules hold in every case.
     pub fn input_origins(&self, own: &str, hosts: impl Iterator<Item = String>) -> Origins {
-        if self.api_token.is_none()
+        if !self.has_api_tokens()
             && self.cluster_token.is_none()
             && self.allow_input_from.is_empty()
         {
@@ -90,7 +115,7 @@ mod tests {
             api_token: Some("a".into()),
             cluster_token: Some("c".into()),
             allow_input_from: vec!["https://data.example.org".into()],
-            insecure_no_auth: false,
+            ..Access::default()
         }
         .validated()
         .unwrap();

@@ -9,6 +9,7 @@ use crate::engine::{Engine, SubmitError, new_run_id};
 use crate::limits::{BATCH_POLL, MAX_BATCH_INPUTS, MAX_BATCH_RUNS_AT_ONCE};
 use crate::record::{BatchEntry, BatchStatus, SubmitBatch, SummaryRow};
 use crate::store::{self, StoredBatch};
+use crate::users::User;
 use crate::workflow::{Workflow, WorkflowError};
 use crate::{summary, validate};
 
@@ -18,7 +19,7 @@ impl Engine {
     pub async fn submit_batch(
         self: &Arc<Self>,
         request: SubmitBatch,
-        client: &str,
+        user: &str,
     ) -> Result<BatchStatus, SubmitError> {
         let SubmitBatch { workflow: workflow_json, inputs, concurrency } = request;
         if inputs.is_empty() || inputs.len() > MAX_BATCH_INPUTS {
@@ -39,7 +40,7 @@ impl Engine {
             .collect();
         let batch = StoredBatch {
             id: new_batch_id(),
-            owner: client.to_owned(),
+            user: user.to_owned(),
             workflow: workflow_json,
             concurrency: concurrency
                 .unwrap_or(MAX_BATCH_RUNS_AT_ONCE)
@@ -50,15 +51,16 @@ impl Engine {
         self.store.call(move |c| store::insert_batch(c, &row)).await?;
         let id = batch.id.clone();
         tokio::spawn(drive(self.clone(), batch));
-        Ok(self.batch(&id).await?.expect("the batch was just stored"))
+        let owner = User { name: user.to_owned(), role: crate::users::Role::User };
+        Ok(self.batch(&id, &owner).await?.expect("the batch was just stored"))
     }
 
-    /// A batch's entries and summary rows as they stand; none for an unknown id.
-    pub async fn batch(&self, id: &str) -> Result<Option<BatchStatus>, SubmitError> {
+    /// A batch's entries and summary rows as they stand; none for an unknown id or another
+    /// user's batch (an admin sees every batch).
+    pub async fn batch(&self, id: &str, user: &User) -> Result<Option<BatchStatus>, SubmitError> {
         let only = id.to_owned();
-        let Some(batch) =
-            self.store.call(move |c| store::load_batches(c, Some(&only))).await?.pop()
-        else {
+        let found = self.store.call(move |c| store::load_batches(c, Some(&only))).await?.pop();
+        let Some(batch) = found.filter(|batch| user.may_see(&batch.user)) else {
             return Ok(None);
         };
         let files: Vec<String> =
@@ -125,7 +127,7 @@ async fn drive(engine: Arc<Engine>, batch: StoredBatch) {
         }
         let input = Some(entries[index].input.clone());
         let outcome = loop {
-            match engine.submit(batch.workflow.clone(), input.clone(), &batch.owner).await {
+            match engine.submit(batch.workflow.clone(), input.clone(), &batch.user).await {
                 Err(SubmitError::Busy(_)) => tokio::time::sleep(BATCH_POLL).await,
                 other => break other,
             }

@@ -15,12 +15,17 @@ use crate::record::{RunRecord, Status};
 use crate::registry::Registry;
 use crate::run::{Run, RunParts};
 use crate::store::{self, Store, StoreError, StoredRun};
+use crate::users::{User, Users};
 use crate::workflow::{Workflow, WorkflowError};
 use crate::{admission, downloads, executor, inputs, rerun, validate};
 use meshflow_api::engine::RerunRequest;
 
+/// The engine's database, in its data folder.
+pub(crate) const DATABASE: &str = "engine.sqlite3";
+
 pub struct EngineConfig {
-    /// Holds the database (`engine.sqlite3`) and uploaded inputs (`inputs/`).
+    /// Holds the database (`engine.sqlite3`) and uploaded inputs (`inputs/`); made
+    /// readable by this user only.
     pub data_dir: PathBuf,
     /// The URL hosts use to reach this engine (for uploaded inputs).
     pub public_url: String,
@@ -38,6 +43,8 @@ pub struct Engine {
     changed: Arc<Notify>,
     pub(crate) public_url: String,
     pub(crate) access: Access,
+    /// Who may use the API, by token (`--users`, `--api-token`).
+    pub(crate) users: Users,
 }
 
 /// Kept runs by id, in the order they were submitted.
@@ -62,6 +69,9 @@ pub enum SubmitError {
     Store(#[from] StoreError),
     #[error("this run cannot be re-run: {0}")]
     NotRerunnable(#[from] rerun::RerunError),
+    /// Another user's upload: answered as if it did not exist.
+    #[error("no input \"{0}\"")]
+    NotYourInput(String),
 }
 
 impl Engine {
@@ -70,8 +80,10 @@ impl Engine {
     pub(crate) fn open(
         config: EngineConfig,
     ) -> anyhow::Result<(Arc<Self>, Vec<StoredRun>, Vec<String>)> {
-        std::fs::create_dir_all(&config.data_dir)?;
-        let store = Store::open(&config.data_dir.join("engine.sqlite3"))?;
+        crate::files::private_dir(&config.data_dir)?;
+        let users =
+            Users::open(config.access.users_file.as_deref(), config.access.api_token.clone())?;
+        let store = Store::open(&config.data_dir.join(DATABASE))?;
         let (stored, hosts) = store.now(|c| Ok((store::load_runs(c)?, store::load_hosts(c)?)))?;
         let changed = Arc::new(Notify::new());
         let public_url = config.public_url.trim_end_matches('/').to_owned();
@@ -86,6 +98,7 @@ impl Engine {
             changed,
             public_url,
             access: config.access,
+            users,
         });
         let mut unfinished = Vec::new();
         for stored in stored {
@@ -105,7 +118,7 @@ impl Engine {
     fn revive(&self, stored: &StoredRun) -> Arc<Run> {
         Arc::new(Run::new(RunParts {
             id: stored.id.clone(),
-            owner: stored.owner.clone(),
+            user: stored.user.clone(),
             input: stored.input.clone(),
             record: stored.record.clone(),
             sessions: stored.sessions.clone(),
@@ -114,14 +127,14 @@ impl Engine {
     }
 
     /// Validates the workflow against the catalogue, stores the run and starts it; returns
-    /// at once. `client` names who submits (see [`admission`]).
+    /// at once. The run is `user`'s, and takes one of their run slots (see [`admission`]).
     pub async fn submit(
         self: &Arc<Self>,
         workflow_json: Json,
         input: Option<String>,
-        client: &str,
+        user: &str,
     ) -> Result<Arc<Run>, SubmitError> {
-        self.submit_as(workflow_json, input, client, None).await
+        self.submit_as(workflow_json, input, user, None).await
     }
 
     /// Runs a kept run's workflow again with every task pinned to the plugin digest and
@@ -131,19 +144,19 @@ impl Engine {
         self: &Arc<Self>,
         original: &Run,
         request: RerunRequest,
-        client: &str,
+        user: &str,
     ) -> Result<Arc<Run>, SubmitError> {
         let record = original.record();
         let workflow = rerun::rerun_workflow(&record, !request.unpinned)?;
         let input = request.input.unwrap_or_else(|| original.input.clone());
-        self.submit_as(workflow, Some(input), client, Some(record.id)).await
+        self.submit_as(workflow, Some(input), user, Some(record.id)).await
     }
 
     async fn submit_as(
         self: &Arc<Self>,
         workflow_json: Json,
         input: Option<String>,
-        client: &str,
+        user: &str,
         rerun_of: Option<String>,
     ) -> Result<Arc<Run>, SubmitError> {
         // The input's origin first: a URL the engine will not fetch is refused whatever the
@@ -152,14 +165,15 @@ impl Engine {
         let input = input.or_else(|| workflow.input.clone()).ok_or(SubmitError::NoInput)?;
         let hosts = self.registry.hosts().into_iter().map(|host| host.url.clone());
         self.access.check_input(&input, &self.public_url, hosts)?;
+        self.check_input_owner(&input, user).await?;
         validate::validate(&mut workflow, &*self.registry)?;
-        let ticket = self.admission.admit(client)?;
+        let ticket = self.admission.admit(user)?;
         let id = new_run_id();
         let mut record = RunRecord::new(id.clone(), workflow.transfer);
         record.rerun_of = rerun_of;
         record.workflow = workflow_json;
-        let stored =
-            StoredRun { record, id, owner: client.to_owned(), input, sessions: Vec::new() };
+        record.user = Some(user.to_owned());
+        let stored = StoredRun { record, id, user: user.to_owned(), input, sessions: Vec::new() };
         let row = stored.clone();
         self.store.call(move |c| store::insert_run(c, &row)).await?;
         let run = self.revive(&stored);
@@ -169,7 +183,7 @@ impl Engine {
     }
 
     /// Resumes a run the engine was executing when it stopped (see [`executor::execute`]);
-    /// one whose workflow no longer reads, or whose client is over its limit, ends
+    /// one whose workflow no longer reads, or whose user is over their limit, ends
     /// interrupted.
     pub(crate) fn resume(self: &Arc<Self>, stored: StoredRun) {
         let run = self.revive(&stored);
@@ -177,7 +191,7 @@ impl Engine {
         let interrupted = |reason: String| {
             run.set_status(Status::Interrupted, Some(format!("the engine restarted: {reason}")))
         };
-        match (Workflow::from_json(&stored.record.workflow), self.admission.admit(&stored.owner)) {
+        match (Workflow::from_json(&stored.record.workflow), self.admission.admit(&stored.user)) {
             (Ok(workflow), Ok(ticket)) => {
                 tokio::spawn(drive(self.clone(), run.clone(), workflow, ticket, true));
             }
@@ -211,19 +225,54 @@ impl Engine {
         table.by_id.insert(run.id.clone(), run);
     }
 
-    /// Streams an uploaded input to disk and returns the URL hosts fetch it from.
+    /// Streams `user`'s uploaded input to disk and returns the URL hosts fetch it from.
     pub async fn put_input<E: std::fmt::Display>(
         &self,
         name: &str,
         body: impl futures_util::Stream<Item = Result<bytes::Bytes, E>>,
+        user: &str,
     ) -> Result<(String, u64), inputs::InputError> {
         let stored = self.inputs.put(name, body, limits::MAX_INPUT_BYTES).await?;
         let (file, bytes, name) = (stored.file.clone(), stored.bytes, name.to_owned());
-        let recorded = self.store.call(move |c| store::add_input(c, &file, &name, bytes)).await;
+        let user = user.to_owned();
+        let recorded =
+            self.store.call(move |c| store::add_input(c, &file, &name, bytes, &user)).await;
         if let Err(error) = recorded {
             tracing::warn!("recording input {}: {error}", stored.file);
         }
         Ok((format!("{}/inputs/{}", self.public_url, stored.file), stored.bytes))
+    }
+
+    /// The stored input `file` if `user` may read it: one they uploaded (an admin: any).
+    pub(crate) async fn input_of(&self, file: &str, user: &User) -> Option<std::path::PathBuf> {
+        let path = self.inputs.path(file)?;
+        if user.is_admin() {
+            return Some(path);
+        }
+        let (file, name) = (file.to_owned(), user.name.clone());
+        match self.store.call(move |c| store::input_is_users(c, &file, &name)).await {
+            Ok(true) => Some(path),
+            Ok(false) => None,
+            Err(error) => {
+                tracing::warn!("looking up whose input {}: {error}", path.display());
+                None
+            }
+        }
+    }
+
+    /// A run may read an input uploaded here only if its user uploaded it (admins: any).
+    async fn check_input_owner(&self, input: &str, user: &str) -> Result<(), SubmitError> {
+        let prefix = format!("{}/inputs/", self.public_url);
+        let Some(file) = input.strip_prefix(&prefix) else { return Ok(()) };
+        let admin = self.users.role_of(user).is_some_and(|role| role == crate::users::Role::Admin);
+        if admin || self.inputs.path(file).is_none() {
+            return Ok(());
+        }
+        let (lookup, name) = (file.to_owned(), user.to_owned());
+        match self.store.call(move |c| store::input_is_users(c, &lookup, &name)).await? {
+            true => Ok(()),
+            false => Err(SubmitError::NotYourInput(file.chars().take(100).collect())),
+        }
     }
 
     /// Reads a workflow and checks it against the catalogue: what [`Engine::submit`] and

@@ -1,6 +1,7 @@
 //! Meshes uploaded to the engine so that a workflow can name them by URL: streamed to a
-//! file under the engine's data folder (never held in memory whole), named by content
-//! digest, served to the hosts as they are, and deleted when no kept run names them.
+//! file under the engine's data folder (never held in memory whole, readable by the engine's
+//! user only), named by content digest, served to the hosts as they are, and deleted when no
+//! kept run names them.
 
 use std::path::{Path, PathBuf};
 
@@ -35,7 +36,13 @@ pub struct Stored {
 
 impl Inputs {
     pub fn new(dir: PathBuf) -> std::io::Result<Self> {
-        std::fs::create_dir_all(&dir)?;
+        crate::files::private_dir(&dir)?;
+        for entry in std::fs::read_dir(&dir)? {
+            let entry = entry?;
+            if entry.file_type()?.is_file() {
+                crate::files::owner_only(&entry.path(), false)?;
+            }
+        }
         Ok(Self { dir })
     }
 
@@ -69,6 +76,7 @@ impl Inputs {
             file.write_all(&chunk).await?;
         }
         file.sync_all().await?;
+        crate::files::owner_only(&partial, false)?;
         let file = format!("{}.{extension}", hasher.finalize().to_hex());
         partial.persist(self.dir.join(&file)).map_err(|e| e.error)?;
         Ok(Stored { file, bytes })
@@ -112,6 +120,13 @@ mod tests {
         ));
         let files = std::fs::read_dir(dir.path()).unwrap().count();
         assert_eq!(files, 1, "only the stored input remains");
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+            assert_eq!(mode(&inputs.path(&stored.file).unwrap()), 0o600);
+            assert_eq!(mode(dir.path()), 0o700);
+        }
         assert!(inputs.path("../etc/passwd").is_none());
     }
 }

@@ -16,6 +16,7 @@ mod batches;
 pub mod downloads;
 mod engine;
 mod executor;
+mod files;
 mod inputs;
 pub mod limits;
 pub mod measured;
@@ -27,6 +28,7 @@ mod routes;
 pub mod run;
 mod store;
 pub mod summary;
+pub mod users;
 pub mod validate;
 pub mod workflow;
 
@@ -53,8 +55,8 @@ impl EngineHandle {
 
 /// Starts an engine on `listener` with its state under `data_dir`: registers `hosts` and
 /// the hosts it knew before, resumes the runs it was executing, and serves in the
-/// background. Without both tokens it listens only on loopback, unless
-/// `access.insecure_no_auth`.
+/// background, over https when `access.tls` names a certificate. Without both tokens it
+/// listens only on loopback, unless `access.insecure_no_auth`.
 pub async fn start(
     data_dir: PathBuf,
     public_url: Option<String>,
@@ -65,9 +67,11 @@ pub async fn start(
     let address = listener.local_addr()?;
     let access = access.validated()?;
     meshflow_api::server::check_exposure(address, &access.missing(), access.insecure_no_auth)?;
+    let tls = access.tls.as_ref().map(|files| files.server_config()).transpose()?;
+    let scheme = if tls.is_some() { "https" } else { "http" };
     let url = public_url.unwrap_or_else(|| match address.ip().is_unspecified() {
-        true => format!("http://127.0.0.1:{}", address.port()),
-        false => format!("http://{address}"),
+        true => format!("{scheme}://127.0.0.1:{}", address.port()),
+        false => format!("{scheme}://{address}"),
     });
     let (engine, unfinished, known) =
         Engine::open(EngineConfig { data_dir, public_url: url.clone(), access })?;
@@ -93,7 +97,17 @@ pub async fn start(
     }
     engine.resume_batches().await;
     let app = router(engine.clone());
-    let server = tokio::spawn(meshflow_api::server::serve(listener, app, std::future::pending()));
+    let serving = meshflow_api::server::serve_with(listener, app, tls, std::future::pending());
+    let server = tokio::spawn(serving);
     tracing::info!("engine listening on {address}, reached at {url}");
     Ok(EngineHandle { url, engine, server })
+}
+
+/// Copies the engine's database under `data_dir` to `to` (SQLite's online backup: safe while
+/// the engine runs); the copy is readable by this user only.
+pub fn backup(data_dir: &std::path::Path, to: &std::path::Path) -> anyhow::Result<()> {
+    let from = data_dir.join(engine::DATABASE);
+    anyhow::ensure!(from.is_file(), "no engine database at {}", from.display());
+    store::backup(&from, to)?;
+    Ok(())
 }

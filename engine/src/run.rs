@@ -33,8 +33,8 @@ pub struct Event {
 
 pub struct Run {
     pub id: String,
-    /// Who submitted it: a digest of the API token, or `anonymous`.
-    pub owner: String,
+    /// The user who submitted it (`default` on an engine without users).
+    pub user: String,
     /// The input URL the run reads, kept to resume the run. The workflow as submitted is
     /// the record's (`RunRecord::workflow`, see [`Run::workflow`]).
     pub input: String,
@@ -67,7 +67,7 @@ pub struct Changes {
 /// record holds the workflow as submitted.
 pub struct RunParts {
     pub id: String,
-    pub owner: String,
+    pub user: String,
     pub input: String,
     pub record: RunRecord,
     pub sessions: Vec<OpenSession>,
@@ -84,7 +84,7 @@ impl Run {
             .unwrap_or(0.0);
         Self {
             id: parts.id,
-            owner: parts.owner,
+            user: parts.user,
             input: parts.input,
             started: Instant::now(),
             earlier_ms,
@@ -227,6 +227,7 @@ impl Run {
             // The store keeps the workflow in a column of its own, not in every record write.
             workflow: serde_json::Value::Null,
             rerun_of: record.rerun_of.clone(),
+            user: record.user.clone(),
         };
         let sessions = self.sessions.lock().unwrap().clone();
         Some(Changes { head, steps, step_count: record.steps.len(), sessions })

@@ -1,7 +1,8 @@
-//! The engine's durable state in one SQLite file (`DATA/engine.sqlite3`): runs with their
-//! workflow, input, owner and record (its steps one row each, so a long run's record is
+//! The engine's durable state in one SQLite file (`DATA/engine.sqlite3`, readable by its
+//! owner only): runs with their workflow, input, user and record (its steps one row each, so a long run's record is
 //! written step by step, not whole every time); the host sessions each run opened;
-//! registered hosts; uploaded inputs. A restart reads it back (DESIGN §10).
+//! registered hosts; uploaded inputs and who uploaded them. A restart reads it back
+//! (DESIGN §10). [`backup`] copies it while the engine runs.
 //!
 //! Calls are short (one statement or one transaction of them); the async callers run them
 //! on the blocking pool through [`Store::call`], never while holding another lock.
@@ -16,7 +17,7 @@ use crate::record::{BatchEntry, RunRecord, Status};
 use crate::run::{Changes, OpenSession};
 
 /// Bumped when the schema changes; an older file is migrated, a newer one refused.
-const SCHEMA_VERSION: i64 = 1;
+const SCHEMA_VERSION: i64 = 2;
 
 const SCHEMA: &str = "
 CREATE TABLE IF NOT EXISTS runs (
@@ -70,10 +71,23 @@ CREATE TABLE IF NOT EXISTS input_names (
     file TEXT PRIMARY KEY,
     name TEXT NOT NULL
 );
+CREATE TABLE IF NOT EXISTS input_users (
+    file TEXT NOT NULL,
+    user TEXT NOT NULL,
+    PRIMARY KEY (file, user)
+);
 CREATE TABLE IF NOT EXISTS measurements (
     only INTEGER PRIMARY KEY CHECK (only = 1),
     snapshot TEXT NOT NULL
 );
+";
+
+/// Schema 1 → 2: runs and batches name their user (older ones are `default`'s, as everything
+/// was on an engine without users), and so do inputs.
+const TO_VERSION_2: &str = "
+ALTER TABLE runs ADD COLUMN user TEXT NOT NULL DEFAULT 'default';
+ALTER TABLE batches ADD COLUMN user TEXT NOT NULL DEFAULT 'default';
+INSERT OR IGNORE INTO input_users (file, user) SELECT file, 'default' FROM inputs;
 ";
 
 #[derive(Debug, thiserror::Error)]
@@ -88,6 +102,8 @@ pub enum StoreError {
     NewerSchema(i64),
     #[error("engine database: the blocking task failed: {0}")]
     Join(#[from] tokio::task::JoinError),
+    #[error("engine database {path}: {source}")]
+    File { path: std::path::PathBuf, source: std::io::Error },
 }
 
 /// A run as stored: what is needed to show it, and to resume it after a restart. Its
@@ -96,7 +112,8 @@ pub enum StoreError {
 #[derive(Debug, Clone)]
 pub struct StoredRun {
     pub id: String,
-    pub owner: String,
+    /// The user whose run it is.
+    pub user: String,
     pub input: String,
     pub record: RunRecord,
     pub sessions: Vec<OpenSession>,
@@ -108,19 +125,34 @@ pub struct Store {
 }
 
 impl Store {
+    /// Opens (or creates) the database at `path`, readable and writable by this user only
+    /// (SQLite gives its `-wal` and `-shm` files the same permissions).
     pub fn open(path: &Path) -> Result<Self, StoreError> {
+        let file = |source| StoreError::File { path: path.to_owned(), source };
+        let mut options = std::fs::OpenOptions::new();
+        options.create(true).append(true);
+        #[cfg(unix)]
+        std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o600);
+        options.open(path).map_err(file)?;
+        crate::files::owner_only(path, false).map_err(file)?;
         let connection = Connection::open(path)?;
         // WAL: readers never wait for the writer; NORMAL is durable across a process kill
         // (only a power loss may lose the last transactions).
         connection.pragma_update(None, "journal_mode", "WAL")?;
         connection.pragma_update(None, "synchronous", "NORMAL")?;
         connection.busy_timeout(std::time::Duration::from_secs(5))?;
+        let mut connection = connection;
         let version: i64 = connection.pragma_query_value(None, "user_version", |r| r.get(0))?;
         if version > SCHEMA_VERSION {
             return Err(StoreError::NewerSchema(version));
         }
-        connection.execute_batch(SCHEMA)?;
-        connection.pragma_update(None, "user_version", SCHEMA_VERSION)?;
+        let transaction = connection.transaction()?;
+        transaction.execute_batch(SCHEMA)?;
+        if version < 2 {
+            transaction.execute_batch(TO_VERSION_2)?;
+        }
+        transaction.pragma_update(None, "user_version", SCHEMA_VERSION)?;
+        transaction.commit()?;
         Ok(Self { connection: Arc::new(Mutex::new(connection)) })
     }
 
@@ -177,12 +209,12 @@ pub fn load_measurements(connection: &mut Connection) -> Result<Option<Snapshot>
 pub fn insert_run(connection: &mut Connection, run: &StoredRun) -> Result<(), StoreError> {
     let head = RunRecord { workflow: serde_json::Value::Null, ..run.record.clone() };
     connection.execute(
-        "INSERT INTO runs (id, seq, created_unix, owner, workflow, input, status, record)
-         VALUES (?1, (SELECT COALESCE(MAX(seq), 0) + 1 FROM runs), ?2, ?3, ?4, ?5, ?6, ?7)",
+        "INSERT INTO runs (id, seq, created_unix, owner, user, workflow, input, status, record)
+         VALUES (?1, (SELECT COALESCE(MAX(seq), 0) + 1 FROM runs), ?2, ?3, ?3, ?4, ?5, ?6, ?7)",
         params![
             run.id,
             unix_now(),
-            run.owner,
+            run.user,
             run.record.workflow.to_string(),
             run.input,
             status_text(run.record.status),
@@ -231,7 +263,7 @@ pub fn save_runs(connection: &mut Connection, runs: &[Changes]) -> Result<(), St
 /// Every kept run, oldest first.
 pub fn load_runs(connection: &mut Connection) -> Result<Vec<StoredRun>, StoreError> {
     let mut statement =
-        connection.prepare("SELECT id, owner, workflow, input, record FROM runs ORDER BY seq")?;
+        connection.prepare("SELECT id, user, workflow, input, record FROM runs ORDER BY seq")?;
     let rows = statement.query_map([], |row| {
         Ok((
             row.get::<_, String>(0)?,
@@ -246,17 +278,18 @@ pub fn load_runs(connection: &mut Connection) -> Result<Vec<StoredRun>, StoreErr
         connection.prepare("SELECT host, session FROM sessions WHERE run_id = ?1")?;
     let mut steps = connection.prepare("SELECT step FROM steps WHERE run_id = ?1 ORDER BY idx")?;
     let mut runs = Vec::new();
-    for (id, owner, workflow, input, record) in rows {
+    for (id, user, workflow, input, record) in rows {
         let open = sessions
             .query_map([&id], |row| Ok(OpenSession { host: row.get(0)?, session: row.get(1)? }))?
             .collect::<Result<_, _>>()?;
         let mut record: RunRecord = serde_json::from_str(&record)?;
         record.workflow = serde_json::from_str(&workflow)?;
+        record.user = Some(user.clone());
         for step in steps.query_map([&id], |row| row.get::<_, String>(0))? {
             let step: String = step?;
             record.steps.push(serde_json::from_str(&step)?);
         }
-        runs.push(StoredRun { id, owner, input, record, sessions: open });
+        runs.push(StoredRun { id, user, input, record, sessions: open });
     }
     Ok(runs)
 }
@@ -296,13 +329,14 @@ pub fn load_hosts(connection: &mut Connection) -> Result<Vec<String>, StoreError
     Ok(rows.collect::<Result<_, _>>()?)
 }
 
-/// Records an uploaded input and the name it was uploaded under (the last name wins when
-/// the same bytes come again), which downloads are named after.
+/// Records an uploaded input, the name it was uploaded under (the last name wins when the
+/// same bytes come again), which downloads are named after, and that `user` uploaded it.
 pub fn add_input(
     connection: &mut Connection,
     file: &str,
     name: &str,
     bytes: u64,
+    user: &str,
 ) -> Result<(), StoreError> {
     connection.execute(
         "INSERT INTO inputs (file, bytes, stored_unix) VALUES (?1, ?2, ?3)
@@ -314,7 +348,22 @@ pub fn add_input(
          ON CONFLICT (file) DO UPDATE SET name = excluded.name",
         params![file, name],
     )?;
+    connection.execute(
+        "INSERT OR IGNORE INTO input_users (file, user) VALUES (?1, ?2)",
+        params![file, user],
+    )?;
     Ok(())
+}
+
+/// Whether `user` uploaded the input `file`.
+pub fn input_is_users(
+    connection: &mut Connection,
+    file: &str,
+    user: &str,
+) -> Result<bool, StoreError> {
+    let mut statement =
+        connection.prepare_cached("SELECT 1 FROM input_users WHERE file = ?1 AND user = ?2")?;
+    Ok(statement.exists(params![file, user])?)
 }
 
 /// The name an input was uploaded under.
@@ -364,6 +413,7 @@ pub fn take_unused_inputs(
     for file in &files {
         transaction.execute("DELETE FROM inputs WHERE file = ?1", [file])?;
         transaction.execute("DELETE FROM input_names WHERE file = ?1", [file])?;
+        transaction.execute("DELETE FROM input_users WHERE file = ?1", [file])?;
     }
     transaction.commit()?;
     Ok(files)
@@ -373,7 +423,8 @@ pub fn take_unused_inputs(
 #[derive(Debug, Clone)]
 pub struct StoredBatch {
     pub id: String,
-    pub owner: String,
+    /// The user whose batch it is.
+    pub user: String,
     pub workflow: serde_json::Value,
     /// How many of its runs may go at once.
     pub concurrency: usize,
@@ -383,11 +434,11 @@ pub struct StoredBatch {
 pub fn insert_batch(connection: &mut Connection, batch: &StoredBatch) -> Result<(), StoreError> {
     let transaction = connection.transaction()?;
     transaction.execute(
-        "INSERT INTO batches (id, seq, owner, workflow, concurrency)
-         VALUES (?1, (SELECT COALESCE(MAX(seq), 0) + 1 FROM batches), ?2, ?3, ?4)",
+        "INSERT INTO batches (id, seq, owner, user, workflow, concurrency)
+         VALUES (?1, (SELECT COALESCE(MAX(seq), 0) + 1 FROM batches), ?2, ?2, ?3, ?4)",
         params![
             batch.id,
-            batch.owner,
+            batch.user,
             serde_json::to_string(&batch.workflow)?,
             batch.concurrency as i64
         ],
@@ -422,7 +473,7 @@ pub fn load_batches(
     only: Option<&str>,
 ) -> Result<Vec<StoredBatch>, StoreError> {
     let mut statement = connection.prepare(
-        "SELECT id, owner, workflow, concurrency FROM batches WHERE ?1 IS NULL OR id = ?1
+        "SELECT id, user, workflow, concurrency FROM batches WHERE ?1 IS NULL OR id = ?1
          ORDER BY seq",
     )?;
     let heads: Vec<(String, String, String, i64)> = statement
@@ -432,14 +483,39 @@ pub fn load_batches(
         "SELECT input, run_id, error FROM batch_entries WHERE batch_id = ?1 ORDER BY idx",
     )?;
     let mut batches = Vec::with_capacity(heads.len());
-    for (id, owner, workflow, concurrency) in heads {
+    for (id, user, workflow, concurrency) in heads {
         let rows = entries_of.query_map([&id], |row| {
             Ok(BatchEntry { input: row.get(0)?, run: row.get(1)?, error: row.get(2)? })
         })?;
         let entries = rows.collect::<Result<_, _>>()?;
         let workflow = serde_json::from_str(&workflow)?;
         let concurrency = concurrency.max(1) as usize;
-        batches.push(StoredBatch { id, owner, workflow, concurrency, entries });
+        batches.push(StoredBatch { id, user, workflow, concurrency, entries });
     }
     Ok(batches)
+}
+
+/// Copies the database at `from` to `to` with SQLite's online backup, page by page, so an
+/// engine may go on writing meanwhile; the copy is readable by this user only. `to` is
+/// written whole or not at all.
+pub fn backup(from: &Path, to: &Path) -> Result<(), StoreError> {
+    use rusqlite::OpenFlags;
+    // Read-write (a WAL database needs it to read), but never created: a wrong folder fails.
+    let source = Connection::open_with_flags(from, OpenFlags::SQLITE_OPEN_READ_WRITE)?;
+    source.busy_timeout(std::time::Duration::from_secs(5))?;
+    let folder = to.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let file = |source| StoreError::File { path: to.to_owned(), source };
+    let partial = tempfile::Builder::new()
+        .prefix(".backup-")
+        .tempfile_in(folder)
+        .map_err(file)?
+        .into_temp_path();
+    {
+        let mut copy = Connection::open(&partial)?;
+        let backup = rusqlite::backup::Backup::new(&source, &mut copy)?;
+        backup.run_to_completion(256, std::time::Duration::from_millis(10), None)?;
+    }
+    crate::files::owner_only(&partial, false).map_err(file)?;
+    partial.persist(to).map_err(|e| file(e.error))?;
+    Ok(())
 }

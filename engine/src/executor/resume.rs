@@ -30,13 +30,13 @@ pub(super) fn recorded_steps(run: &Run) -> VecDeque<StepRecord> {
     done
 }
 
-/// Nothing finished before the restart: the record starts over (keeping the workflow and
-/// the run it re-runs).
+/// Nothing finished before the restart: the record starts over (keeping the workflow, the
+/// run it re-runs and its user).
 pub(super) fn start_over(run: &Run) {
     run.update("restart", |r| {
         let fresh = RunRecord::new(r.id.clone(), r.transfer);
         let (workflow, rerun_of) = (std::mem::take(&mut r.workflow), r.rerun_of.take());
-        *r = RunRecord { workflow, rerun_of, ..fresh };
+        *r = RunRecord { workflow, rerun_of, user: r.user.take(), ..fresh };
         json!(null)
     });
 }

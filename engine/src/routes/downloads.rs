@@ -3,6 +3,7 @@
 
 use std::sync::Arc;
 
+use axum::Extension;
 use axum::extract::{Path, Query, State};
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
@@ -14,6 +15,7 @@ use super::runs::find;
 use crate::downloads::{DownloadError, Which};
 use crate::engine::Engine;
 use crate::record::RunRecord;
+use crate::users::User;
 
 #[derive(Deserialize)]
 pub struct FormatQuery {
@@ -27,8 +29,9 @@ pub async fn result(
     State(engine): State<Arc<Engine>>,
     Path(id): Path<String>,
     Query(query): Query<FormatQuery>,
+    Extension(user): Extension<User>,
 ) -> ApiResult<Response> {
-    let record = find(&engine, &id)?.record();
+    let record = find(&engine, &id, &user)?.record();
     // `.mfm` unless asked otherwise: the CLI decodes it (and checks it once more).
     mesh(&engine, &record, Which::Result, query.format).await
 }
@@ -38,8 +41,9 @@ pub async fn input(
     State(engine): State<Arc<Engine>>,
     Path(id): Path<String>,
     Query(query): Query<FormatQuery>,
+    Extension(user): Extension<User>,
 ) -> ApiResult<Response> {
-    let record = find(&engine, &id)?.record();
+    let record = find(&engine, &id, &user)?.record();
     mesh(&engine, &record, Which::Input, query.format).await
 }
 
@@ -49,8 +53,9 @@ pub async fn step_output(
     State(engine): State<Arc<Engine>>,
     Path((id, index)): Path<(String, usize)>,
     Query(query): Query<FormatQuery>,
+    Extension(user): Extension<User>,
 ) -> ApiResult<Response> {
-    let record = find(&engine, &id)?.record();
+    let record = find(&engine, &id, &user)?.record();
     mesh(&engine, &record, Which::Step(index), query.format).await
 }
 

@@ -51,6 +51,9 @@ impl From<SubmitError> for ApiError {
             SubmitError::InputRefused(_) => Self::bad_request("input-not-allowed", e.to_string()),
             SubmitError::Store(error) => internal(error),
             SubmitError::NotRerunnable(_) => Self::conflict("not-rerunnable", e.to_string()),
+            SubmitError::NotYourInput(_) => {
+                Self::new(StatusCode::NOT_FOUND, "not-found", e.to_string())
+            }
         }
     }
 }

@@ -3,6 +3,7 @@
 use std::convert::Infallible;
 use std::sync::Arc;
 
+use axum::Extension;
 use axum::extract::{Path, State};
 use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
 use futures_util::{Stream, StreamExt, stream};
@@ -13,14 +14,16 @@ use super::error::ApiResult;
 use super::runs::find;
 use crate::engine::Engine;
 use crate::record::Status;
+use crate::users::User;
 
 /// First the whole record (`record`), then each change (`status`, `broadcast`, `step`,
 /// `transfer`, ...); the stream ends with the run.
 pub async fn stream(
     State(engine): State<Arc<Engine>>,
     Path(id): Path<String>,
+    Extension(user): Extension<User>,
 ) -> ApiResult<Sse<impl Stream<Item = Result<SseEvent, Infallible>>>> {
-    let run = find(&engine, &id)?;
+    let run = find(&engine, &id, &user)?;
     // Subscribe before taking the snapshot, so no change falls between the two.
     let live = BroadcastStream::new(run.subscribe());
     let snapshot = run.record();

@@ -1,10 +1,11 @@
 //! The engine HTTP API (DESIGN §6): hosts, catalogue, inputs, runs with their status,
 //! progress events and result, batches, workflow checks, plugin uploads and the web UI.
 //! One file per resource; errors are `{"error": {"code", "message"}}` ([`error`]); who may
-//! call what is [`auth`].
+//! call what is [`auth`]; every request first passes the browser guard ([`browser`]).
 
 mod auth;
 mod batches;
+mod browser;
 mod downloads;
 mod error;
 mod events;
@@ -18,13 +19,13 @@ mod workflows;
 use std::sync::Arc;
 
 use axum::extract::DefaultBodyLimit;
-use axum::http::{HeaderMap, header};
 use axum::routing::{get, post};
-use axum::{Json, Router};
+use axum::{Extension, Json, Router};
 use serde_json::json;
 
 use crate::engine::Engine;
 use crate::limits::{MAX_PLUGIN_FORWARD_BYTES, MAX_REGISTER_BYTES, MAX_SUBMIT_BYTES};
+use crate::users::User;
 
 pub fn router(engine: Arc<Engine>) -> Router {
     Router::new()
@@ -36,6 +37,7 @@ pub fn router(engine: Arc<Engine>) -> Router {
             get(hosts::list).post(hosts::register).layer(DefaultBodyLimit::max(MAX_REGISTER_BYTES)),
         )
         .route("/services", get(hosts::services))
+        .route("/me", get(|Extension(user): Extension<User>| async move { Json(user) }))
         // Streamed to disk: the limit is applied while writing.
         .route("/inputs", post(inputs::upload).layer(DefaultBodyLimit::disable()))
         .route("/inputs/{file}", get(inputs::download))
@@ -63,18 +65,6 @@ pub fn router(engine: Arc<Engine>) -> Router {
             post(plugins::forward).layer(DefaultBodyLimit::max(MAX_PLUGIN_FORWARD_BYTES)),
         )
         .layer(axum::middleware::from_fn_with_state(engine.clone(), auth::check))
+        .layer(axum::middleware::from_fn_with_state(browser::guard_of(&engine), browser::check))
         .with_state(engine)
-}
-
-/// Who sends a request, for per-client limits: a digest of its bearer token, or
-/// `anonymous` (the token itself is never stored).
-fn client_of(headers: &HeaderMap) -> String {
-    let token = headers
-        .get(header::AUTHORIZATION)
-        .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.strip_prefix("Bearer "));
-    match token {
-        Some(token) => format!("token:{}", &blake3::hash(token.as_bytes()).to_hex()[..16]),
-        None => "anonymous".to_owned(),
-    }
 }

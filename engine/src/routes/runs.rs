@@ -4,19 +4,20 @@
 
 use std::sync::Arc;
 
+use axum::Extension;
 use axum::Json;
 use axum::body::Bytes;
 use axum::extract::rejection::BytesRejection;
 use axum::extract::{Path, State};
-use axum::http::{HeaderMap, StatusCode};
+use axum::http::StatusCode;
 use meshflow_api::engine::{Comparison, RerunRequest, RunSubmitted, RunSummary};
 use serde_json::{Value, json};
 
-use super::client_of;
 use super::error::{ApiError, ApiResult, not_found, rejected};
 use crate::engine::Engine;
 use crate::record::RunRecord;
 use crate::run::Run;
+use crate::users::User;
 
 /// `POST /runs` (and `POST /workflows/validate`) take `{"workflow": W, "input"?: URL}` or a
 /// bare workflow `W`.
@@ -36,18 +37,19 @@ pub fn read_submission(body: &[u8]) -> ApiResult<(Value, Option<String>)> {
     Ok((workflow.clone(), input))
 }
 
-/// The run `id`, or 404.
-pub fn find(engine: &Engine, id: &str) -> ApiResult<Arc<Run>> {
-    engine.run(id).ok_or_else(|| not_found("run", id))
+/// The run `id` if `user` may see it (theirs, or any for an admin), or 404 as if it did not
+/// exist.
+pub fn find(engine: &Engine, id: &str, user: &User) -> ApiResult<Arc<Run>> {
+    engine.run(id).filter(|run| user.may_see(&run.user)).ok_or_else(|| not_found("run", id))
 }
 
 pub async fn submit(
     State(engine): State<Arc<Engine>>,
-    headers: HeaderMap,
+    Extension(user): Extension<User>,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult<(StatusCode, Json<RunSubmitted>)> {
     let (workflow, input) = read_submission(&body.map_err(rejected)?)?;
-    let run = engine.submit(workflow, input, &client_of(&headers)).await?;
+    let run = engine.submit(workflow, input, &user.name).await?;
     Ok((StatusCode::ACCEPTED, Json(RunSubmitted { id: run.id.clone(), status: run.status() })))
 }
 
@@ -57,7 +59,7 @@ pub async fn submit(
 pub async fn rerun(
     State(engine): State<Arc<Engine>>,
     Path(id): Path<String>,
-    headers: HeaderMap,
+    Extension(user): Extension<User>,
     body: Result<Bytes, BytesRejection>,
 ) -> ApiResult<(StatusCode, Json<RunSubmitted>)> {
     let body = body.map_err(rejected)?;
@@ -67,8 +69,8 @@ pub async fn rerun(
         serde_json::from_slice(&body)
             .map_err(|e| ApiError::bad_request("bad-json", e.to_string()))?
     };
-    let original = find(&engine, &id)?;
-    let run = engine.rerun(&original, request, &client_of(&headers)).await?;
+    let original = find(&engine, &id, &user)?;
+    let run = engine.rerun(&original, request, &user.name).await?;
     Ok((StatusCode::ACCEPTED, Json(RunSubmitted { id: run.id.clone(), status: run.status() })))
 }
 
@@ -77,8 +79,9 @@ pub async fn rerun(
 pub async fn comparison(
     State(engine): State<Arc<Engine>>,
     Path(id): Path<String>,
+    Extension(user): Extension<User>,
 ) -> ApiResult<Json<Comparison>> {
-    let record = find(&engine, &id)?.record();
+    let record = find(&engine, &id, &user)?.record();
     let Some(original_id) = record.rerun_of.clone() else {
         let message = format!("run {id} is not a re-run");
         return Err(ApiError::new(StatusCode::NOT_FOUND, "not-a-rerun", message));
@@ -86,7 +89,7 @@ pub async fn comparison(
     if !record.status.is_final() {
         return Err(ApiError::conflict("not-finished", format!("run {id} has not finished")));
     }
-    let original = find(&engine, &original_id)?;
+    let original = find(&engine, &original_id, &user)?;
     Ok(Json(crate::rerun::compare(&original.record(), &record)))
 }
 
@@ -95,8 +98,9 @@ pub async fn comparison(
 pub async fn cancel(
     State(engine): State<Arc<Engine>>,
     Path(id): Path<String>,
+    Extension(user): Extension<User>,
 ) -> ApiResult<(StatusCode, Json<RunSummary>)> {
-    let run = find(&engine, &id)?;
+    let run = find(&engine, &id, &user)?;
     if run.is_finished() {
         let message = format!("run {id} has ended already ({:?})", run.status());
         return Err(ApiError::conflict("finished", message));
@@ -105,8 +109,13 @@ pub async fn cancel(
     Ok((StatusCode::ACCEPTED, Json(summary(run.record()))))
 }
 
-pub async fn list(State(engine): State<Arc<Engine>>) -> Json<Vec<RunSummary>> {
-    Json(engine.runs().iter().map(|run| summary(run.record())).collect())
+/// `GET /runs`: the user's runs (an admin's: everyone's), oldest first.
+pub async fn list(
+    State(engine): State<Arc<Engine>>,
+    Extension(user): Extension<User>,
+) -> Json<Vec<RunSummary>> {
+    let runs = engine.runs().into_iter().filter(|run| user.may_see(&run.user));
+    Json(runs.map(|run| summary(run.record())).collect())
 }
 
 fn summary(record: RunRecord) -> RunSummary {
@@ -116,15 +125,17 @@ fn summary(record: RunRecord) -> RunSummary {
 pub async fn status(
     State(engine): State<Arc<Engine>>,
     Path(id): Path<String>,
+    Extension(user): Extension<User>,
 ) -> ApiResult<Json<Value>> {
-    Ok(Json(json!(find(&engine, &id)?.record())))
+    Ok(Json(json!(find(&engine, &id, &user)?.record())))
 }
 
 /// `GET /runs/{id}/workflow`: what was submitted, as `POST /runs` takes it (to run again).
 pub async fn workflow(
     State(engine): State<Arc<Engine>>,
     Path(id): Path<String>,
+    Extension(user): Extension<User>,
 ) -> ApiResult<Json<Value>> {
-    let run = find(&engine, &id)?;
+    let run = find(&engine, &id, &user)?;
     Ok(Json(json!({"workflow": run.workflow(), "input": run.input})))
 }
