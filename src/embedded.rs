@@ -58,6 +58,22 @@ pub async fn start(
     allow_input_from: Vec<String>,
     sandbox: crate::SandboxArgs,
 ) -> anyhow::Result<Embedded> {
+    let access = Access { allow_input_from, ..Access::default() };
+    start_with(hosts, listen, data, layout, tokens, access, sandbox).await
+}
+
+/// [`start`], the engine with `access` (its users file, allowed origins, …); its tokens
+/// and `insecure_no_auth` are the embedded system's.
+pub async fn start_with(
+    hosts: usize,
+    listen: &str,
+    data: Option<PathBuf>,
+    layout: Layout,
+    tokens: Tokens,
+    access: Access,
+    sandbox: crate::SandboxArgs,
+) -> anyhow::Result<Embedded> {
+    let allow_input_from = access.allow_input_from.clone();
     anyhow::ensure!(hosts > 0, "at least one host is needed");
     let (scratch, data) = match data {
         Some(dir) => (None, dir),
@@ -91,6 +107,7 @@ pub async fn start(
         cluster_token: Some(tokens.cluster.clone()),
         allow_input_from,
         insecure_no_auth: false,
+        ..access
     };
     let engine = meshflow_engine::start(data.join("engine"), None, &urls, access, listener).await?;
     Ok(Embedded { engine, hosts: handles, tokens, _scratch: scratch })

@@ -1,15 +1,19 @@
-//! `meshflow engine`: serve the engine HTTP API and web UI over the given hosts.
+//! `meshflow engine`: serve the engine HTTP API and web UI over the given hosts;
+//! `meshflow engine backup`: copy its database while it runs.
 
 use std::path::PathBuf;
 
 use anyhow::Context;
-use clap::Args;
+use clap::{Args, Subcommand};
 use meshflow_engine::Access;
 
+use super::options::ServerTlsArgs;
 use super::tokens::{ApiTokenArgs, ClusterArgs};
 
 #[derive(Args)]
 pub struct EngineArgs {
+    #[command(subcommand)]
+    command: Option<EngineCommand>,
     /// Address to listen on.
     #[arg(long, default_value = "127.0.0.1:7000", value_name = "ADDR")]
     listen: String,
@@ -19,11 +23,22 @@ pub struct EngineArgs {
     /// Folder for uploaded inputs.
     #[arg(long, value_name = "DIR", default_value = "meshflow-engine-data")]
     data: PathBuf,
-    /// URL hosts reach this engine at (default: http:// + the listening address).
+    /// URL hosts and browsers reach this engine at (default: http:// + the listening
+    /// address, https:// with --tls-cert); its host name is one the engine answers to.
     #[arg(long, value_name = "URL")]
     public_url: Option<String>,
     #[command(flatten)]
     api_token: ApiTokenArgs,
+    /// Named users, one a line: `NAME ROLE TOKEN` (role `user` or `admin`, the token as
+    /// itself or `sha256:<hex>`); read again when it changes.
+    #[arg(long, value_name = "FILE")]
+    users: Option<PathBuf>,
+    /// An origin (scheme://host[:port]) whose pages may use this engine besides its own;
+    /// repeat for more.
+    #[arg(long, value_name = "ORIGIN")]
+    allow_origin: Vec<String>,
+    #[command(flatten)]
+    tls: ServerTlsArgs,
     #[command(flatten)]
     cluster: ClusterArgs,
     /// Listen on a non-loopback address without tokens (anyone reaching it can use it).
@@ -31,13 +46,39 @@ pub struct EngineArgs {
     insecure_no_auth: bool,
 }
 
+#[derive(Subcommand)]
+enum EngineCommand {
+    /// Copy the engine's database to a file, safely while the engine runs (SQLite's online
+    /// backup); restore by putting the copy in place as DIR/engine.sqlite3.
+    Backup(BackupArgs),
+}
+
+#[derive(Args)]
+struct BackupArgs {
+    /// The engine's data folder.
+    #[arg(long, value_name = "DIR", default_value = "meshflow-engine-data")]
+    data: PathBuf,
+    /// Where to write the copy.
+    #[arg(short, long, value_name = "FILE")]
+    output: PathBuf,
+}
+
 pub fn run(args: EngineArgs) -> anyhow::Result<()> {
+    if let Some(EngineCommand::Backup(backup)) = args.command {
+        meshflow_engine::backup(&backup.data, &backup.output)?;
+        eprintln!("engine database backed up to {}", backup.output.display());
+        return Ok(());
+    }
     super::host::init_logging();
     let access = Access {
         api_token: args.api_token.get()?,
+        users_file: args.users,
         cluster_token: args.cluster.token.get()?,
         allow_input_from: args.cluster.allow_input_from,
         insecure_no_auth: args.insecure_no_auth,
+        allow_origins: args.allow_origin,
+        tls: args.tls.files(),
+        ..Access::default()
     };
     tokio::runtime::Runtime::new()?.block_on(async {
         let listener = tokio::net::TcpListener::bind(&args.listen)

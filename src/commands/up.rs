@@ -5,8 +5,10 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use meshflow_engine::Access;
+
 use super::options::EmbeddedArgs;
-use crate::embedded::Layout;
+use crate::embedded::{self, Layout, Tokens};
 
 #[derive(Args)]
 pub struct UpArgs {
@@ -21,12 +23,26 @@ pub struct UpArgs {
     /// Which built-in services each host offers.
     #[arg(long, value_enum, default_value_t = Layout::Spread)]
     layout: Layout,
+    /// Named users of the engine, one a line: `NAME ROLE TOKEN` (see `meshflow engine`);
+    /// the printed API token stays the admin `default`.
+    #[arg(long, value_name = "FILE")]
+    users: Option<PathBuf>,
 }
 
 pub fn run(args: UpArgs) -> anyhow::Result<()> {
     super::host::init_logging();
     tokio::runtime::Runtime::new()?.block_on(async {
-        let system = args.embedded.start(&args.listen, args.data, args.layout).await?;
+        let embedded = &args.embedded;
+        let tokens = Tokens::given_or_fresh(embedded.api_token.get()?, embedded.cluster.token.get()?)?;
+        let access = Access {
+            users_file: args.users,
+            allow_input_from: embedded.cluster.allow_input_from.clone(),
+            ..Access::default()
+        };
+        let (hosts, sandbox) = (embedded.hosts, embedded.sandbox);
+        let system =
+            embedded::start_with(hosts, &args.listen, args.data, args.layout, tokens, access, sandbox)
+                .await?;
         let (url, tokens) = (&system.engine.url, &system.tokens);
         out!("engine: {url}");
         out!("web UI: {url}/#token={}", tokens.api);
