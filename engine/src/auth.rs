@@ -26,6 +26,9 @@ pub struct Access {
     pub allow_origins: Vec<String>,
     /// Serve https with this certificate and key.
     pub tls: Option<TlsFiles>,
+    /// What a client not on the loopback sends to read `/metrics`; without it only loopback
+    /// clients may.
+    pub metrics_token: Option<String>,
 }
 
 /// Why an engine will not start with this access.

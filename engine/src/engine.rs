@@ -356,6 +356,7 @@ async fn drive(
         }
         () = run.cancelled() => cancelled(),
     }
+    engine.registry.metrics.run_finished(run.status());
     engine.close_sessions(&run).await;
     drop(ticket);
 }

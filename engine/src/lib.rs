@@ -20,6 +20,7 @@ mod files;
 mod inputs;
 pub mod limits;
 pub mod measured;
+mod metrics;
 pub mod plan;
 pub mod record;
 pub mod registry;
@@ -42,6 +43,8 @@ pub use routes::router;
 /// A running engine server.
 pub struct EngineHandle {
     pub url: String,
+    /// Where it listens (its public URL may name another address).
+    pub address: std::net::SocketAddr,
     pub engine: Arc<Engine>,
     server: tokio::task::JoinHandle<std::io::Result<()>>,
 }
@@ -100,7 +103,7 @@ pub async fn start(
     let serving = meshflow_api::server::serve_with(listener, app, tls, std::future::pending());
     let server = tokio::spawn(serving);
     tracing::info!("engine listening on {address}, reached at {url}");
-    Ok(EngineHandle { url, engine, server })
+    Ok(EngineHandle { url, address, engine, server })
 }
 
 /// Copies the engine's database under `data_dir` to `to` (SQLite's online backup: safe while

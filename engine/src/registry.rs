@@ -167,6 +167,8 @@ pub struct Registry {
     http: reqwest::Client,
     /// Links and speeds measured across runs, for the cost model.
     pub measured: Measured,
+    /// What `GET /metrics` reports; the executor feeds it.
+    pub(crate) metrics: crate::metrics::Metrics,
 }
 
 pub use meshflow_api::engine::ServiceOffer as Offer;
@@ -232,7 +234,8 @@ impl Registry {
                 Measured::default()
             }
         };
-        Ok(Self { hosts: Mutex::default(), store, own_origin, access, http, measured })
+        let metrics = crate::metrics::Metrics::default();
+        Ok(Self { hosts: Mutex::default(), store, own_origin, access, http, measured, metrics })
     }
 
     /// A client for the host at `url`, with the cluster's token.

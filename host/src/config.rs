@@ -70,6 +70,9 @@ pub struct HostConfig {
     pub public_url: Option<String>,
     /// Serve https with this certificate and key (re-read when the files change).
     pub tls: Option<TlsFiles>,
+    /// What a client not on the loopback sends to read `/metrics`; without it only loopback
+    /// clients may.
+    pub metrics_token: Option<String>,
     /// Built-in plugin components, offered after uploaded ones.
     pub builtins: Vec<&'static [u8]>,
     /// Compiled-component cache; `data_dir/cache` by default. Hosts may share one.
@@ -93,6 +96,7 @@ impl HostConfig {
             engine: None,
             public_url: None,
             tls: None,
+            metrics_token: None,
             builtins: Vec::new(),
             artefact_cache: None,
             limits: Limits::default(),

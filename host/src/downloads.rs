@@ -9,6 +9,7 @@ use meshflow_api::ClientError;
 use meshflow_api::fetch_rules::{
     FetchScope, OriginError, Origins, Refusal, check_origin, guarded_client, origin, quoted,
 };
+use prometheus_client::metrics::counter::Counter;
 
 /// A request named a peer that is not an origin.
 #[derive(Debug, thiserror::Error)]
@@ -37,6 +38,8 @@ pub struct Downloads {
     /// [`Downloads::scope`]).
     base: FetchScope,
     max_bytes: u64,
+    /// Bytes downloaded, for `/metrics`.
+    downloaded: Counter,
 }
 
 impl Downloads {
@@ -46,7 +49,8 @@ impl Downloads {
             .read_timeout(DOWNLOAD_READ_TIMEOUT)
             .build()?;
         let base = base_scope(config, public_url)?;
-        Ok(Self { http, base, max_bytes: config.max_download_bytes })
+        let downloaded = Counter::default();
+        Ok(Self { http, base, max_bytes: config.max_download_bytes, downloaded })
     }
 
     /// The client downloads go through (also the engine registration's).
@@ -80,7 +84,15 @@ impl Downloads {
 
     /// Downloads `url` within `scope`, held to the size cap and the download deadlines.
     pub async fn get(&self, url: &str, scope: &FetchScope) -> Result<Vec<u8>, ClientError> {
-        meshflow_api::fetch(&self.http, url, scope, self.max_bytes, DOWNLOAD_TIMEOUT).await
+        let bytes =
+            meshflow_api::fetch(&self.http, url, scope, self.max_bytes, DOWNLOAD_TIMEOUT).await?;
+        self.downloaded.inc_by(bytes.len() as u64);
+        Ok(bytes)
+    }
+
+    /// The counter of bytes downloaded (shared: a clone counts into the same total).
+    pub fn downloaded(&self) -> Counter {
+        self.downloaded.clone()
     }
 }
 

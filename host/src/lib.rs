@@ -23,6 +23,7 @@ mod downloads;
 mod edit_logs;
 mod eviction;
 mod meshes;
+mod metrics;
 mod plugins;
 mod rebuild;
 pub mod replay;

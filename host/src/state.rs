@@ -10,6 +10,7 @@ use super::config::HostConfig;
 use super::conversions::Conversions;
 use super::downloads::Downloads;
 use super::edit_logs::EditLogs;
+use super::metrics::Metrics;
 use super::plugins::PluginSet;
 use super::replay::ReplayPlugins;
 use super::sessions::Sessions;
@@ -32,6 +33,8 @@ pub struct Host {
     pub conversions: Conversions,
     /// Inputs, corrections and full meshes of other hosts, within the fetch rules.
     pub downloads: Downloads,
+    /// What `GET /metrics` reports.
+    pub metrics: Metrics,
     running: AtomicUsize,
 }
 
@@ -86,6 +89,7 @@ impl Host {
             edit_logs: EditLogs::default(),
             replay_plugins,
             conversions: Conversions::default(),
+            metrics: Metrics::new(downloads.downloaded()),
             downloads,
             config,
             public_url,

@@ -270,6 +270,8 @@ pub async fn run(host: &Host, id: &str, request: RunRequest) -> Result<RunResult
         (output, invocation)
     })
     .await?;
+    let ran = output.as_ref().map(|output| output.duration);
+    host.metrics.sandbox_run(invocation.info().kind, ran);
     let output = output?;
     let (compute_ms, queue_ms) = (millis(output.duration), millis(output.queued));
     let (service, plugin) = (request.service, invocation.plugin().digest.clone());

@@ -36,7 +36,17 @@ impl Executor {
             for url in &sources {
                 let full = FullRef { url: url.clone(), hash: hash.clone() };
                 let update = Update { correction: None, replay: None, full, use_: Use::Full };
-                match host.client.update(&replica.session, &update).await {
+                let started = std::time::Instant::now();
+                let outcome = host.client.update(&replica.session, &update).await;
+                match &outcome {
+                    Ok(updated) => self.registry.metrics.transferred(
+                        Use::Full,
+                        updated.bytes,
+                        started.elapsed(),
+                    ),
+                    Err(_) => self.registry.metrics.transfer_failed(Use::Full),
+                }
+                match outcome {
                     Ok(updated) => {
                         verify::updated(&updated, &hash)?;
                         replica.hash = hash;

@@ -65,10 +65,16 @@ impl Replica {
                 let _ = previous.await;
             }
             let started_ms = run.elapsed_ms();
+            let started = std::time::Instant::now();
             let outcome = receiver.client.update(&session, &forwarded.update).await;
             let outcome = judge(outcome, &announced, &receiver, &producer);
-            if let Ok(updated) = &outcome {
-                learn(&forwarded, updated, &producer.url, &receiver.url);
+            let metrics = &forwarded.registry.metrics;
+            match &outcome {
+                Ok(updated) => {
+                    metrics.transferred(updated.via, updated.bytes, started.elapsed());
+                    learn(&forwarded, updated, &producer.url, &receiver.url);
+                }
+                Err(_) => metrics.transfer_failed(forwarded.update.use_),
             }
             let url = receiver.url.clone();
             let mut record =

@@ -3,7 +3,7 @@
 //! task moves to another host offering the service, until one answers or none is left.
 
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use meshflow_api::host::{RunRequest, RunResult};
 use meshflow_api::params::ValueType;
@@ -128,6 +128,8 @@ impl Executor {
             overhead_ms,
             failed,
         };
+        let took = Duration::from_secs_f64((ran.finished_ms - ran.started_ms).max(0.0) / 1e3);
+        self.registry.metrics.step(kind, took);
         let index = self.run.push_step(ran.record(&answer));
         Ok((index, result))
     }

@@ -1,5 +1,6 @@
 //! Who may call which engine route (DESIGN §10), checked from the headers before any body
-//! is read: `GET /` (the UI page) and `GET /health` are open; `POST /hosts` takes the
+//! is read: `GET /` (the UI page), `GET /health` and `GET /ready` are open, `GET /metrics`
+//! checks its own rule; `POST /hosts` takes the
 //! cluster token (the API token when there is no cluster token); `GET /inputs/{file}` takes
 //! the cluster token (hosts fetch inputs with it) or a user's token (their own uploads);
 //! every other route takes a user's token (`--users`, or the API token: the user
@@ -35,7 +36,9 @@ pub async fn check(
     let get = request.method() == Method::GET;
     let mut given = bearer(request.headers()).map(str::to_owned);
     // The page and its bundled files are public; what they show needs the API token.
-    let page = path == "/" || path == "/health" || path.starts_with("/assets/");
+    // `/metrics` applies its own rule (`routes/ops.rs`).
+    let operations = matches!(path, "/health" | "/ready" | "/metrics");
+    let page = path == "/" || operations || path.starts_with("/assets/");
     if get && page {
         return next.run(request).await;
     }

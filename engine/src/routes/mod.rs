@@ -11,6 +11,7 @@ mod error;
 mod events;
 mod hosts;
 mod inputs;
+mod ops;
 mod plugins;
 mod runs;
 mod ui;
@@ -32,6 +33,8 @@ pub fn router(engine: Arc<Engine>) -> Router {
         .route("/", get(ui::index))
         .route("/assets/{file}", get(ui::asset))
         .route("/health", get(|| async { Json(json!({"status": "ok"})) }))
+        .route("/ready", get(ops::ready))
+        .route("/metrics", get(ops::metrics))
         .route(
             "/hosts",
             get(hosts::list).post(hosts::register).layer(DefaultBodyLimit::max(MAX_REGISTER_BYTES)),

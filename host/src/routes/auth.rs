@@ -1,5 +1,5 @@
 //! Who may call which route, checked from the headers before any body is read: `/health`
-//! is open; uploading and deleting plugins takes the upload token (refused outright when the
+//! and `/ready` are open, `/metrics` checks its own rule (`ops.rs`); uploading and deleting plugins takes the upload token (refused outright when the
 //! host has none); everything else takes the cluster token when the host has one.
 
 use std::sync::Arc;
@@ -15,7 +15,8 @@ use meshflow_api::server::{ApiError, bearer, require};
 pub async fn check(State(host): State<Arc<Host>>, request: Request, next: Next) -> Response {
     let path = request.uri().path();
     let given = bearer(request.headers());
-    let allowed = if path == "/health" {
+    // `/metrics` applies its own rule (`ops.rs`).
+    let allowed = if matches!(path, "/health" | "/ready" | "/metrics") {
         Ok(())
     } else if path.starts_with("/plugins")
         && matches!(*request.method(), Method::POST | Method::DELETE)

@@ -5,6 +5,7 @@ mod auth;
 mod blobs;
 mod error;
 mod meshes;
+mod ops;
 mod plugins;
 mod sessions;
 mod steps;
@@ -24,6 +25,8 @@ use meshflow_api::server::{BrowserGuard, browser_guard as guard};
 pub fn router(host: Arc<Host>) -> Router {
     Router::new()
         .route("/health", get(health))
+        .route("/ready", get(ops::ready))
+        .route("/metrics", get(ops::metrics))
         .route("/services", get(plugins::services))
         .route(
             "/plugins",
