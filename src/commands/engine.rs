@@ -7,8 +7,9 @@ use anyhow::Context;
 use clap::{Args, Subcommand};
 use meshflow_engine::Access;
 
+use super::host::LogArgs;
 use super::options::ServerTlsArgs;
-use super::tokens::{ApiTokenArgs, ClusterArgs};
+use super::tokens::{ApiTokenArgs, ClusterArgs, MetricsTokenArgs};
 
 #[derive(Args)]
 pub struct EngineArgs {
@@ -40,6 +41,10 @@ pub struct EngineArgs {
     #[command(flatten)]
     tls: ServerTlsArgs,
     #[command(flatten)]
+    metrics_token: MetricsTokenArgs,
+    #[command(flatten)]
+    logs: LogArgs,
+    #[command(flatten)]
     cluster: ClusterArgs,
     /// Listen on a non-loopback address without tokens (anyone reaching it can use it).
     #[arg(long)]
@@ -69,7 +74,7 @@ pub fn run(args: EngineArgs) -> anyhow::Result<()> {
         eprintln!("engine database backed up to {}", backup.output.display());
         return Ok(());
     }
-    super::host::init_logging();
+    super::host::init_logging(args.logs.log_format);
     let access = Access {
         api_token: args.api_token.get()?,
         users_file: args.users,
@@ -78,6 +83,7 @@ pub fn run(args: EngineArgs) -> anyhow::Result<()> {
         insecure_no_auth: args.insecure_no_auth,
         allow_origins: args.allow_origin,
         tls: args.tls.files(),
+        metrics_token: args.metrics_token.get()?,
         ..Access::default()
     };
     tokio::runtime::Runtime::new()?.block_on(async {

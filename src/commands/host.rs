@@ -7,7 +7,7 @@ use anyhow::Context;
 use clap::Args;
 
 use super::options::ServerTlsArgs;
-use super::tokens::{self, ClusterArgs};
+use super::tokens::{self, ClusterArgs, MetricsTokenArgs};
 use meshflow_host::{
     DEFAULT_BLOB_BUDGET_BYTES, DEFAULT_MAX_DOWNLOAD_BYTES, DEFAULT_SESSION_TTL, HostConfig, serve,
 };
@@ -56,11 +56,15 @@ pub struct HostArgs {
     #[command(flatten)]
     tls: ServerTlsArgs,
     #[command(flatten)]
+    metrics_token: MetricsTokenArgs,
+    #[command(flatten)]
+    logs: LogArgs,
+    #[command(flatten)]
     sandbox: crate::SandboxArgs,
 }
 
 pub fn run(args: HostArgs) -> anyhow::Result<()> {
-    init_logging();
+    init_logging(args.logs.log_format);
     tokens::warn_if_in_argv("--token", "--token-file", "MESHFLOW_UPLOAD_TOKEN");
     let config = HostConfig {
         token: tokens::read(args.token.as_deref(), args.token_file.as_deref())?,
@@ -70,6 +74,7 @@ pub fn run(args: HostArgs) -> anyhow::Result<()> {
         engine: args.engine,
         public_url: args.public_url,
         tls: args.tls.files(),
+        metrics_token: args.metrics_token.get()?,
         builtins: builtin_components(args.builtin.as_deref())?,
         blob_budget_bytes: args.blob_budget_mib << 20,
         session_ttl: Duration::from_secs(args.session_ttl),
@@ -101,7 +106,30 @@ fn builtin_components(names: Option<&[String]>) -> anyhow::Result<Vec<&'static [
         .collect()
 }
 
-/// Log lines on stderr; a second call (several servers in one process) is harmless.
-pub fn init_logging() {
-    let _ = tracing_subscriber::fmt().with_target(false).with_writer(std::io::stderr).try_init();
+/// How servers write their log lines on stderr.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LogFormat {
+    /// One readable line per event.
+    #[default]
+    Text,
+    /// One JSON object per line: `timestamp`, `level`, `message` and the event's fields.
+    Json,
+}
+
+/// `--log-format`, for the commands that serve.
+#[derive(Args, Clone, Copy, Debug, Default)]
+pub struct LogArgs {
+    /// Log lines as text, or as JSON objects (one a line) for a log collector.
+    #[arg(long, value_enum, default_value_t = LogFormat::Text, value_name = "FORMAT")]
+    pub log_format: LogFormat,
+}
+
+/// Log lines on stderr in `format`; a second call (several servers in one process) is
+/// harmless.
+pub fn init_logging(format: LogFormat) {
+    let logs = tracing_subscriber::fmt().with_target(false).with_writer(std::io::stderr);
+    let _ = match format {
+        LogFormat::Text => logs.try_init(),
+        LogFormat::Json => logs.json().flatten_event(true).try_init(),
+    };
 }

@@ -35,6 +35,26 @@ pub struct ClusterTokenArgs {
     cluster_token_file: Option<PathBuf>,
 }
 
+/// The metrics token: what a Prometheus server elsewhere than the loopback sends to read
+/// `/metrics`.
+#[derive(Args, Clone, Debug, Default)]
+pub struct MetricsTokenArgs {
+    /// Metrics token: clients not on the loopback need it as a bearer token to read /metrics
+    /// (without it, only loopback clients may).
+    #[arg(long, env = "MESHFLOW_METRICS_TOKEN", hide_env_values = true, value_name = "TOKEN")]
+    metrics_token: Option<String>,
+    /// Read the metrics token from this file.
+    #[arg(long, value_name = "PATH")]
+    metrics_token_file: Option<PathBuf>,
+}
+
+impl MetricsTokenArgs {
+    pub fn get(&self) -> anyhow::Result<Option<String>> {
+        warn_if_in_argv("--metrics-token", "--metrics-token-file", "MESHFLOW_METRICS_TOKEN");
+        read(self.metrics_token.as_deref(), self.metrics_token_file.as_deref())
+    }
+}
+
 /// What the engine and its hosts share: the cluster token, and the origins run inputs may
 /// come from besides the cluster.
 #[derive(Args, Clone, Debug, Default)]

@@ -27,10 +27,12 @@ pub struct UpArgs {
     /// the printed API token stays the admin `default`.
     #[arg(long, value_name = "FILE")]
     users: Option<PathBuf>,
+    #[command(flatten)]
+    logs: super::host::LogArgs,
 }
 
 pub fn run(args: UpArgs) -> anyhow::Result<()> {
-    super::host::init_logging();
+    super::host::init_logging(args.logs.log_format);
     tokio::runtime::Runtime::new()?.block_on(async {
         let embedded = &args.embedded;
         let tokens = Tokens::given_or_fresh(embedded.api_token.get()?, embedded.cluster.token.get()?)?;
