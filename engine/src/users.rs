@@ -174,6 +174,11 @@ impl Users {
     }
 }
 
+/// A token in the `sha256:<hex>` form a users file takes, so the file need not hold it.
+pub fn hashed(token: &str) -> String {
+    format!("sha256:{}", hex::encode(Sha256::digest(token.as_bytes())))
+}
+
 fn modified(path: &Path) -> Option<SystemTime> {
     std::fs::metadata(path).and_then(|m| m.modified()).ok()
 }
@@ -253,15 +258,11 @@ mod tests {
 
     const ANNA: &str = "anna-token-0123456789";
 
-    fn digest(token: &str) -> String {
-        hex::encode(Sha256::digest(token.as_bytes()))
-    }
-
     #[test]
     fn a_users_file_names_users_by_token_or_its_digest() {
         let text = format!(
-            "# the lab\n\nanna user {ANNA}\nboss admin sha256:{}  # hashed\n",
-            digest("boss-token-0123456789")
+            "# the lab\n\nanna user {ANNA}\nboss admin {}  # hashed\n",
+            hashed("boss-token-0123456789")
         );
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("users");
