@@ -519,3 +519,64 @@ pub fn backup(from: &Path, to: &Path) -> Result<(), StoreError> {
     partial.persist(to).map_err(|e| file(e.error))?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What schema 1 made of a run: no user column.
+    const VERSION_1_RUNS: &str = "
+    CREATE TABLE runs (id TEXT PRIMARY KEY, seq INTEGER NOT NULL, created_unix INTEGER NOT NULL,
+        owner TEXT NOT NULL, workflow TEXT NOT NULL, input TEXT NOT NULL, status TEXT NOT NULL,
+        record TEXT NOT NULL);
+    CREATE TABLE batches (id TEXT PRIMARY KEY, seq INTEGER NOT NULL, owner TEXT NOT NULL,
+        workflow TEXT NOT NULL, concurrency INTEGER NOT NULL);
+    CREATE TABLE inputs (file TEXT PRIMARY KEY, bytes INTEGER NOT NULL,
+        stored_unix INTEGER NOT NULL);
+    PRAGMA user_version = 1;
+    ";
+
+    #[test]
+    fn an_older_database_reads_back_its_runs_as_defaults_and_backs_up() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("engine.sqlite3");
+        let record = RunRecord::new("r-1".into(), crate::record::Transfer::Full);
+        {
+            let old = Connection::open(&path).unwrap();
+            old.execute_batch(VERSION_1_RUNS).unwrap();
+            old.execute(
+                "INSERT INTO runs VALUES ('r-1', 1, 0, 'token:abc', '{}', 'http://x/a.ply',
+                 'completed', ?1)",
+                [serde_json::to_string(&record).unwrap()],
+            )
+            .unwrap();
+            old.execute("INSERT INTO inputs VALUES ('f.ply', 3, 0)", []).unwrap();
+        }
+        let store = Store::open(&path).unwrap();
+        let runs = store.now(load_runs).unwrap();
+        assert_eq!(
+            (runs[0].user.as_str(), runs[0].record.user.as_deref()),
+            ("default", Some("default"))
+        );
+        assert!(store.now(|c| input_is_users(c, "f.ply", "default")).unwrap());
+        let mut new = StoredRun { id: "r-2".into(), user: "anna".into(), ..runs[0].clone() };
+        new.record.id = "r-2".into();
+        store.now(|c| insert_run(c, &new)).unwrap();
+
+        let copy = dir.path().join("copy.sqlite3");
+        backup(&path, &copy).unwrap();
+        let restored = Store::open(&copy).unwrap();
+        let users: Vec<String> =
+            restored.now(load_runs).unwrap().into_iter().map(|run| run.user).collect();
+        assert_eq!(users, ["default", "anna"]);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            for file in [&path, &copy] {
+                let mode = std::fs::metadata(file).unwrap().permissions().mode() & 0o777;
+                assert_eq!(mode, 0o600, "{}", file.display());
+            }
+        }
+        assert!(backup(&dir.path().join("missing.sqlite3"), &copy).is_err());
+    }
+}

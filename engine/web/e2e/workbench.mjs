@@ -82,6 +82,9 @@ async function login(page) {
   const again = page.waitForResponse((r) => r.url().endsWith('/services'));
   await page.getByTestId('login-submit').click();
   assert.equal((await again).status(), 200, 'the engine takes the right token from the form');
+  // The API token is the user `default`, an admin; the page says who is signed in.
+  await page.waitForFunction(() => document.querySelector('[data-testid=signed-in-user]')?.dataset.user === 'default');
+  assert.match(await page.getByTestId('signed-in-user').textContent(), /default/, 'the signed-in user shows');
   await page.route('**/services', (route) => route.abort('connectionrefused'));
   await page.reload();
   await page.getByTestId('engine-banner').getByText('cannot be reached').waitFor();

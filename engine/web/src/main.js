@@ -37,10 +37,23 @@ function showTab(name) {
 // Login: asked for on a 401 (the engine runs with --api-token).
 const tokenField = el('input', { type: 'password', testid: 'login-token', placeholder: 'API token', autocomplete: 'off' });
 const login = el('form', { className: 'login', testid: 'login', hidden: true,
-  onsubmit: (event) => { event.preventDefault(); token.set(tokenField.value.trim()); login.hidden = true; refresh(); } },
+  onsubmit: (event) => { event.preventDefault(); token.set(tokenField.value.trim()); login.hidden = true; refresh(); showUser(); } },
 el('p', {}, 'This engine needs an API token (the one `meshflow up` printed, or its `--api-token`).'),
 tokenField, el('button', { type: 'submit', testid: 'login-submit' }, 'Sign in'));
 onUnauthorized(() => { login.hidden = false; });
+
+// Who is signed in (`GET /me`): a user sees their own runs, an admin everyone's.
+const signedIn = el('span', { className: 'signed-in', testid: 'signed-in-user' });
+async function showUser() {
+  try {
+    const me = await getJson('/me');
+    signedIn.textContent = `${me.name}${me.role === 'admin' ? ' (admin)' : ''}`;
+    signedIn.dataset.user = me.name;
+  } catch {
+    signedIn.textContent = '';
+    delete signedIn.dataset.user;
+  }
+}
 
 // Build & run.
 const builderRoot = el('div', {});
@@ -149,9 +162,10 @@ async function refresh() {
 }
 
 document.getElementById('app').replaceWith(el('div', { id: 'app' },
-  el('header', {}, el('h1', {}, 'meshflow workbench'), tabBar), banner, login,
+  el('header', {}, el('h1', {}, 'meshflow workbench'), tabBar, signedIn), banner, login,
   ...Object.values(panels)));
 showTab('build');
+showUser();
 await refresh();
 setInterval(refresh, POLL_MS);
 const asked = new URLSearchParams(location.search).get('run');
