@@ -291,7 +291,7 @@ mod tests {
             ("an/na user anna-token-0123456789", 1, "letters"),
         ];
         for (text, line, words) in cases {
-            let (number, message) = parse(text, true).err().expect(text);
+            let (number, message) = parse(text, true).expect_err(text);
             assert_eq!(number, line, "{text}");
             assert!(message.contains(words), "{text}: {message}");
         }
