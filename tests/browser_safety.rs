@@ -126,9 +126,10 @@ async fn allowed_origins_and_the_public_name_pass() {
     assert_eq!(answer(request).await.0, 201);
     let request = http.post(url("/inputs?name=a.obj")).header(ORIGIN, EVIL).body("v 0 0 0\n");
     assert_eq!(answer(request).await.0, 403);
-    // Probes answer whatever name monitoring uses.
+    // Probes too answer only names the engine answers to.
     let (status, _) = answer(http.get(url("/health")).header(HOST, "engine.monitoring")).await;
-    assert_eq!(status, 200);
+    assert_eq!(status, 403);
+    assert_eq!(answer(http.get(url("/health"))).await.0, 200);
 }
 
 /// Where the engine listens (its public URL names another host).

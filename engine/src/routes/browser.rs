@@ -4,13 +4,12 @@
 //! or one given with `--allow-origin`, sending JSON except to the upload routes (`/inputs`,
 //! `/plugins`). See `meshflow_api::server::BrowserGuard`.
 //!
-//! Probes (`GET /health`, `/ready`, `/metrics`) pass whatever name they use: monitoring
-//! reaches the engine by names of its own, and they show no user's data.
+//! The guard holds on every route, probes included (`/health`, `/ready`, `/metrics`): a
+//! monitor reaches the engine by an IP address, `localhost` or its public name.
 
 use std::sync::Arc;
 
 use axum::extract::{Request, State};
-use axum::http::Method;
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use meshflow_api::server::BrowserGuard;
@@ -19,8 +18,6 @@ use crate::engine::Engine;
 
 /// Routes whose bodies are bytes, not JSON.
 const RAW_BODY_PATHS: &[&str] = &["/inputs", "/plugins"];
-/// Read-only routes for monitoring, which any `Host` may ask.
-const PROBES: &[&str] = &["/health", "/ready", "/metrics"];
 
 /// The guard for this engine: its public URL and the origins an operator allowed.
 pub fn guard_of(engine: &Engine) -> Arc<BrowserGuard> {
@@ -34,10 +31,8 @@ pub async fn check(
     request: Request,
     next: Next,
 ) -> Response {
-    let probe = matches!(*request.method(), Method::GET | Method::HEAD)
-        && PROBES.contains(&request.uri().path());
     match guard.check(request.method(), request.uri().path(), request.headers()) {
-        Err(refusal) if !probe => refusal.into_response(),
-        _ => next.run(request).await,
+        Err(refusal) => refusal.into_response(),
+        Ok(()) => next.run(request).await,
     }
 }
