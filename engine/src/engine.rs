@@ -189,7 +189,8 @@ impl Engine {
         let run = self.revive(&stored);
         self.keep(run.clone());
         let interrupted = |reason: String| {
-            run.set_status(Status::Interrupted, Some(format!("the engine restarted: {reason}")))
+            run.set_status(Status::Interrupted, Some(format!("the engine restarted: {reason}")));
+            self.registry.metrics.run_finished(Status::Interrupted);
         };
         match (Workflow::from_json(&stored.record.workflow), self.admission.admit(&stored.user)) {
             (Ok(workflow), Ok(ticket)) => {
