@@ -1,11 +1,12 @@
 //! Where a server may fetch from (DESIGN §10). Never: anything but http(s), link-local
-//! addresses (169.254.0.0/16, fe80::/10) and the cloud metadata endpoints, whether named in
+//! addresses (169.254.0.0/16, fe80::/10), carrier-grade NAT (100.64.0.0/10) and the cloud
+//! metadata endpoints, also inside an IPv6 address that embeds an IPv4 one, whether named in
 //! the URL or reached by resolving its name ([`GuardedResolver`], so DNS rebinding cannot get
 //! around it). Beyond that, a [`FetchScope`] says which origins are allowed and which of them
 //! get the cluster token; [`fetch`](crate::fetch) checks every redirect hop against it.
 
 use std::collections::BTreeSet;
-use std::net::{IpAddr, Ipv6Addr, SocketAddr};
+use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr};
 use std::sync::Arc;
 
 use reqwest::Url;
@@ -25,7 +26,7 @@ pub enum Refusal {
     NotAUrl(String),
     #[error("{0}: only http and https URLs are fetched")]
     Scheme(String),
-    #[error("{0}: link-local and cloud metadata addresses are never fetched")]
+    #[error("{0}: link-local, carrier-grade NAT and cloud metadata addresses are never fetched")]
     Internal(String),
     #[error("{0}: its origin is not one this server fetches from")]
     Origin(String),
@@ -42,15 +43,46 @@ pub fn quoted(url: &str) -> String {
     text
 }
 
-/// Whether an address is never connected to: link-local (which holds 169.254.169.254) or a
-/// metadata address, also when written as an IPv4-mapped IPv6 address.
+/// Whether an address is never connected to: link-local (which holds 169.254.169.254),
+/// carrier-grade NAT `100.64.0.0/10` (which holds Alibaba's metadata, 100.100.100.200) or a
+/// metadata address; an IPv6 address that carries an IPv4 one (IPv4-mapped `::ffff:a.b.c.d`,
+/// IPv4-compatible `::a.b.c.d`, NAT64 `64:ff9b::/96`, 6to4 `2002::/16`, Teredo
+/// `2001::/32`) is judged by that IPv4 address as well.
 pub fn is_forbidden(ip: IpAddr) -> bool {
     match ip {
-        IpAddr::V4(v4) => v4.is_link_local(),
-        IpAddr::V6(v6) => match v6.to_ipv4_mapped() {
-            Some(v4) => v4.is_link_local(),
-            None => v6.is_unicast_link_local() || v6 == METADATA_V6,
-        },
+        IpAddr::V4(v4) => is_forbidden_v4(v4),
+        IpAddr::V6(v6) => {
+            embedded_v4(v6).is_some_and(is_forbidden_v4)
+                || v6.is_unicast_link_local()
+                || v6 == METADATA_V6
+        }
+    }
+}
+
+fn is_forbidden_v4(v4: Ipv4Addr) -> bool {
+    let [a, b, ..] = v4.octets();
+    // 100.64.0.0/10: carrier-grade NAT, where some clouds put their metadata service.
+    let shared = a == 100 && (b & 0xc0) == 64;
+    v4.is_link_local() || shared
+}
+
+/// The IPv4 address an IPv6 address carries, by the usual embeddings.
+fn embedded_v4(v6: Ipv6Addr) -> Option<Ipv4Addr> {
+    let s = v6.segments();
+    let v4 = |hi: u16, lo: u16| Ipv4Addr::from(((hi as u32) << 16) | lo as u32);
+    if let Some(mapped) = v6.to_ipv4_mapped() {
+        return Some(mapped);
+    }
+    match s {
+        // IPv4-compatible `::a.b.c.d` (not `::` and `::1`).
+        [0, 0, 0, 0, 0, 0, hi, lo] if hi != 0 => Some(v4(hi, lo)),
+        // NAT64, the well-known prefix `64:ff9b::/96`.
+        [0x64, 0xff9b, 0, 0, 0, 0, hi, lo] => Some(v4(hi, lo)),
+        // 6to4: `2002:AABB:CCDD::/48`.
+        [0x2002, hi, lo, ..] => Some(v4(hi, lo)),
+        // Teredo `2001:0::/32`: the client's address, bit-inverted, in the last 32 bits.
+        [0x2001, 0, .., hi, lo] => Some(v4(!hi, !lo)),
+        _ => None,
     }
 }
 
@@ -215,12 +247,31 @@ mod tests {
             "http://[fe80::1]/",
             "http://[fd00:ec2::254]/",
             "http://[::ffff:169.254.169.254]/",
+            "http://[::a9fe:a9fe]/",
+            "http://[64:ff9b::a9fe:a9fe]/",
+            "http://[2002:a9fe:a9fe::1]/",
+            "http://[2001:0:4136:e378:8000:63bf:5601:5601]/",
+            "http://100.100.100.200/latest/meta-data/",
+            "http://100.64.0.1/",
+            "http://100.127.255.254/",
             "http://metadata.google.internal/computeMetadata/v1/",
             "http://METADATA.google.internal./",
         ] {
             assert!(check_address(&url(bad)).is_err(), "{bad} passed");
         }
-        for good in ["http://127.0.0.1:7000/inputs/x.ply", "https://data.example.org/a.obj"] {
+        for good in [
+            "http://127.0.0.1:7000/inputs/x.ply",
+            "https://data.example.org/a.obj",
+            "http://10.1.2.3/a.ply",
+            "http://100.63.255.255/",
+            "http://100.128.0.1/",
+            "http://[::1]:7000/",
+            "http://[::ffff:10.0.0.1]/",
+            "http://[64:ff9b::a01:203]/",
+            "http://[2002:a01:203::1]/",
+            "http://[2001:db8::1]/",
+            "http://[2606:4700::1111]/",
+        ] {
             check_address(&url(good)).unwrap();
         }
     }
