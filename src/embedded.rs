@@ -5,12 +5,14 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::ValueEnum;
+use meshflow_api::tls::ClientPolicy;
 use meshflow_builtin_plugins::PLUGINS;
 use meshflow_engine::{Access, EngineHandle};
 use meshflow_host::{HostConfig, HostHandle};
 use tokio::net::TcpListener;
 
 use crate::commands::tokens;
+use crate::throwaway_tls;
 
 /// Which built-in plugins each host offers.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
@@ -28,6 +30,8 @@ pub struct Embedded {
     pub hosts: Vec<HostHandle>,
     /// The tokens the engine and hosts were started with.
     pub tokens: Tokens,
+    /// With TLS, the throwaway CA's certificate (what clients give as `--ca-file`).
+    pub ca: Option<PathBuf>,
     /// Removed when the embedded system stops, unless the user gave a folder.
     _scratch: Option<tempfile::TempDir>,
 }
@@ -48,23 +52,11 @@ impl Tokens {
 }
 
 /// Starts `hosts` hosts on 127.0.0.1 and an engine on `listen` that knows them, all with
-/// `tokens`; inputs may also come from `allow_input_from`.
+/// `tokens`; the engine with `access` (its users file, allowed origins, …), whose tokens
+/// and `insecure_no_auth` are the embedded system's. With `tls`, everything speaks https
+/// with a throwaway CA made under the data folder, which this process's clients trust.
+#[allow(clippy::too_many_arguments)]
 pub async fn start(
-    hosts: usize,
-    listen: &str,
-    data: Option<PathBuf>,
-    layout: Layout,
-    tokens: Tokens,
-    allow_input_from: Vec<String>,
-    sandbox: crate::SandboxArgs,
-) -> anyhow::Result<Embedded> {
-    let access = Access { allow_input_from, ..Access::default() };
-    start_with(hosts, listen, data, layout, tokens, access, sandbox).await
-}
-
-/// [`start`], the engine with `access` (its users file, allowed origins, …); its tokens
-/// and `insecure_no_auth` are the embedded system's.
-pub async fn start_with(
     hosts: usize,
     listen: &str,
     data: Option<PathBuf>,
@@ -72,6 +64,7 @@ pub async fn start_with(
     tokens: Tokens,
     access: Access,
     sandbox: crate::SandboxArgs,
+    tls: bool,
 ) -> anyhow::Result<Embedded> {
     let allow_input_from = access.allow_input_from.clone();
     anyhow::ensure!(hosts > 0, "at least one host is needed");
@@ -83,6 +76,14 @@ pub async fn start_with(
             (Some(dir), path)
         }
     };
+    let tls = match tls {
+        true => Some(throwaway_tls::make(&data.join("tls"))?),
+        false => None,
+    };
+    if let Some(tls) = &tls {
+        ClientPolicy::installed().with_ca_file(&tls.ca)?.install();
+    }
+    let server_tls = tls.as_ref().map(|tls| tls.server.clone());
     let mut handles = Vec::with_capacity(hosts);
     for index in 0..hosts {
         let config = HostConfig {
@@ -91,6 +92,7 @@ pub async fn start_with(
             cluster_token: Some(tokens.cluster.clone()),
             allow_input_from: allow_input_from.clone(),
             limits: sandbox.limits(),
+            tls: server_tls.clone(),
             ..HostConfig::new(data.join(format!("host-{index}")))
         };
         let listener = TcpListener::bind("127.0.0.1:0").await?;
@@ -107,10 +109,12 @@ pub async fn start_with(
         cluster_token: Some(tokens.cluster.clone()),
         allow_input_from,
         insecure_no_auth: false,
+        tls: server_tls,
         ..access
     };
     let engine = meshflow_engine::start(data.join("engine"), None, &urls, access, listener).await?;
-    Ok(Embedded { engine, hosts: handles, tokens, _scratch: scratch })
+    let ca = tls.map(|tls| tls.ca);
+    Ok(Embedded { engine, hosts: handles, tokens, ca, _scratch: scratch })
 }
 
 /// The built-in components host `index` of `hosts` offers under `layout`.

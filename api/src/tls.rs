@@ -64,6 +64,11 @@ impl ClientPolicy {
         *POLICY.write().unwrap_or_else(|e| e.into_inner()) = Some(Arc::new(self));
     }
 
+    /// The policy installed now (the default if none was), to extend and install again.
+    pub fn installed() -> ClientPolicy {
+        ClientPolicy::current().as_ref().clone()
+    }
+
     fn current() -> Arc<ClientPolicy> {
         POLICY.read().unwrap_or_else(|e| e.into_inner()).clone().unwrap_or_default()
     }

@@ -8,6 +8,7 @@ use meshflow_api::tls::ClientPolicy;
 
 use super::tokens::{ApiTokenArgs, ClusterArgs};
 use crate::embedded::{self, Embedded, Layout, Tokens};
+use meshflow_engine::Access;
 
 /// Where a run's result and record go (`run`, `rerun`, `submit`).
 #[derive(Args, Clone, Debug, Default)]
@@ -36,19 +37,26 @@ pub struct EmbeddedArgs {
     pub cluster: ClusterArgs,
     #[command(flatten)]
     pub sandbox: crate::SandboxArgs,
+    /// Every connection over https, with a certificate authority made for this start
+    /// (its certificate is printed, for `--ca-file`).
+    #[arg(long)]
+    pub tls: bool,
 }
 
 impl EmbeddedArgs {
-    /// Starts the engine on `listen` and the hosts, with the given tokens or fresh ones.
+    /// Starts the engine on `listen` with `access` and the hosts, with the given tokens or
+    /// fresh ones.
     pub async fn start(
         &self,
         listen: &str,
         data: Option<PathBuf>,
         layout: Layout,
+        access: Access,
     ) -> anyhow::Result<Embedded> {
         let tokens = Tokens::given_or_fresh(self.api_token.get()?, self.cluster.token.get()?)?;
-        let allowed = self.cluster.allow_input_from.clone();
-        embedded::start(self.hosts, listen, data, layout, tokens, allowed, self.sandbox).await
+        let access = Access { allow_input_from: self.cluster.allow_input_from.clone(), ..access };
+        let (hosts, sandbox) = (self.hosts, self.sandbox);
+        embedded::start(hosts, listen, data, layout, tokens, access, sandbox, self.tls).await
     }
 }
 

@@ -9,10 +9,11 @@ use anyhow::{Context, bail};
 use clap::Args;
 use meshflow_api::EngineClient;
 use meshflow_api::engine::{Comparison, RunRecord, Status};
+use meshflow_engine::Access;
 use meshflow_engine::rerun::{compare, rerun_workflow};
 
-use super::remote::Submission;
 use super::options::{EmbeddedArgs, RunOutputArgs};
+use super::remote::Submission;
 use crate::embedded::Layout;
 
 #[derive(Args)]
@@ -64,7 +65,10 @@ pub fn run(args: RerunArgs) -> anyhow::Result<()> {
                 }
             }
             None => {
-                let system = args.embedded.start("127.0.0.1:0", None, Layout::Spread).await?;
+                let system = args
+                    .embedded
+                    .start("127.0.0.1:0", None, Layout::Spread, Access::default())
+                    .await?;
                 let client = EngineClient::new(&system.engine.url).with_token(&system.tokens.api);
                 embedded = Some(system);
                 client

@@ -6,10 +6,11 @@ use std::path::PathBuf;
 use anyhow::bail;
 use clap::Args;
 use meshflow_api::EngineClient;
+use meshflow_engine::Access;
 
 use super::batch::BatchArgs;
-use super::remote::{Submission, TransferMode};
 use super::options::{EmbeddedArgs, RunOutputArgs};
+use super::remote::{Submission, TransferMode};
 use crate::embedded::Layout;
 
 #[derive(Args)]
@@ -37,7 +38,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
     let inputs = args.batch.inputs(&args.inputs)?;
     check_shape(&inputs, &args.out, &args.batch)?;
     tokio::runtime::Runtime::new()?.block_on(async {
-        let system = args.embedded.start("127.0.0.1:0", None, args.layout).await?;
+        let system =
+            args.embedded.start("127.0.0.1:0", None, args.layout, Access::default()).await?;
         let submission = Submission {
             engine: EngineClient::new(&system.engine.url).with_token(&system.tokens.api),
             workflow: args.workflow,

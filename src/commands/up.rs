@@ -8,7 +8,7 @@ use clap::Args;
 use meshflow_engine::Access;
 
 use super::options::EmbeddedArgs;
-use crate::embedded::{self, Layout, Tokens};
+use crate::embedded::Layout;
 
 #[derive(Args)]
 pub struct UpArgs {
@@ -34,22 +34,16 @@ pub struct UpArgs {
 pub fn run(args: UpArgs) -> anyhow::Result<()> {
     super::host::init_logging(args.logs.log_format);
     tokio::runtime::Runtime::new()?.block_on(async {
-        let embedded = &args.embedded;
-        let tokens = Tokens::given_or_fresh(embedded.api_token.get()?, embedded.cluster.token.get()?)?;
-        let access = Access {
-            users_file: args.users,
-            allow_input_from: embedded.cluster.allow_input_from.clone(),
-            ..Access::default()
-        };
-        let (hosts, sandbox) = (embedded.hosts, embedded.sandbox);
-        let system =
-            embedded::start_with(hosts, &args.listen, args.data, args.layout, tokens, access, sandbox)
-                .await?;
+        let access = Access { users_file: args.users, ..Access::default() };
+        let system = args.embedded.start(&args.listen, args.data, args.layout, access).await?;
         let (url, tokens) = (&system.engine.url, &system.tokens);
         out!("engine: {url}");
         out!("web UI: {url}/#token={}", tokens.api);
         for host in &system.hosts {
             out!("host:   {}", host.url);
+        }
+        if let Some(ca) = &system.ca {
+            out!("the CA: {} (export MESHFLOW_CA_FILE={0})", ca.display());
         }
         out!("for meshflow submit:    export MESHFLOW_API_TOKEN={}", tokens.api);
         out!("for more hosts:         export MESHFLOW_CLUSTER_TOKEN={}", tokens.cluster);
