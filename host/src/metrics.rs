@@ -3,14 +3,11 @@
 //!
 //! Counters and histograms are fed where things happen (`steps.rs`, `downloads.rs`); gauges
 //! are read from the host's state when scraped. Every series of a known label value exists
-//! from the start, at zero. Who may scrape is [`may_scrape`].
+//! from the start, at zero. Who may scrape is `meshflow_api::server::may_scrape`.
 
-use std::net::SocketAddr;
 use std::path::Path;
 use std::time::Duration;
 
-use axum::http::{HeaderMap, StatusCode, header};
-use meshflow_api::server::{ApiError, bearer, require};
 use meshflow_runtime::{RunError, ServiceKind};
 use prometheus_client::encoding::prometheus_text;
 use prometheus_client::metrics::counter::Counter;
@@ -141,55 +138,9 @@ fn stored_bytes(dir: &Path) -> std::io::Result<u64> {
     Ok(total)
 }
 
-/// Who may read `/metrics`: a client on the loopback (a scraper or an operator on the
-/// machine) as it is; anyone else with the metrics token as a bearer token, and nobody
-/// else when there is no metrics token. A loopback request that says it was forwarded
-/// (`Forwarded`, `X-Forwarded-For`) came through a proxy from elsewhere: it needs the token.
-pub fn may_scrape(
-    peer: Option<SocketAddr>,
-    headers: &HeaderMap,
-    token: Option<&str>,
-) -> Result<(), ApiError> {
-    let forwarded =
-        headers.contains_key(header::FORWARDED) || headers.contains_key("x-forwarded-for");
-    if peer.is_some_and(|peer| peer.ip().is_loopback()) && !forwarded {
-        return Ok(());
-    }
-    let Some(token) = token else {
-        return Err(ApiError::new(
-            StatusCode::FORBIDDEN,
-            "metrics-loopback-only",
-            "metrics are served to loopback clients only: start the host with a metrics token \
-             (--metrics-token-file) to serve them elsewhere",
-        ));
-    };
-    require(bearer(headers), &[token], "the metrics token").map_err(|refused| {
-        ApiError::new(StatusCode::UNAUTHORIZED, "unauthorized", refused.to_string())
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    const TOKEN: &str = "metrics-token-0123456789";
-
-    #[test]
-    fn loopback_scrapes_freely_and_others_need_the_metrics_token() {
-        let none = HeaderMap::new();
-        let mut bearing = HeaderMap::new();
-        bearing.insert(header::AUTHORIZATION, format!("Bearer {TOKEN}").parse().unwrap());
-        let status = |r: Result<(), ApiError>| r.map_err(|e| e.status.as_u16());
-        let loopback: Option<SocketAddr> = Some("127.0.0.1:50000".parse().unwrap());
-        assert_eq!(status(may_scrape(loopback, &none, None)), Ok(()));
-        let remote: Option<SocketAddr> = Some("[2001:db8::7]:50000".parse().unwrap());
-        assert_eq!(status(may_scrape(remote, &bearing, None)), Err(403));
-        assert_eq!(status(may_scrape(remote, &none, Some(TOKEN))), Err(401));
-        assert_eq!(status(may_scrape(remote, &bearing, Some(TOKEN))), Ok(()));
-        let mut proxied = HeaderMap::new();
-        proxied.insert(header::FORWARDED, "for=192.0.2.7".parse().unwrap());
-        assert_eq!(status(may_scrape(loopback, &proxied, None)), Err(403));
-    }
 
     #[tokio::test]
     async fn runs_count_by_outcome_and_busy_ones_not_at_all() {

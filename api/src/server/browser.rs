@@ -90,13 +90,13 @@ impl BrowserGuard {
         !name.is_empty()
             && (name.parse::<IpAddr>().is_ok()
                 || name == "localhost"
-                || self.names.iter().any(|n| *n == name))
+                || self.names.contains(&name))
     }
 
     fn origin_allowed(&self, origin: &str, host: &str) -> bool {
         let origin = origin.to_ascii_lowercase();
         let authority = origin.split_once("://").map_or("", |(_, rest)| rest);
-        authority == host.to_ascii_lowercase() || self.origins.iter().any(|o| *o == origin)
+        authority == host.to_ascii_lowercase() || self.origins.contains(&origin)
     }
 }
 

@@ -14,7 +14,8 @@ use meshflow_api::server::ApiError;
 use serde_json::json;
 
 use crate::engine::Engine;
-use crate::metrics::{CONTENT_TYPE, may_scrape};
+use crate::metrics::CONTENT_TYPE;
+use meshflow_api::server::may_scrape;
 
 /// How long `/ready` waits for the store before saying it does not answer.
 const STORE_ANSWER: Duration = Duration::from_secs(2);

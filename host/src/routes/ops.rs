@@ -12,8 +12,9 @@ use axum::response::{IntoResponse, Response};
 use serde_json::json;
 
 use super::ApiError;
-use crate::metrics::{CONTENT_TYPE, may_scrape};
+use crate::metrics::CONTENT_TYPE;
 use crate::state::Host;
+use meshflow_api::server::may_scrape;
 
 /// `GET /metrics`.
 pub async fn metrics(State(host): State<Arc<Host>>, request: Request) -> Response {
