@@ -23,8 +23,10 @@ use tower_http::timeout::RequestBodyTimeout;
 use crate::host::{ErrorBody, ErrorDetail};
 
 mod browser;
+mod scrape;
 mod tls;
 pub use browser::{BrowserGuard, guard as browser_guard};
+pub use scrape::may_scrape;
 pub use tls::TlsFiles;
 
 /// A connection whose request head has not fully arrived after this long is closed.
