@@ -138,13 +138,6 @@ pub fn check_origin(text: &str) -> Result<String, OriginError> {
     Ok(origin(&url))
 }
 
-/// [`check_origin`] with its error as a message, for the callers that still keep it as
-/// text (`engine/src/auth.rs`, `host/src/downloads.rs`, `host/src/state.rs`); they can move
-/// to [`check_origin`] and this goes.
-pub fn parse_origin(text: &str) -> Result<String, String> {
-    check_origin(text).map_err(|e| e.to_string())
-}
-
 /// Allowed origins: a set, or any origin.
 #[derive(Clone, Debug, Default)]
 pub struct Origins {
@@ -278,10 +271,10 @@ mod tests {
 
     #[test]
     fn origins_are_normalised_and_compared_whole() {
-        assert_eq!(parse_origin("HTTP://Data.Example.org:80").unwrap(), "http://data.example.org");
-        assert!(parse_origin("http://data.example.org/path").is_err());
-        assert!(parse_origin("http://169.254.169.254").is_err());
-        let allowed = Origins::of([parse_origin("http://127.0.0.1:7000").unwrap()]);
+        assert_eq!(check_origin("HTTP://Data.Example.org:80").unwrap(), "http://data.example.org");
+        assert!(check_origin("http://data.example.org/path").is_err());
+        assert!(check_origin("http://169.254.169.254").is_err());
+        let allowed = Origins::of([check_origin("http://127.0.0.1:7000").unwrap()]);
         allowed.check(&url("http://127.0.0.1:7000/inputs/a.ply")).unwrap();
         assert!(matches!(
             allowed.check(&url("http://127.0.0.1:7001/secret")),

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use meshflow_api::fetch_rules::{Origins, Refusal, origin, parse_origin};
+use meshflow_api::fetch_rules::{OriginError, Origins, Refusal, check_origin, origin};
 use meshflow_api::server::TlsFiles;
 
 /// The engine's secrets and what it lets runs fetch.
@@ -39,9 +39,9 @@ pub enum AccessError {
     )]
     ApiWithoutCluster,
     #[error("--allow-input-from: {0}")]
-    Origin(String),
+    Origin(OriginError),
     #[error("--allow-origin: {0}")]
-    BrowserOrigin(String),
+    BrowserOrigin(OriginError),
 }
 
 impl Access {
@@ -53,12 +53,12 @@ impl Access {
         self.allow_origins = self
             .allow_origins
             .iter()
-            .map(|text| parse_origin(text).map_err(AccessError::BrowserOrigin))
+            .map(|text| check_origin(text).map_err(AccessError::BrowserOrigin))
             .collect::<Result<_, _>>()?;
         self.allow_input_from = self
             .allow_input_from
             .iter()
-            .map(|text| parse_origin(text).map_err(AccessError::Origin))
+            .map(|text| check_origin(text).map_err(AccessError::Origin))
             .collect::<Result<_, _>>()?;
         Ok(self)
     }
