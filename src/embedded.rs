@@ -41,31 +41,47 @@ pub struct Embedded {
 pub struct Tokens {
     pub api: String,
     pub cluster: String,
+    /// The hosts' upload token: what a plugin author gives `meshflow plugin upload`.
+    pub upload: String,
 }
 
 impl Tokens {
     /// The given tokens, and fresh random ones for those not given.
-    pub fn given_or_fresh(api: Option<String>, cluster: Option<String>) -> anyhow::Result<Self> {
+    pub fn given_or_fresh(
+        api: Option<String>,
+        cluster: Option<String>,
+        upload: Option<String>,
+    ) -> anyhow::Result<Self> {
         let fresh = |given: Option<String>| given.map_or_else(tokens::fresh, Ok);
-        Ok(Self { api: fresh(api)?, cluster: fresh(cluster)? })
+        Ok(Self { api: fresh(api)?, cluster: fresh(cluster)?, upload: fresh(upload)? })
     }
 }
 
-/// Starts `hosts` hosts on 127.0.0.1 and an engine on `listen` that knows them, all with
-/// `tokens`; the engine with `access` (its users file, allowed origins, …), whose tokens
-/// and `insecure_no_auth` are the embedded system's. With `tls`, everything speaks https
-/// with a throwaway CA made under the data folder, which this process's clients trust.
-#[allow(clippy::too_many_arguments)]
-pub async fn start(
-    hosts: usize,
-    listen: &str,
-    data: Option<PathBuf>,
-    layout: Layout,
-    tokens: Tokens,
-    access: Access,
-    sandbox: crate::SandboxArgs,
-    tls: bool,
-) -> anyhow::Result<Embedded> {
+/// What to start: `hosts` hosts on 127.0.0.1 (on ports from `first_host_port` on, else
+/// any) and an engine on `listen` that knows them, all with `tokens`; the engine with
+/// `access` (its users file, allowed origins, …), whose tokens and `insecure_no_auth` are
+/// the embedded system's.
+pub struct Spec {
+    pub hosts: usize,
+    pub listen: String,
+    /// Kept across starts when given; else a temporary folder, removed at the end.
+    pub data: Option<PathBuf>,
+    pub layout: Layout,
+    pub tokens: Tokens,
+    pub access: Access,
+    pub sandbox: crate::SandboxArgs,
+    /// Every connection over https, with a throwaway CA made under the data folder, which
+    /// this process's clients trust.
+    pub tls: bool,
+    pub first_host_port: Option<u16>,
+    /// Plugin components every host offers besides the built-ins (installed in each
+    /// host's plugin folder, as an upload would be, so they serve their names first).
+    pub plugins: Vec<Vec<u8>>,
+}
+
+/// Starts the engine and hosts `spec` describes.
+pub async fn start(spec: Spec) -> anyhow::Result<Embedded> {
+    let Spec { hosts, listen, data, layout, tokens, access, sandbox, tls, .. } = spec;
     let allow_input_from = access.allow_input_from.clone();
     anyhow::ensure!(hosts > 0, "at least one host is needed");
     let (scratch, data) = match data {
@@ -86,16 +102,22 @@ pub async fn start(
     let server_tls = tls.as_ref().map(|tls| tls.server.clone());
     let mut handles = Vec::with_capacity(hosts);
     for index in 0..hosts {
+        let dir = data.join(format!("host-{index}"));
+        install_plugins(&dir.join("plugins"), &spec.plugins)?;
         let config = HostConfig {
             builtins: builtins_for(index, hosts, layout),
             artefact_cache: crate::plugins::cache_dir(),
+            token: Some(tokens.upload.clone()),
             cluster_token: Some(tokens.cluster.clone()),
             allow_input_from: allow_input_from.clone(),
             limits: sandbox.limits(),
             tls: server_tls.clone(),
-            ..HostConfig::new(data.join(format!("host-{index}")))
+            ..HostConfig::new(dir)
         };
-        let listener = TcpListener::bind("127.0.0.1:0").await?;
+        let port = spec.first_host_port.map_or(0, |first| first.saturating_add(index as u16));
+        let listener = TcpListener::bind(("127.0.0.1", port))
+            .await
+            .with_context(|| format!("listening on 127.0.0.1:{port} for host {index}"))?;
         let handle = meshflow_host::start(config, listener)
             .await
             .with_context(|| format!("starting host {index}"))?;
@@ -103,7 +125,7 @@ pub async fn start(
     }
     let urls: Vec<String> = handles.iter().map(|h| h.url.clone()).collect();
     let listener =
-        TcpListener::bind(listen).await.with_context(|| format!("listening on {listen}"))?;
+        TcpListener::bind(&listen).await.with_context(|| format!("listening on {listen}"))?;
     let access = Access {
         api_token: Some(tokens.api.clone()),
         cluster_token: Some(tokens.cluster.clone()),
@@ -115,6 +137,20 @@ pub async fn start(
     let engine = meshflow_engine::start(data.join("engine"), None, &urls, access, listener).await?;
     let ca = tls.map(|tls| tls.ca);
     Ok(Embedded { engine, hosts: handles, tokens, ca, _scratch: scratch })
+}
+
+/// Writes each component into a host's plugin folder under its digest, as an upload
+/// keeps it; the host validates it when it loads the folder.
+fn install_plugins(dir: &std::path::Path, plugins: &[Vec<u8>]) -> anyhow::Result<()> {
+    if plugins.is_empty() {
+        return Ok(());
+    }
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    for bytes in plugins {
+        let path = dir.join(format!("{}.wasm", meshflow_runtime::digest(bytes)));
+        meshflow_meshio::write_private_file(&path, |out| out.write_all(bytes))?;
+    }
+    Ok(())
 }
 
 /// The built-in components host `index` of `hosts` offers under `layout`.

@@ -552,8 +552,7 @@ fn meshlab_scripts_convert_to_workflows_and_back() {
     let path = |name: &str| dir.path().join(name).display().to_string();
     // Saved as pymeshlab's MeshSet.save_filter_script writes scripts (pymeshlab is not
     // needed to run this test).
-    let script =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/pymeshlab-repair.mlx");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/pymeshlab-repair.mlx");
     let out =
         meshflow(&["workflow", "from-mlx", &script.display().to_string(), "-o", &path("w.json")]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -574,4 +573,91 @@ fn meshlab_scripts_convert_to_workflows_and_back() {
     .unwrap();
     let refused = failure(&["workflow", "from-mlx", &path("poisson.mlx"), "-o", &path("p.json")]);
     assert!(refused.contains("Screened Poisson"), "{refused}");
+}
+
+/// Two consecutive ports free right now (the OS picks the first).
+fn two_free_ports() -> u16 {
+    for _ in 0..20 {
+        let first = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        let port = first.local_addr().unwrap().port();
+        if port < u16::MAX && std::net::TcpListener::bind(("127.0.0.1", port + 1)).is_ok() {
+            return port;
+        }
+    }
+    panic!("no two consecutive free ports");
+}
+
+/// `up` makes an upload token like its other tokens and prints it; its hosts listen on the
+/// ports asked for and take a plugin with that token (and refuse it without).
+#[test]
+fn up_prints_an_upload_token_and_its_hosts_on_fixed_ports_take_plugins() {
+    use std::io::BufRead;
+    let first = two_free_ports();
+    let mut up = Up(Command::new(env!("CARGO_BIN_EXE_meshflow"))
+        .args(["up", "--hosts", "2", "--listen", "127.0.0.1:0", "--host-ports", &first.to_string()])
+        .env("MESHFLOW_CACHE_DIR", Path::new(env!("CARGO_TARGET_TMPDIR")).join("components"))
+        .env_remove("MESHFLOW_UPLOAD_TOKEN")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("starting meshflow up"));
+    let stdout = up.0.stdout.take().unwrap();
+    let (lines, printed) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
+            let _ = lines.send(line);
+        }
+    });
+    let mut text = String::new();
+    while !text.contains("MESHFLOW_UPLOAD_TOKEN") {
+        let line = printed.recv_timeout(std::time::Duration::from_secs(120)).expect("up printed");
+        text.push_str(&line);
+        text.push('\n');
+    }
+    let hosts: Vec<&str> =
+        text.lines().filter_map(|l| l.strip_prefix("host:")).map(str::trim).collect();
+    let expected = [format!("http://127.0.0.1:{first}"), format!("http://127.0.0.1:{}", first + 1)];
+    assert_eq!(hosts, expected, "{text}");
+    let token = text
+        .lines()
+        .find_map(|l| l.split_once("export MESHFLOW_UPLOAD_TOKEN="))
+        .map(|(_, token)| token.trim().to_owned())
+        .unwrap();
+    assert_eq!(token.len(), 64, "{text}");
+
+    let dir = tempfile::tempdir().unwrap();
+    let wasm = dir.path().join("hostile.wasm");
+    std::fs::write(&wasm, meshflow_builtin_plugins::fixture("hostile")).unwrap();
+    let upload = |token: &str| {
+        Command::new(env!("CARGO_BIN_EXE_meshflow"))
+            .args(["plugin", "upload", "--host", &expected[1]])
+            .arg(&wasm)
+            .env("MESHFLOW_UPLOAD_TOKEN", token)
+            .output()
+            .unwrap()
+    };
+    let refused = upload("not-the-upload-token-0123");
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("401"), "{refused:?}");
+    let uploaded = upload(&token);
+    assert!(uploaded.status.success(), "{}", String::from_utf8_lossy(&uploaded.stderr));
+}
+
+/// `run --plugin` puts a plugin on the embedded hosts: its service serves its name first,
+/// and the record names its digest.
+#[test]
+fn run_takes_a_plugin_for_its_embedded_hosts() {
+    let dir = tempfile::tempdir().unwrap();
+    let v2 = meshflow_builtin_plugins::fixture("smoothing-v2");
+    let wasm = dir.path().join("v2.wasm");
+    std::fs::write(&wasm, v2).unwrap();
+    let workflow = dir.path().join("smooth.json");
+    std::fs::write(&workflow, r#"{"steps": [{"run": "laplacian-smoothing"}]}"#).unwrap();
+    let workflow = workflow.display().to_string();
+    let report = dir.path().join("run.json").display().to_string();
+    let out = dir.path().join("out.ply").display().to_string();
+    let wasm = wasm.display().to_string();
+    ok(&["run", &workflow, &bunny(), "-o", &out, "--report", &report, "--plugin", &wasm]);
+    let record = json(&std::fs::read_to_string(&report).unwrap());
+    let digest = meshflow_runtime::digest(v2);
+    assert_eq!(record["steps"][0]["plugin"], digest.as_str(), "{record:#}");
 }

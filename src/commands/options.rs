@@ -6,8 +6,8 @@ use clap::Args;
 use meshflow_api::server::TlsFiles;
 use meshflow_api::tls::ClientPolicy;
 
-use super::tokens::{ApiTokenArgs, ClusterArgs};
-use crate::embedded::{self, Embedded, Layout, Tokens};
+use super::tokens::{ApiTokenArgs, ClusterArgs, UploadTokenArgs};
+use crate::embedded::{self, Embedded, Layout, Spec, Tokens};
 use meshflow_engine::Access;
 
 /// Where a run's result and record go (`run`, `rerun`, `submit`).
@@ -37,10 +37,19 @@ pub struct EmbeddedArgs {
     pub cluster: ClusterArgs,
     #[command(flatten)]
     pub sandbox: crate::SandboxArgs,
+    #[command(flatten)]
+    pub upload_token: UploadTokenArgs,
+    /// Plugin components (.wasm) every host offers besides the built-ins; their services
+    /// serve their names first.
+    #[arg(long = "plugin", value_name = "FILE.wasm")]
+    pub plugins: Vec<PathBuf>,
     /// Every connection over https, with a certificate authority made for this start
     /// (its certificate is printed, for `--ca-file`).
     #[arg(long)]
     pub tls: bool,
+    /// The hosts listen on this port and the next ones (default: any free ports).
+    #[arg(long, value_name = "FIRST")]
+    pub host_ports: Option<u16>,
 }
 
 impl EmbeddedArgs {
@@ -53,10 +62,25 @@ impl EmbeddedArgs {
         layout: Layout,
         access: Access,
     ) -> anyhow::Result<Embedded> {
-        let tokens = Tokens::given_or_fresh(self.api_token.get()?, self.cluster.token.get()?)?;
-        let access = Access { allow_input_from: self.cluster.allow_input_from.clone(), ..access };
-        let (hosts, sandbox) = (self.hosts, self.sandbox);
-        embedded::start(hosts, listen, data, layout, tokens, access, sandbox, self.tls).await
+        let tokens = Tokens::given_or_fresh(
+            self.api_token.get()?,
+            self.cluster.token.get()?,
+            self.upload_token.get()?,
+        )?;
+        let plugins = self.plugins.iter().map(|path| crate::plugins::read_plugin_file(path));
+        embedded::start(Spec {
+            hosts: self.hosts,
+            listen: listen.to_owned(),
+            data,
+            layout,
+            tokens,
+            access: Access { allow_input_from: self.cluster.allow_input_from.clone(), ..access },
+            sandbox: self.sandbox,
+            tls: self.tls,
+            first_host_port: self.host_ports,
+            plugins: plugins.collect::<anyhow::Result<_>>()?,
+        })
+        .await
     }
 }
 

@@ -55,6 +55,24 @@ impl MetricsTokenArgs {
     }
 }
 
+/// The hosts' upload token: what plugin authors send.
+#[derive(Args, Clone, Debug, Default)]
+pub struct UploadTokenArgs {
+    /// Upload token of the hosts: `meshflow plugin upload` needs it.
+    #[arg(long, env = "MESHFLOW_UPLOAD_TOKEN", hide_env_values = true, value_name = "TOKEN")]
+    upload_token: Option<String>,
+    /// Read the upload token from this file.
+    #[arg(long, value_name = "PATH")]
+    upload_token_file: Option<PathBuf>,
+}
+
+impl UploadTokenArgs {
+    pub fn get(&self) -> anyhow::Result<Option<String>> {
+        warn_if_in_argv("--upload-token", "--upload-token-file", "MESHFLOW_UPLOAD_TOKEN");
+        read(self.upload_token.as_deref(), self.upload_token_file.as_deref())
+    }
+}
+
 /// What the engine and its hosts share: the cluster token, and the origins run inputs may
 /// come from besides the cluster.
 #[derive(Args, Clone, Debug, Default)]

@@ -47,7 +47,15 @@ pub fn run(args: UpArgs) -> anyhow::Result<()> {
         }
         out!("for meshflow submit:    export MESHFLOW_API_TOKEN={}", tokens.api);
         out!("for more hosts:         export MESHFLOW_CLUSTER_TOKEN={}", tokens.cluster);
-        tokio::signal::ctrl_c().await?;
+        out!("for meshflow plugin upload: export MESHFLOW_UPLOAD_TOKEN={}", tokens.upload);
+        // Ctrl-C or a service manager's SIGTERM: either way the temporary folder goes.
+        let mut terminate =
+            tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())?;
+        tokio::select! {
+            stopped = tokio::signal::ctrl_c() => stopped?,
+            _ = terminate.recv() => {}
+        }
+        drop(system);
         Ok(())
     })
 }
