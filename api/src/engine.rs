@@ -182,6 +182,21 @@ pub struct HostInfo {
     /// plans while this is set.
     #[serde(default)]
     pub suspect: Option<String>,
+    /// `trusted` (the default), `spot-check` or `untrusted`, as an admin set it.
+    #[serde(default = "trusted")]
+    pub trust: String,
+}
+
+fn trusted() -> String {
+    "trusted".into()
+}
+
+/// `PATCH /hosts` body: an admin sets how far a host is trusted.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SetTrust {
+    pub url: String,
+    /// `trusted`, `spot-check` or `untrusted`.
+    pub trust: String,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -311,6 +326,49 @@ pub struct StepRecord {
     /// Hosts that failed this step before it succeeded elsewhere.
     pub failed_hosts: Vec<String>,
     pub transfers: Vec<TransferRecord>,
+    /// When hosts disagreed about the step: what each claimed (the producer first).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub claims: Vec<HashClaim>,
+    /// The outcome of the replay on an uninvolved host that settled the disagreement.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub verdict: Option<Verdict>,
+    /// Who checked the step's result and how (`replay`, `spot-check`, `arbitration`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub verified_by: Vec<Verification>,
+}
+
+/// What one host claimed about a step: the mesh hash (a check's value as JSON text) it
+/// announced or reached, or, for a receiver that refused the result, none.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HashClaim {
+    pub host: String,
+    /// `produced`, `received` (a receiver's answer or refusal) or `replayed`.
+    pub role: String,
+    pub hash: Option<String>,
+    /// The claim in words (a receiver's refusal, a fallback).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub message: String,
+}
+
+/// The replay that settled a disagreement: who ran it, what it reached, and whom it proved
+/// wrong and right.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Verdict {
+    pub arbiter: String,
+    pub hash: String,
+    pub wrong: Vec<String>,
+    pub right: Vec<String>,
+}
+
+/// A host that replayed the step from its input and reached `hash` (a check: its value as
+/// JSON text).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Verification {
+    pub host: String,
+    /// `replay` (an untrusted host's step, before anyone built on it), `spot-check` or
+    /// `arbitration`.
+    pub how: String,
+    pub hash: String,
 }
 
 /// One host bringing itself up to date with a step's result.
@@ -413,6 +471,9 @@ mod tests {
             report: "smoothed".into(),
             failed_hosts: vec![],
             transfers: vec![],
+            claims: vec![],
+            verdict: None,
+            verified_by: vec![],
         });
         let json = serde_json::to_value(&record).unwrap();
         assert_eq!(json["transfer"], "full");

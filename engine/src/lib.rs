@@ -29,6 +29,7 @@ mod routes;
 pub mod run;
 mod store;
 pub mod summary;
+pub mod trust;
 pub mod users;
 pub mod validate;
 pub mod workflow;

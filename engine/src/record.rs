@@ -4,6 +4,7 @@
 //! the same record the engine writes.
 
 pub use meshflow_api::engine::{
-    BatchEntry, BatchStatus, BroadcastRecord, Comparison, Divergence, HostLoad, InputRecord,
-    ResultRecord, RunRecord, Status, StepRecord, SubmitBatch, SummaryRow, Transfer, TransferRecord,
+    BatchEntry, BatchStatus, BroadcastRecord, Comparison, Divergence, HashClaim, HostLoad,
+    InputRecord, ResultRecord, RunRecord, Status, StepRecord, SubmitBatch, SummaryRow, Transfer,
+    TransferRecord, Verdict, Verification,
 };

@@ -14,6 +14,7 @@ use serde::Serialize;
 use crate::limits::{MAX_HOSTS, SUSPECT_FOR};
 use crate::measured::Measured;
 use crate::store::{self, Store};
+use crate::trust::{self, Trust};
 
 /// How often the engine asks every host for its health and services.
 pub const POLL_INTERVAL: Duration = Duration::from_secs(2);
@@ -28,6 +29,9 @@ pub struct HostEntry {
     last_seen: Mutex<Instant>,
     /// Why and since when the host is suspect.
     suspect: Mutex<Option<(Instant, String)>>,
+    /// How far an admin trusts it; with its suspicion, kept in the store (`trust.rs`).
+    trust: Mutex<Trust>,
+    store: Store,
 }
 
 #[derive(Default, Clone, Serialize)]
@@ -42,7 +46,7 @@ pub struct HostState {
 }
 
 impl HostEntry {
-    fn new(client: HostClient, url: String) -> Self {
+    fn new(client: HostClient, url: String, store: Store) -> Self {
         Self {
             client,
             url,
@@ -50,7 +54,59 @@ impl HostEntry {
             pinned: AtomicBool::new(false),
             last_seen: Mutex::new(Instant::now()),
             suspect: Mutex::default(),
+            trust: Mutex::default(),
+            store,
         }
+    }
+
+    /// Takes what the store kept of the host: its trust level and a suspicion not yet over.
+    fn restore(&self, standing: trust::Standing) {
+        *self.trust.lock().unwrap() = standing.trust;
+        if let Some((why, since)) = standing.suspect {
+            let age = Duration::from_secs(store::unix_now().saturating_sub(since).max(0) as u64);
+            if let Some(since) = Instant::now().checked_sub(age).filter(|_| age < SUSPECT_FOR) {
+                *self.suspect.lock().unwrap() = Some((since, why));
+            }
+        }
+    }
+
+    /// Writes the host's trust level and suspicion to the store (`cleared`: the verdict
+    /// that just proved it right). A short statement, done in place so writes stay in order.
+    fn persist(&self, cleared: Option<String>) {
+        let suspect = self
+            .suspect
+            .lock()
+            .unwrap()
+            .clone()
+            .map(|(since, why)| (why, store::unix_now() - since.elapsed().as_secs() as i64));
+        let trust = *self.trust.lock().unwrap();
+        let url = self.url.clone();
+        let written = self.store.now(|c| {
+            let cleared = match cleared {
+                Some(cleared) => Some(cleared),
+                None => trust::load(c, &url)?.cleared,
+            };
+            trust::save(c, &url, &trust::Standing { trust, suspect, cleared })
+        });
+        if let Err(error) = written {
+            tracing::error!(host = %self.url, "keeping the host's standing: {error}");
+        }
+    }
+
+    pub fn trust(&self) -> Trust {
+        *self.trust.lock().unwrap()
+    }
+
+    /// Sets how far the host is trusted, and keeps it.
+    pub fn set_trust(&self, trust: Trust) {
+        *self.trust.lock().unwrap() = trust;
+        self.persist(None);
+    }
+
+    /// A verdict proved the host right: it is suspect no more (kept).
+    pub fn clear_suspicion(&self, verdict: String) {
+        *self.suspect.lock().unwrap() = None;
+        self.persist(Some(verdict));
     }
 
     pub fn keep_always(&self) {
@@ -88,6 +144,7 @@ impl HostEntry {
     /// Takes the host out of plans for [`SUSPECT_FOR`], saying why.
     pub fn mark_suspect(&self, reason: String) {
         *self.suspect.lock().unwrap() = Some((Instant::now(), reason));
+        self.persist(None);
     }
 
     /// Why the host is suspect, while it is.
@@ -169,6 +226,8 @@ pub struct Registry {
     pub measured: Measured,
     /// What `GET /metrics` reports; the executor feeds it.
     pub(crate) metrics: crate::metrics::Metrics,
+    /// `--spot-check`: the share of a spot-checked host's steps replayed (f64 bits).
+    spot_check: std::sync::atomic::AtomicU64,
 }
 
 pub use meshflow_api::engine::ServiceOffer as Offer;
@@ -235,7 +294,17 @@ impl Registry {
             }
         };
         let metrics = crate::metrics::Metrics::default();
-        Ok(Self { hosts: Mutex::default(), store, own_origin, access, http, measured, metrics })
+        let spot_check = std::sync::atomic::AtomicU64::new(trust::DEFAULT_SPOT_CHECK.to_bits());
+        Ok(Self {
+            hosts: Mutex::default(),
+            store,
+            own_origin,
+            access,
+            http,
+            measured,
+            metrics,
+            spot_check,
+        })
     }
 
     /// A client for the host at `url`, with the cluster's token.
@@ -265,7 +334,8 @@ impl Registry {
                 Some(entry) => (entry.clone(), false),
                 None if hosts.len() >= MAX_HOSTS => return Err(RegisterError::Full),
                 None => {
-                    let entry = Arc::new(HostEntry::new(self.client_for(&url), url));
+                    let client = self.client_for(&url);
+                    let entry = Arc::new(HostEntry::new(client, url, self.store.clone()));
                     hosts.push(entry.clone());
                     self.access.set_peers(self.peers(&hosts));
                     (entry, true)
@@ -274,7 +344,14 @@ impl Registry {
         };
         if new {
             let url = entry.url.clone();
-            self.store.call(move |c| store::add_host(c, &url)).await?;
+            let standing = self
+                .store
+                .call(move |c| {
+                    store::add_host(c, &url)?;
+                    trust::load(c, &url)
+                })
+                .await?;
+            entry.restore(standing);
         }
         entry.refresh().await;
         Ok(entry)
@@ -374,6 +451,37 @@ impl Registry {
 
     pub fn service(&self, name: &str) -> Option<ServiceInfo> {
         self.catalogue().remove(name).map(|offer| offer.info)
+    }
+
+    /// The registered host at `url` (its base URL as registered, a trailing `/` ignored).
+    pub fn host(&self, url: &str) -> Option<Arc<HostEntry>> {
+        let url = url.trim_end_matches('/');
+        self.hosts().into_iter().find(|h| h.url == url)
+    }
+
+    /// Sets how far the host at `url` is trusted and keeps it, registered or not yet (a
+    /// host named by `--host-trust` may register later).
+    pub async fn set_trust(&self, url: &str, level: Trust) -> Result<(), store::StoreError> {
+        if let Some(host) = self.host(url) {
+            host.set_trust(level);
+            return Ok(());
+        }
+        let url = url.trim_end_matches('/').to_owned();
+        self.store
+            .call(move |c| {
+                let standing = trust::Standing { trust: level, ..trust::load(c, &url)? };
+                trust::save(c, &url, &standing)
+            })
+            .await
+    }
+
+    /// The share of a `spot-check` host's steps replayed elsewhere (`--spot-check`).
+    pub fn spot_check_share(&self) -> f64 {
+        f64::from_bits(self.spot_check.load(Ordering::Relaxed))
+    }
+
+    pub fn set_spot_check_share(&self, share: f64) {
+        self.spot_check.store(share.clamp(0.0, 1.0).to_bits(), Ordering::Relaxed);
     }
 }
 

@@ -80,6 +80,15 @@ CREATE TABLE IF NOT EXISTS measurements (
     only INTEGER PRIMARY KEY CHECK (only = 1),
     snapshot TEXT NOT NULL
 );
+-- How far each host is trusted and why it is suspect (`trust.rs`); an older database gains
+-- the table empty: every host trusted, none suspect.
+CREATE TABLE IF NOT EXISTS host_verdicts (
+    url TEXT PRIMARY KEY,
+    trust TEXT NOT NULL DEFAULT 'trusted',
+    suspect TEXT,
+    suspect_unix INTEGER,
+    cleared TEXT
+);
 ";
 
 /// Schema 1 → 2: runs and batches name their user (older ones are `default`'s, as everything

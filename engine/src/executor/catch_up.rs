@@ -24,6 +24,14 @@ impl Executor {
         &mut self,
         host: &Arc<HostEntry>,
     ) -> Result<String, Failure> {
+        // A disagreement about a step this host took is settled before it builds on it.
+        if let Some(replica) = self.replicas.iter_mut().find(|r| Arc::ptr_eq(&r.host, host)) {
+            replica.wait().await;
+        }
+        self.resolve_disputes().await.map_err(|error| Failure::Step(error.to_string()))?;
+        if let Some(why) = host.suspicion() {
+            return Err(Failure::Suspect(why.trim_start_matches("suspect: ").to_owned()));
+        }
         let hash = self.current.hash.clone();
         let sources = self.full_sources(host);
         // Why each copy could not be used, for the error if nothing else works either.

@@ -62,6 +62,7 @@ impl Executor {
                 }
             }
         }
+        self.settle_trust().await?;
         self.finish().await;
         Ok(())
     }
@@ -92,7 +93,9 @@ impl Executor {
         if let Some(step) = self.take_done(&condition.check, "check")? {
             return step.condition.ok_or(ExecError::NoRecordedOutcome(step.path));
         }
-        let (index, result, _) = self.run_task(&condition.check, "check").await?;
+        let (index, result, host) = self.run_task(&condition.check, "check").await?;
+        let input = self.step_input(index, &condition.check, &result);
+        let (result, _) = self.vouch(&input, result, host).await?;
         let RunResult::Check(check) = result else {
             return Err(ExecError::NotACheck {
                 path: condition.check.path.clone(),

@@ -42,6 +42,22 @@ pub enum ExecError {
     RecordMismatch { recorded_kind: String, recorded_path: String, kind: String, path: String },
     #[error("the record has steps but no input")]
     NoRecordedInput,
+    /// Hosts disagree about the step and no uninvolved host could replay it.
+    #[error(
+        "{path}: hosts disagree about the step and no uninvolved host could replay it: {claims}"
+    )]
+    Unsettled { path: String, claims: String },
+    /// An untrusted host's result that no other host could replay.
+    #[error(
+        "{path}: untrusted host {host} announced {claimed} and no other host could replay the step"
+    )]
+    Unverified { path: String, host: String, claimed: String },
+    /// A replay contradicted a result later steps were built on.
+    #[error("{path}: {message}")]
+    Contradicted { path: String, message: String },
+    /// A spot check contradicted a step's result before the run completed.
+    #[error("{0}")]
+    SpotCheck(String),
     /// A resumed run: a recorded filter has no output hash.
     #[error("{0}: no output hash")]
     NoOutputHash(String),

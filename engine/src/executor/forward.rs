@@ -23,6 +23,8 @@ impl Executor {
             return self.restore_filter(task, &step);
         }
         let (index, result, host) = self.run_task(task, "filter").await?;
+        let input = self.step_input(index, task, &result);
+        let (result, host) = self.vouch(&input, result, host).await?;
         let RunResult::Filter(filter) = result else {
             return Err(ExecError::NotAMesh {
                 path: task.path.clone(),
@@ -48,7 +50,7 @@ impl Executor {
         let measured = &self.registry.measured;
         for replica in &mut self.replicas {
             let wanted = receivers.iter().any(|h| Arc::ptr_eq(h, &replica.host));
-            if !wanted || Arc::ptr_eq(&replica.host, &host) {
+            if !wanted || Arc::ptr_eq(&replica.host, &host) || replica.host.is_suspect() {
                 continue;
             }
             let receiver = &replica.host;
@@ -77,6 +79,7 @@ impl Executor {
                 output,
                 last_full: last_full.clone(),
                 registry: self.registry.clone(),
+                disputes: self.disputes.clone(),
             };
             replica.forward(&self.run, index, forwarded, &hash, &host);
         }

@@ -11,6 +11,7 @@
 //! (`task`, `failure`, `step_record`), forwarding each filter's result (`forward`), catching
 //! up a host that fell behind or joins (`catch_up`), and records the result (`finish`).
 
+mod arbitrate;
 mod broadcast;
 mod busy;
 mod catch_up;
@@ -106,6 +107,12 @@ struct Executor {
     /// Edit-log sizes asked of their producers, which encode the logs after answering;
     /// awaited before the run's result is recorded.
     log_sizes: Vec<tokio::task::JoinHandle<()>>,
+    /// Disagreements receivers reported, settled by `arbitrate`.
+    disputes: arbitrate::Disputes,
+    /// What each step ran on, for a host that must replay it.
+    step_inputs: Vec<arbitrate::StepInput>,
+    /// Spot checks under way: each a contradiction found, or none.
+    spot_checks: Vec<tokio::task::JoinHandle<Option<String>>>,
 }
 
 impl Executor {
@@ -130,6 +137,9 @@ impl Executor {
             done,
             holders: Vec::new(),
             log_sizes: Vec::new(),
+            disputes: Default::default(),
+            step_inputs: Vec::new(),
+            spot_checks: Vec::new(),
         }
     }
 }

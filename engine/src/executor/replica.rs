@@ -1,7 +1,8 @@
 //! One host's copy of the run's mesh (a session there), and the queue of updates that
 //! brings it up to date: each forwarded result is applied after the one before it. A
-//! receiver must end up with the announced mesh: one that answers another hash is suspect,
-//! and so is a producer whose full mesh a receiver finds is not what it announced.
+//! receiver must end up with the announced mesh: one that answers another hash, or finds
+//! the producer's mesh is not what it announced, or whose replay or edit log of the step
+//! reaches another mesh, disagrees with the producer, and `arbitrate` settles who is right.
 
 use std::sync::Arc;
 
@@ -10,10 +11,11 @@ use meshflow_api::engine::TransferEstimates;
 use meshflow_api::host::{Update, Updated};
 use tokio::task::JoinHandle;
 
+use super::arbitrate::{Dispute, Disputes, Position};
 use super::cost::StepOutput;
 use super::current::LastFull;
 use crate::measured::Applied;
-use crate::record::TransferRecord;
+use crate::record::{HashClaim, TransferRecord};
 use crate::registry::{HostEntry, Registry};
 use crate::run::Run;
 
@@ -29,6 +31,7 @@ pub struct Forwarded {
     pub output: StepOutput,
     pub last_full: LastFull,
     pub registry: Arc<Registry>,
+    pub disputes: Disputes,
 }
 
 pub struct Replica {
@@ -67,7 +70,8 @@ impl Replica {
             let started_ms = run.elapsed_ms();
             let started = std::time::Instant::now();
             let outcome = receiver.client.update(&session, &forwarded.update).await;
-            let outcome = judge(outcome, &announced, &receiver, &producer);
+            let disputes = &forwarded.disputes;
+            let outcome = judge(outcome, &announced, &receiver, &producer, step, disputes);
             let metrics = &forwarded.registry.metrics;
             match &outcome {
                 Ok(updated) => {
@@ -96,45 +100,88 @@ impl Replica {
 
     /// Waits for the forwarded updates; true when the session then holds `hash`.
     pub async fn settle(&mut self, hash: &str) -> bool {
-        match self.pending.take() {
-            None => self.hash == hash,
-            Some(pending) => {
-                matches!(pending.await, Ok(Ok(updated)) if updated.hash == hash)
-                    && self.hash == hash
+        self.wait().await;
+        self.hash == hash
+    }
+
+    /// Waits for the forwarded updates; a failed one leaves the session's mesh unknown.
+    pub async fn wait(&mut self) {
+        if let Some(pending) = self.pending.take() {
+            let reached = matches!(pending.await, Ok(Ok(updated)) if updated.hash == self.hash);
+            if !reached {
+                self.hash.clear();
             }
         }
     }
+
+    /// The session's mesh is not to be built on (a disagreement found it wrong).
+    pub fn forget(&mut self) {
+        self.hash.clear();
+    }
+
+    /// Another session of the host (an arbiter's replay) holds `hash`: it is the copy now.
+    pub fn replace_session(&mut self, session: String, hash: String) {
+        self.pending = None;
+        self.session = session;
+        self.hash = hash;
+    }
 }
 
-/// Blames whoever an update's outcome shows to be wrong: a receiver that answers another
-/// mesh than the announced one, or a producer whose full mesh does not decode to the mesh
-/// it announced (the receiver's `hash-mismatch` or `bad-mesh`). A wrong answer counts as a
-/// failed update.
+/// Finds the disagreements an update's outcome shows, for `arbitrate` to settle: a
+/// receiver that answers another mesh than the announced one (a failed update), one that
+/// finds the producer's full mesh is not the announced one (`hash-mismatch`, `bad-mesh`),
+/// and one whose replay or edit log reached another mesh before it took the full mesh.
 fn judge(
     outcome: Result<Updated, ClientError>,
     announced: &str,
-    receiver: &HostEntry,
-    producer: &HostEntry,
+    receiver: &Arc<HostEntry>,
+    producer: &Arc<HostEntry>,
+    step: usize,
+    disputes: &Disputes,
 ) -> Result<Updated, ClientError> {
+    let dispute = |hash: Option<String>, message: String, position: Position| Dispute {
+        step,
+        producer: producer.clone(),
+        receiver: receiver.clone(),
+        announced: announced.to_owned(),
+        claim: HashClaim { host: receiver.url.clone(), role: "received".into(), hash, message },
+        position,
+    };
     match outcome {
         Ok(updated) => match super::verify::updated(&updated, announced) {
-            Ok(()) => Ok(updated),
+            Ok(()) => {
+                if let Some(fallback) = updated.fallback.as_deref().filter(|f| other_result(f)) {
+                    let message = format!("took the full mesh: {fallback}");
+                    tracing::warn!(host = %receiver.url, "step {step}: {message}");
+                    let found = dispute(None, message, Position::Neutral);
+                    disputes.lock().unwrap().push(found);
+                }
+                Ok(updated)
+            }
             Err(claim) => {
-                receiver.mark_suspect(format!("suspect: {claim}"));
+                let position = Position::Is(updated.hash.clone());
+                let found = dispute(Some(updated.hash.clone()), claim.to_string(), position);
+                disputes.lock().unwrap().push(found);
                 Err(ClientError::Protocol { url: receiver.url.clone(), message: claim.to_string() })
             }
         },
         Err(ClientError::Refused { ref code, ref message, .. })
             if code == "hash-mismatch" || code == "bad-mesh" =>
         {
-            let why =
-                format!("suspect: {} found its mesh {announced} wrong: {message}", receiver.url);
-            tracing::warn!(host = %producer.url, "{why}");
-            producer.mark_suspect(why);
+            tracing::warn!(host = %producer.url, "{} found mesh {announced} wrong", receiver.url);
+            let position = Position::IsNot(announced.to_owned());
+            let found = dispute(None, format!("{code}: {message}"), position);
+            disputes.lock().unwrap().push(found);
             outcome
         }
         Err(error) => Err(error),
     }
+}
+
+/// Whether a receiver's fallback says the producer's edit log or replay reached another
+/// mesh than announced (the host's `ResultMismatch`, `OtherResult` and `Diverged`).
+fn other_result(fallback: &str) -> bool {
+    ["gave mesh", "gives mesh", "reached mesh"].iter().any(|words| fallback.contains(words))
 }
 
 /// What an update's answer tells the cost model: the link's speed (a full mesh or a large
@@ -203,34 +250,43 @@ mod tests {
     use super::*;
 
     #[tokio::test]
-    async fn a_receiver_answering_another_mesh_or_finding_the_producers_wrong_is_believed_so() {
+    async fn a_receiver_answering_another_mesh_or_finding_the_producers_wrong_disagrees() {
         let dir = tempfile::tempdir().unwrap();
         let (registry, _) = crate::registry::test_registry(dir.path());
         let receiver = registry.register("http://127.0.0.1:9/receiver").await.unwrap();
         let producer = registry.register("http://127.0.0.1:9/producer").await.unwrap();
         let (announced, other) = ("a".repeat(64), "b".repeat(64));
-        let updated = |hash: &str| Updated {
+        let updated = |hash: &str, fallback: Option<&str>| Updated {
             hash: hash.to_owned(),
             via: Use::Correction,
             bytes: 1,
             download_ms: 0.0,
             apply_ms: 0.0,
-            fallback: None,
+            fallback: fallback.map(str::to_owned),
         };
-        assert!(judge(Ok(updated(&announced)), &announced, &receiver, &producer).is_ok());
-        assert!(!receiver.is_suspect() && !producer.is_suspect());
-        // Another mesh than announced: the receiver's answer cannot be true.
-        assert!(judge(Ok(updated(&other)), &announced, &receiver, &producer).is_err());
-        assert!(receiver.suspicion().unwrap().contains(&other));
-        assert!(!producer.is_suspect());
-        // The producer's full mesh is not what it announced: the producer is suspect.
+        let disputes = Disputes::default();
+        let judged = |outcome| judge(outcome, &announced, &receiver, &producer, 3, &disputes);
+        assert!(judged(Ok(updated(&announced, None))).is_ok());
+        assert!(disputes.lock().unwrap().is_empty());
+        // Another mesh than announced: a failed update, and a disagreement.
+        assert!(judged(Ok(updated(&other, None))).is_err());
+        // The producer's full mesh is not what it announced.
         let refused = ClientError::Refused {
             url: receiver.url.clone(),
             status: 422,
             code: "hash-mismatch".into(),
             message: "the mesh has content hash …".into(),
         };
-        assert!(judge(Err(refused), &announced, &receiver, &producer).is_err());
-        assert!(producer.suspicion().unwrap().contains(&receiver.url));
+        assert!(judged(Err(refused)).is_err());
+        // The edit log reached another mesh; the full mesh was the announced one.
+        let fell_back = "correction: replaying the correction gave mesh b, not the expected a";
+        assert!(judged(Ok(updated(&announced, Some(fell_back)))).is_ok());
+        let found = disputes.lock().unwrap();
+        let positions: Vec<bool> = found.iter().map(|d| d.position == Position::Neutral).collect();
+        assert_eq!(positions, [false, false, true]);
+        assert_eq!(found[0].claim.hash.as_deref(), Some(other.as_str()));
+        assert!(found.iter().all(|d| d.step == 3 && d.announced == announced));
+        // Nobody is suspect until a third host has replayed the step.
+        assert!(!receiver.is_suspect() && !producer.is_suspect());
     }
 }

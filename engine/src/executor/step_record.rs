@@ -101,6 +101,9 @@ impl Ran<'_> {
             report: answer.report.to_owned(),
             failed_hosts: self.failed.iter().map(|h| h.url.clone()).collect(),
             transfers: Vec::new(),
+            claims: Vec::new(),
+            verdict: None,
+            verified_by: Vec::new(),
         }
     }
 }

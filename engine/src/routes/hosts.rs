@@ -7,7 +7,7 @@ use axum::extract::State;
 use axum::extract::rejection::BytesRejection;
 use axum::http::StatusCode;
 use axum::{Json, body::Bytes};
-use meshflow_api::engine::{HostInfo, RegisterHost, ServiceOffer};
+use meshflow_api::engine::{HostInfo, RegisterHost, ServiceOffer, SetTrust};
 
 use super::error::{ApiError, ApiResult, rejected};
 use crate::engine::Engine;
@@ -23,6 +23,34 @@ pub async fn register(
     })?;
     let host = engine.registry.register(&registration.url).await?;
     Ok((StatusCode::CREATED, Json(host_info(&host))))
+}
+
+/// `PATCH /hosts {"url", "trust"}`: an admin sets how far a registered host is trusted.
+pub async fn set_trust(
+    State(engine): State<Arc<Engine>>,
+    axum::Extension(user): axum::Extension<crate::users::User>,
+    body: Result<Bytes, BytesRejection>,
+) -> ApiResult<Json<HostInfo>> {
+    if !user.is_admin() {
+        let message = "setting a host's trust needs the admin role";
+        return Err(ApiError::new(StatusCode::FORBIDDEN, "forbidden", message));
+    }
+    let body = body.map_err(rejected)?;
+    let request: SetTrust = serde_json::from_slice(&body).map_err(|e| {
+        ApiError::bad_request("bad-request", format!("expected {{\"url\", \"trust\"}}: {e}"))
+    })?;
+    let trust = crate::trust::Trust::parse(&request.trust).ok_or_else(|| {
+        ApiError::bad_request(
+            "bad-request",
+            "trust is one of trusted, spot-check, untrusted".to_owned(),
+        )
+    })?;
+    let host = engine.registry.host(&request.url).ok_or_else(|| {
+        ApiError::new(StatusCode::NOT_FOUND, "not-found", "no host is registered at that URL")
+    })?;
+    host.set_trust(trust);
+    tracing::info!(host = %host.url, user = %user.name, "trust set to {}", trust.name());
+    Ok(Json(host_info(&host)))
 }
 
 pub async fn list(State(engine): State<Arc<Engine>>) -> Json<Vec<HostInfo>> {
@@ -43,5 +71,6 @@ fn host_info(host: &HostEntry) -> HostInfo {
         last_error: state.last_error.clone(),
         services: state.services.iter().map(|s| s.info.name.clone()).collect(),
         suspect: host.suspicion(),
+        trust: host.trust().name().to_owned(),
     }
 }

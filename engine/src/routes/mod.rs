@@ -37,7 +37,10 @@ pub fn router(engine: Arc<Engine>) -> Router {
         .route("/metrics", get(ops::metrics))
         .route(
             "/hosts",
-            get(hosts::list).post(hosts::register).layer(DefaultBodyLimit::max(MAX_REGISTER_BYTES)),
+            get(hosts::list)
+                .post(hosts::register)
+                .patch(hosts::set_trust)
+                .layer(DefaultBodyLimit::max(MAX_REGISTER_BYTES)),
         )
         .route("/services", get(hosts::services))
         .route("/me", get(|Extension(user): Extension<User>| async move { Json(user) }))
