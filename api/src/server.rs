@@ -23,9 +23,11 @@ use tower_http::timeout::RequestBodyTimeout;
 use crate::host::{ErrorBody, ErrorDetail};
 
 mod browser;
+mod json_errors;
 mod scrape;
 mod tls;
 pub use browser::{BrowserGuard, guard as browser_guard};
+pub use json_errors::json_errors;
 pub use scrape::may_scrape;
 pub use tls::TlsFiles;
 

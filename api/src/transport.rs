@@ -260,6 +260,19 @@ async fn fetch_following(
     scope: &FetchScope,
     limit: u64,
 ) -> Result<Vec<u8>, ClientError> {
+    let (response, shown) = fetch_response(http, url, scope).await?;
+    read_capped(response, &shown, limit).await
+}
+
+/// The successful answer to a GET of `url` within `scope`, redirects followed and each
+/// checked (see [`fetch`]), with the URL it came from as errors quote it; its body is
+/// the caller's to read (and to cap: the announced length is not checked here). No
+/// overall deadline: the caller sets one.
+pub async fn fetch_response(
+    http: &reqwest::Client,
+    url: &str,
+    scope: &FetchScope,
+) -> Result<(Response, String), ClientError> {
     let mut next = reqwest::Url::parse(url).map_err(|_| Refusal::NotAUrl(quoted(url)))?;
     for _ in 0..=MAX_REDIRECTS {
         scope.allowed.check(&next)?;
@@ -284,7 +297,7 @@ async fn fetch_following(
             let message = format!("the server answered {status}");
             return Err(status_error(&shown, status, code_of(status), message));
         }
-        return read_capped(response, &shown, limit).await;
+        return Ok((response, shown));
     }
     Err(ClientError::Protocol {
         url: quoted(url),

@@ -78,6 +78,23 @@ impl BlobStore {
         Ok(Stored { _gate: gate })
     }
 
+    /// [`BlobStore::put`] for a download spooled into the blobs folder: the file is renamed
+    /// into place (a blob already present is kept and the file deleted), not written again.
+    pub async fn adopt(
+        &self,
+        name: &str,
+        file: tempfile::TempPath,
+    ) -> Result<Stored<'_>, BlobError> {
+        let gate = self.gate.read().await;
+        let path = self.path(name);
+        let failed =
+            |e: std::io::Error| BlobError::Store { name: name.to_owned(), message: e.to_string() };
+        if !path.exists() {
+            file.persist(&path).map_err(|e| failed(e.error))?;
+        }
+        Ok(Stored { _gate: gate })
+    }
+
     pub async fn read(&self, name: &str) -> Result<Vec<u8>, BlobError> {
         tokio::fs::read(self.path(name))
             .await

@@ -14,6 +14,12 @@ pub const DOWNLOAD_CONNECT_TIMEOUT: Duration = Duration::from_secs(10);
 /// The whole of a download, redirects included: a source that drips just fast enough to
 /// beat the read timeout still ends here.
 pub const DOWNLOAD_TIMEOUT: Duration = Duration::from_secs(600);
+/// A download (spooled to a file) slower than this many bytes per second over a whole
+/// [`SLOW_DOWNLOAD_WINDOW`] is cut: a source that drips holds no slot for long.
+pub const MIN_DOWNLOAD_RATE: u64 = 16 << 10;
+pub const SLOW_DOWNLOAD_WINDOW: Duration = Duration::from_secs(30);
+/// What a download holds in memory on its way to its file.
+pub const DOWNLOAD_BUFFER_BYTES: usize = 256 << 10;
 /// Longest URL a session or update may name.
 pub const MAX_URL_CHARS: usize = 4096;
 /// Sessions untouched for this long are deleted.

@@ -7,7 +7,6 @@ use std::sync::Arc;
 
 use tokio::sync::Semaphore;
 
-use meshflow_api::ClientError;
 use meshflow_api::fetch_rules::FetchScope;
 use meshflow_api::host::MeshFileFormat;
 use meshflow_api::raw_mesh;
@@ -28,7 +27,7 @@ pub enum ConvertError {
     #[error("this host holds no mesh with content hash {0}")]
     NotHeld(String),
     #[error("fetching the mesh: {0}")]
-    Download(#[source] ClientError),
+    Download(#[source] crate::spool::SpoolError),
     #[error("fetching the mesh: {0}")]
     Decode(#[source] MeshError),
     #[error("the mesh from {url} has content hash {actual}, not {expected}")]

@@ -10,6 +10,9 @@ use meshflow_api::fetch_rules::{
     FetchScope, OriginError, Origins, Refusal, check_origin, guarded_client, origin, quoted,
 };
 use prometheus_client::metrics::counter::Counter;
+use tokio_util::sync::CancellationToken;
+
+use crate::spool::{self, SpoolError, Spooled};
 
 /// A request named a peer that is not an origin.
 #[derive(Debug, thiserror::Error)]
@@ -38,6 +41,8 @@ pub struct Downloads {
     /// [`Downloads::scope`]).
     base: FetchScope,
     max_bytes: u64,
+    /// Where downloads are spooled (the blobs folder: a finished one is renamed into a blob).
+    spool_dir: std::path::PathBuf,
     /// Bytes downloaded, for `/metrics`.
     downloaded: Counter,
 }
@@ -50,7 +55,8 @@ impl Downloads {
             .build()?;
         let base = base_scope(config, public_url)?;
         let downloaded = Counter::default();
-        Ok(Self { http, base, max_bytes: config.max_download_bytes, downloaded })
+        let spool_dir = config.data_dir.join("blobs");
+        Ok(Self { http, base, max_bytes: config.max_download_bytes, spool_dir, downloaded })
     }
 
     /// The client downloads go through (also the engine registration's).
@@ -82,12 +88,42 @@ impl Downloads {
         Ok(url.into())
     }
 
-    /// Downloads `url` within `scope`, held to the size cap and the download deadlines.
-    pub async fn get(&self, url: &str, scope: &FetchScope) -> Result<Vec<u8>, ClientError> {
-        let bytes =
-            meshflow_api::fetch(&self.http, url, scope, self.max_bytes, DOWNLOAD_TIMEOUT).await?;
-        self.downloaded.inc_by(bytes.len() as u64);
-        Ok(bytes)
+    /// Downloads `url` within `scope` into memory, by way of a file ([`Downloads::spool`]):
+    /// only the bytes read back are held, once.
+    pub async fn get(&self, url: &str, scope: &FetchScope) -> Result<Vec<u8>, SpoolError> {
+        let spooled = self.spool(url, scope, &CancellationToken::new()).await?;
+        let io = |source| SpoolError::Io { url: quoted(url), source };
+        spooled.read().await.map_err(io)
+    }
+
+    /// Streams `url` within `scope` to a temporary file, hashed as it comes, held to the size
+    /// cap, the download deadlines and the floor rate; `cancel` (a session's) stops it at once
+    /// and closes the connection.
+    pub async fn spool(
+        &self,
+        url: &str,
+        scope: &FetchScope,
+        cancel: &CancellationToken,
+    ) -> Result<Spooled, SpoolError> {
+        let fetched = async {
+            let (response, shown) = meshflow_api::fetch_response(&self.http, url, scope).await?;
+            spool::spool(response, &shown, &self.spool_dir, self.max_bytes, cancel).await
+        };
+        let cancelled = || SpoolError::Cancelled { url: quoted(url) };
+        let spooled = tokio::select! {
+            () = cancel.cancelled() => Err(cancelled()),
+            done = tokio::time::timeout(DOWNLOAD_TIMEOUT, fetched) => done.unwrap_or_else(|_| {
+                Err(SpoolError::Fetch(ClientError::Timeout {
+                    url: quoted(url),
+                    message: format!(
+                        "the download took longer than {} s",
+                        DOWNLOAD_TIMEOUT.as_secs()
+                    ),
+                }))
+            }),
+        }?;
+        self.downloaded.inc_by(spooled.bytes);
+        Ok(spooled)
     }
 
     /// The counter of bytes downloaded (shared: a clone counts into the same total).

@@ -29,6 +29,7 @@ mod rebuild;
 pub mod replay;
 mod routes;
 mod sessions;
+mod spool;
 mod state;
 mod steps;
 

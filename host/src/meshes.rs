@@ -146,13 +146,12 @@ pub async fn hashed(mesh: MeshData) -> Result<CurrentMesh, tokio::task::JoinErro
 }
 
 /// The blob a mesh's bytes are kept as: a packed mesh under its content hash (so it is the
-/// full mesh other hosts ask for), a file under the BLAKE3 of its bytes.
-pub fn blob_name(bytes: &[u8], encoding: MeshEncoding, content_hash: &str) -> String {
+/// full mesh other hosts ask for), a file under `digest`, the BLAKE3 of its bytes (taken as
+/// they were downloaded).
+pub fn blob_name(digest: &blake3::Hash, encoding: MeshEncoding, content_hash: &str) -> String {
     match encoding {
         MeshEncoding::Packed => full_mesh_name(content_hash),
-        MeshEncoding::File(format) => {
-            format!("{}.{}", blake3::hash(bytes).to_hex(), format.extension())
-        }
+        MeshEncoding::File(format) => format!("{}.{}", digest.to_hex(), format.extension()),
     }
 }
 

@@ -4,7 +4,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use meshflow_api::ClientError;
+use meshflow_api::fetch_rules::quoted;
 use meshflow_api::host::{GridSpec, millis};
 use meshflow_codec::correction::{self, CorrectionError};
 use meshflow_codec::quantize::{self, Grid, QuantizeError};
@@ -16,6 +16,7 @@ use super::downloads::PeersError;
 use super::meshes::{self, CORRECTION, CurrentMesh, MeshEncoding, MeshError, REPLAY, hashed};
 use super::replay::{PluginSource, ReplayFailure};
 use super::sessions::{LoadTimes, SessionError, SessionRecord};
+use super::spool::SpoolError;
 use super::state::Host;
 
 /// Why a session's mesh could not be loaded; the session fails with this message.
@@ -24,7 +25,7 @@ pub enum RebuildError {
     #[error(transparent)]
     Peers(#[from] PeersError),
     #[error(transparent)]
-    Download(#[from] ClientError),
+    Download(#[from] SpoolError),
     #[error(transparent)]
     Blob(#[from] BlobError),
     #[error(transparent)]
@@ -67,7 +68,8 @@ pub fn start(host: &Arc<Host>, id: String, record: SessionRecord) -> Result<(), 
 
 /// Loads session `id` from its record; on failure the session is failed with the reason.
 pub async fn load(host: Arc<Host>, id: String, record: SessionRecord) {
-    match build(&host, &record).await {
+    let cancel = host.sessions.cancel_token(&id);
+    match build(&host, &record, &cancel).await {
         // The new input blob stays safe from eviction until the session record names it.
         Ok((input, current, grid, times, _stored)) => {
             host.sessions.loaded(&id, input, current, grid, times)
@@ -78,7 +80,11 @@ pub async fn load(host: Arc<Host>, id: String, record: SessionRecord) {
 
 type Built<'a> = (String, CurrentMesh, Option<Grid>, LoadTimes, Option<Stored<'a>>);
 
-async fn build<'a>(host: &'a Host, record: &SessionRecord) -> Result<Built<'a>, RebuildError> {
+async fn build<'a>(
+    host: &'a Host,
+    record: &SessionRecord,
+    cancel: &tokio_util::sync::CancellationToken,
+) -> Result<Built<'a>, RebuildError> {
     let (input, mut current, times, stored) = match &record.input {
         Some(name) => {
             let mesh = read_mesh_blob(host, name).await?;
@@ -86,7 +92,7 @@ async fn build<'a>(host: &'a Host, record: &SessionRecord) -> Result<Built<'a>, 
             (name.clone(), current, LoadTimes::default(), None)
         }
         None => {
-            let (name, current, times, stored) = download_input(host, record).await?;
+            let (name, current, times, stored) = download_input(host, record, cancel).await?;
             (name, current, times, Some(stored))
         }
     };
@@ -142,22 +148,27 @@ async fn on_grid(mut mesh: MeshData, spec: GridSpec) -> Result<(MeshData, Grid),
 async fn download_input<'a>(
     host: &'a Host,
     record: &SessionRecord,
+    cancel: &tokio_util::sync::CancellationToken,
 ) -> Result<(String, CurrentMesh, LoadTimes, Stored<'a>), RebuildError> {
     let started = Instant::now();
     let scope = host.downloads.scope(&record.peers)?;
-    let bytes = host.downloads.get(&record.input_url, &scope).await?;
+    // On disk as it comes; read back once to parse, and kept as the blob by renaming.
+    let spooled = host.downloads.spool(&record.input_url, &scope, cancel).await?;
     let download_ms = millis(started.elapsed());
-    let input_bytes = bytes.len() as u64;
+    let input_bytes = spooled.bytes;
+    let url = quoted(&record.input_url);
+    let bytes = spooled.read().await.map_err(|source| SpoolError::Io { url, source })?;
     let decoded = meshes::decode_hashed(&record.input_url, bytes).await?;
-    let (current, bytes, encoding) = (decoded.mesh, decoded.bytes, decoded.encoding);
+    let (current, encoding) = (decoded.mesh, decoded.encoding);
+    drop(decoded.bytes);
     let hash = &current.hash;
     // On a grid, the expected hash is the snapped mesh's: checked once it is snapped.
     if record.grid.is_none() {
         expect_hash(record, hash)?;
     }
     let load_ms = millis(started.elapsed()) - download_ms;
-    let name = meshes::blob_name(&bytes, encoding, hash);
-    let stored = host.blobs.put(&name, Arc::new(bytes)).await?;
+    let name = meshes::blob_name(&spooled.digest, encoding, hash);
+    let stored = host.blobs.adopt(&name, spooled.path).await?;
     let times = LoadTimes {
         download_ms: Some(download_ms),
         load_ms: Some(load_ms),

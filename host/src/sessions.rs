@@ -15,6 +15,7 @@ use meshflow_mesh::MeshData;
 use meshflow_meshio as io;
 
 use super::meshes::CurrentMesh;
+use tokio_util::sync::CancellationToken;
 
 /// Why a session cannot be used or saved.
 #[derive(Debug, thiserror::Error)]
@@ -69,6 +70,8 @@ struct Session {
     times: LoadTimes,
     record: SessionRecord,
     last_used: Instant,
+    /// Cancelled when the session is deleted: its downloads stop at once.
+    cancel: CancellationToken,
 }
 
 pub struct Sessions {
@@ -102,8 +105,11 @@ impl Sessions {
             times: LoadTimes::default(),
             record,
             last_used: Instant::now(),
+            cancel: CancellationToken::new(),
         };
-        self.table().insert(id.to_owned(), session);
+        if let Some(replaced) = self.table().insert(id.to_owned(), session) {
+            replaced.cancel.cancel();
+        }
         Ok(())
     }
 
@@ -222,12 +228,27 @@ impl Sessions {
         session.last_used = Instant::now();
         let current = session.current.clone().expect("a ready session has a mesh");
         let grid = session.grid;
-        Ok(BusyGuard { sessions: self, id: id.to_owned(), current, grid, done: false })
+        let cancel = session.cancel.clone();
+        Ok(BusyGuard { sessions: self, id: id.to_owned(), current, grid, cancel, done: false })
     }
 
+    /// The token a session's downloads stop on; an already cancelled one for a session
+    /// that is gone.
+    pub fn cancel_token(&self, id: &str) -> CancellationToken {
+        match self.table().get(id) {
+            Some(session) => session.cancel.clone(),
+            None => {
+                let gone = CancellationToken::new();
+                gone.cancel();
+                gone
+            }
+        }
+    }
+
+    /// Deletes a session; its downloads stop at once.
     pub fn remove(&self, id: &str) -> bool {
         // Only ids of the table reach the file system: a request's id is never a path.
-        let removed = self.table().remove(id).is_some();
+        let removed = self.table().remove(id).inspect(|s| s.cancel.cancel()).is_some();
         if removed {
             let _ = std::fs::remove_file(self.record_path(id));
             self.changed.notify_waiters();
@@ -292,6 +313,8 @@ pub struct BusyGuard<'a> {
     id: String,
     pub current: CurrentMesh,
     pub grid: Option<Grid>,
+    /// The session's: cancelled if it is deleted meanwhile.
+    pub cancel: CancellationToken,
     done: bool,
 }
 

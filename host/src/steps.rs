@@ -6,7 +6,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use meshflow_api::ClientError;
+use meshflow_api::fetch_rules::quoted;
 use meshflow_api::fetch_rules::{FetchScope, origin};
 use meshflow_api::host::{
     BlobRef, CheckResult, FilterResult, FullRef, RunRequest, RunResult, Transfer, Update, Updated,
@@ -26,6 +26,7 @@ use crate::meshes::{self, CurrentMesh, MeshError};
 use crate::plugins::PluginSetError;
 use crate::replay::{self, NameError, PluginSource, ReplayFailure};
 use crate::sessions::SessionError;
+use crate::spool::SpoolError;
 use crate::state::Host;
 
 /// Why a step was not taken or run; the session's mesh is then unchanged.
@@ -43,7 +44,7 @@ pub enum StepError {
     Run(#[from] RunError),
     /// The full mesh could not be downloaded.
     #[error(transparent)]
-    Download(#[from] ClientError),
+    Download(#[from] SpoolError),
     /// The full mesh is not a mesh.
     #[error(transparent)]
     Mesh(#[from] MeshError),
@@ -66,7 +67,7 @@ pub enum StepError {
 #[derive(Debug, thiserror::Error)]
 pub enum TransferFailure {
     #[error(transparent)]
-    Download(#[from] ClientError),
+    Download(#[from] SpoolError),
     #[error(transparent)]
     Replay(#[from] ReplayFailure),
     #[error("{0:?} is not a content hash")]
@@ -111,8 +112,9 @@ pub async fn update(
             reasons.push(format!("no {} was given", via.name()));
             continue;
         };
-        let (base, grid) = (&session.current, session.grid);
-        let attempt = apply_step(host, &scope, base, grid, blob, via, &update.full.hash).await;
+        let (base, grid, cancel) = (&session.current, session.grid, &session.cancel);
+        let target = (blob, via, update.full.hash.as_str());
+        let attempt = apply_step(host, &scope, base, grid, target, cancel).await;
         downloaded += attempt.bytes;
         download_ms += attempt.download_ms;
         match attempt.result {
@@ -137,12 +139,16 @@ pub async fn update(
     }
     let url = &update.full.url;
     let started = Instant::now();
-    let bytes = host.downloads.get(url, &scope).await?;
+    // On disk as it comes; read back once to parse, and kept as the blob by renaming.
+    let spooled = host.downloads.spool(url, &scope, &session.cancel).await?;
     download_ms += millis(started.elapsed());
-    downloaded += bytes.len() as u64;
+    downloaded += spooled.bytes;
     let started = Instant::now();
+    let io = |source| SpoolError::Io { url: quoted(url), source };
+    let bytes = spooled.read().await.map_err(io)?;
     let decoded = meshes::decode_hashed(url, bytes).await?;
-    let (next, bytes, encoding) = (decoded.mesh, decoded.bytes, decoded.encoding);
+    let (next, encoding) = (decoded.mesh, decoded.encoding);
+    drop(decoded.bytes);
     if !next.hash.eq_ignore_ascii_case(&update.full.hash) {
         return Err(StepError::HashMismatch {
             url: url.clone(),
@@ -150,8 +156,8 @@ pub async fn update(
             expected: update.full.hash,
         });
     }
-    let name = meshes::blob_name(&bytes, encoding, &next.hash);
-    let stored = host.blobs.put(&name, Arc::new(bytes)).await?;
+    let name = meshes::blob_name(&spooled.digest, encoding, &next.hash);
+    let stored = host.blobs.adopt(&name, spooled.path).await?;
     let updated = Updated {
         hash: next.hash.clone(),
         via: Transfer::Full,
@@ -186,22 +192,27 @@ async fn apply_step<'a>(
     scope: &FetchScope,
     base: &CurrentMesh,
     grid: Option<Grid>,
-    blob: &BlobRef,
-    via: Transfer,
-    expected: &str,
+    (blob, via, expected): (&BlobRef, Transfer, &str),
+    cancel: &tokio_util::sync::CancellationToken,
 ) -> Attempt<'a> {
     let started = Instant::now();
-    let downloaded = host.downloads.get(&blob.url, scope).await;
+    let downloaded = match host.downloads.spool(&blob.url, scope, cancel).await {
+        Ok(spooled) => match spooled.read().await {
+            Ok(bytes) => Ok((spooled, bytes)),
+            Err(source) => Err(SpoolError::Io { url: quoted(&blob.url), source }),
+        },
+        Err(error) => Err(error),
+    };
     let download_ms = millis(started.elapsed());
-    let bytes = match downloaded {
-        // Shared from here on: applied, named and stored without another copy.
-        Ok(bytes) => Arc::new(bytes),
+    let (spooled, bytes) = match downloaded {
+        // Shared from here on: applied and named without another copy; stored by renaming.
+        Ok((spooled, bytes)) => (spooled, Arc::new(bytes)),
         Err(error) => {
             let result = Err(error.into());
             return Attempt { bytes: 0, download_ms, apply_ms: 0.0, result };
         }
     };
-    let size = bytes.len() as u64;
+    let size = spooled.bytes;
     let started = Instant::now();
     let (applied, name) = match via {
         Transfer::Replay => {
@@ -220,8 +231,9 @@ async fn apply_step<'a>(
         ),
     };
     let apply_ms = millis(started.elapsed());
+    drop(bytes);
     let result = match applied {
-        Ok(next) => match host.blobs.put(&name, bytes).await {
+        Ok(next) => match host.blobs.adopt(&name, spooled.path).await {
             Ok(stored) => Ok((next, name, stored)),
             Err(e) => Err(e.into()),
         },

@@ -7,10 +7,12 @@
 //! neither the wire nor the engine changes when the WIT does. This crate must not depend
 //! on wasmtime, wit-bindgen or any HTTP crate.
 
+mod clip;
 mod json;
 mod resolve;
 mod suggest;
 
+pub use clip::{MAX_ECHO_BYTES, clip};
 pub use json::{from_json, value_json};
 pub use resolve::{ParamError, describe_params, resolve, type_name, value_text};
 pub use suggest::{closest, did_you_mean};

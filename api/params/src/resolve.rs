@@ -27,10 +27,10 @@ pub fn resolve(
     for (i, (name, _)) in given.iter().enumerate() {
         if !info.params.iter().any(|p| &p.name == name) {
             let hint = crate::did_you_mean(name, info.params.iter().map(|p| p.name.as_str()));
-            return Err(fail(format!("unknown parameter `{name}`{hint}")));
+            return Err(fail(format!("unknown parameter `{}`{hint}", crate::clip(name))));
         }
         if given[..i].iter().any(|(earlier, _)| earlier == name) {
-            return Err(fail(format!("parameter `{name}` given twice")));
+            return Err(fail(format!("parameter `{}` given twice", crate::clip(name))));
         }
     }
     info.params
@@ -50,7 +50,7 @@ pub fn resolve(
 enum ValueError {
     #[error("parameter `{name}`: `{text}` is not {expected}")]
     Unparsed { name: String, text: String, expected: &'static str },
-    #[error("parameter `{name}` must be {expected}, got {given:?}")]
+    #[error("parameter `{name}` must be {expected}, got {}", crate::clip(&format!("{given:?}")))]
     WrongType { name: String, expected: &'static str, given: Value },
     #[error("parameter `{name}` = {value} is out of range {range}")]
     OutOfRange { name: String, value: f64, range: String },
@@ -71,7 +71,7 @@ fn coerce(spec: &ParamInfo, value: &Value) -> Result<Value, ValueError> {
         }
         (ty, Value::Text(text)) => parse(ty, text).ok_or_else(|| ValueError::Unparsed {
             name: name.clone(),
-            text: text.clone(),
+            text: crate::clip(text),
             expected: type_name(ty),
         })?,
         (ty, other) => {
@@ -122,7 +122,7 @@ fn check_bounds(spec: &ParamInfo, value: &Value) -> Result<(), ValueError> {
     {
         return Err(ValueError::NotAChoice {
             name: spec.name.clone(),
-            text: text.clone(),
+            text: crate::clip(text),
             choices: spec.choices.clone(),
         });
     }

@@ -11,6 +11,7 @@ use crate::downloads::{PeersError, UrlError};
 use crate::meshes::MeshError;
 use crate::plugins::PluginSetError;
 use crate::sessions::SessionError;
+use crate::spool::SpoolError;
 use crate::steps::StepError;
 use meshflow_api::ClientError;
 use meshflow_runtime::RunError;
@@ -158,11 +159,12 @@ impl From<PackOutputError> for ApiError {
 
 /// A download a request pointed to: a URL the fetch rules refuse is the request's fault
 /// (403); any other failure is the source's (502).
-fn download_failed(error: ClientError) -> ApiError {
+fn download_failed(error: SpoolError) -> ApiError {
     match error {
-        ClientError::NotAllowed(refusal) => {
+        SpoolError::Fetch(ClientError::NotAllowed(refusal)) => {
             ApiError::new(StatusCode::FORBIDDEN, "url-not-allowed", refusal.to_string())
         }
+        SpoolError::Cancelled { .. } => ApiError::conflict("cancelled", error.to_string()),
         _ => upstream(error.to_string()),
     }
 }

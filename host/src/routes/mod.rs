@@ -46,6 +46,8 @@ pub fn router(host: Arc<Host>) -> Router {
         .layer(axum::middleware::from_fn_with_state(host.clone(), auth::check))
         // Outermost: a page on another site is refused before any token is looked at.
         .layer(axum::middleware::from_fn_with_state(browser_guard(&host), guard))
+        // axum's own rejections (a body over its limit: 413) in the JSON envelope too.
+        .layer(axum::middleware::from_fn(meshflow_api::server::json_errors))
         .with_state(host)
 }
 
