@@ -5,8 +5,11 @@
 
 use std::sync::Arc;
 
+use crate::batch_drivers::{CANCELLED_ENTRY, Driver};
 use crate::engine::{Engine, SubmitError, new_run_id};
-use crate::limits::{BATCH_POLL, MAX_BATCH_INPUTS, MAX_BATCH_RUNS_AT_ONCE};
+use crate::limits::{
+    BATCH_POLL, CANCEL_WAIT, MAX_ACTIVE_BATCHES_PER_USER, MAX_BATCH_INPUTS, MAX_BATCH_RUNS_AT_ONCE,
+};
 use crate::record::{BatchEntry, BatchStatus, SubmitBatch, SummaryRow};
 use crate::store::{self, StoredBatch};
 use crate::users::User;
@@ -38,8 +41,13 @@ impl Engine {
                 BatchEntry { error: refused.err().map(|e| format!("input: {e}")), input, run: None }
             })
             .collect();
+        let id = new_batch_id();
+        let driver = self
+            .batch_drivers
+            .add(&id, user, MAX_ACTIVE_BATCHES_PER_USER)
+            .ok_or(SubmitError::TooManyBatches(MAX_ACTIVE_BATCHES_PER_USER))?;
         let batch = StoredBatch {
-            id: new_batch_id(),
+            id: id.clone(),
             user: user.to_owned(),
             workflow: workflow_json,
             concurrency: concurrency
@@ -48,9 +56,11 @@ impl Engine {
             entries,
         };
         let row = batch.clone();
-        self.store.call(move |c| store::insert_batch(c, &row)).await?;
-        let id = batch.id.clone();
-        tokio::spawn(drive(self.clone(), batch));
+        if let Err(error) = self.store.call(move |c| store::insert_batch(c, &row)).await {
+            self.batch_drivers.remove(&id);
+            return Err(error.into());
+        }
+        tokio::spawn(drive(self.clone(), batch, driver));
         let owner = User { name: user.to_owned(), role: crate::users::Role::User };
         Ok(self.batch(&id, &owner).await?.expect("the batch was just stored"))
     }
@@ -77,14 +87,23 @@ impl Engine {
                 self.row(name, entry, &mut finished)
             })
             .collect();
-        let status = if finished { "completed" } else { "running" };
+        let cancelled = batch.entries.iter().any(|e| e.error.as_deref() == Some(CANCELLED_ENTRY));
+        let status = match (finished, cancelled) {
+            (false, _) => "running",
+            (true, false) => "completed",
+            (true, true) => "cancelled",
+        };
         Ok(Some(BatchStatus { id: batch.id, status: status.into(), entries: batch.entries, rows }))
     }
 
     /// An input's row: its run's, or why it has none.
     fn row(&self, name: &str, entry: &BatchEntry, finished: &mut bool) -> SummaryRow {
         if let Some(error) = &entry.error {
-            return summary::failed_row(name, error.clone());
+            let mut row = summary::failed_row(name, error.clone());
+            if error == CANCELLED_ENTRY {
+                row.status = "cancelled".into();
+            }
+            return row;
         }
         let Some(run) = entry.run.as_ref().and_then(|id| self.run(id)) else {
             *finished &= entry.run.is_some();
@@ -105,7 +124,8 @@ impl Engine {
                 for batch in batches {
                     if batch.entries.iter().any(|e| e.run.is_none() && e.error.is_none()) {
                         tracing::info!("resuming batch {}", batch.id);
-                        tokio::spawn(drive(self.clone(), batch));
+                        let driver = self.batch_drivers.resume(&batch.id, &batch.user);
+                        tokio::spawn(drive(self.clone(), batch, driver));
                     }
                 }
             }
@@ -115,26 +135,39 @@ impl Engine {
 }
 
 /// Starts a run per input in order, keeping at most its concurrency going; a client
-/// over its run limit waits. Each start (or refusal) is stored before the next.
-async fn drive(engine: Arc<Engine>, batch: StoredBatch) {
+/// over its run limit waits. Each start (or refusal) is stored before the next. Cancelled,
+/// it starts no more (the inputs left are stored as [`CANCELLED_ENTRY`]) and cancels the
+/// runs going. It ends once every run has, so the batch counts against its user till then.
+async fn drive(engine: Arc<Engine>, batch: StoredBatch, driver: Driver) {
     let mut entries = batch.entries;
+    let stop = &driver.cancel;
     for index in 0..entries.len() {
         if entries[index].run.is_some() || entries[index].error.is_some() {
             continue;
         }
-        while going(&engine, &entries) >= batch.concurrency {
-            tokio::time::sleep(BATCH_POLL).await;
+        while !stop.is_cancelled() && going(&engine, &entries) >= batch.concurrency {
+            pause(stop).await;
         }
-        let input = Some(entries[index].input.clone());
         let outcome = loop {
-            match engine.submit(batch.workflow.clone(), input.clone(), &batch.user).await {
-                Err(SubmitError::Busy(_)) => tokio::time::sleep(BATCH_POLL).await,
-                other => break other,
+            if stop.is_cancelled() {
+                break None;
+            }
+            let input = Some(entries[index].input.clone());
+            match engine.submit(batch.workflow.clone(), input, &batch.user).await {
+                Err(SubmitError::Busy(_)) => pause(stop).await,
+                other => break Some(other),
             }
         };
         match outcome {
-            Ok(run) => entries[index].run = Some(run.id.clone()),
-            Err(error) => entries[index].error = Some(error.to_string()),
+            Some(Ok(run)) => {
+                // Cancelled while it was being started: it stops at once.
+                if stop.is_cancelled() {
+                    run.cancel();
+                }
+                entries[index].run = Some(run.id.clone())
+            }
+            Some(Err(error)) => entries[index].error = Some(error.to_string()),
+            None => entries[index].error = Some(CANCELLED_ENTRY.into()),
         }
         let (id, entry) = (batch.id.clone(), entries[index].clone());
         if let Err(error) =
@@ -142,6 +175,51 @@ async fn drive(engine: Arc<Engine>, batch: StoredBatch) {
         {
             tracing::error!("saving batch {}: {error}", batch.id);
         }
+    }
+    driver.done.cancel();
+    while !stop.is_cancelled() && going(&engine, &entries) > 0 {
+        pause(stop).await;
+    }
+    engine.batch_drivers.remove(&batch.id);
+}
+
+/// [`BATCH_POLL`], or less if the batch is cancelled meanwhile.
+async fn pause(stop: &tokio_util::sync::CancellationToken) {
+    tokio::select! {
+        () = tokio::time::sleep(BATCH_POLL) => {}
+        () = stop.cancelled() => {}
+    }
+}
+
+impl Engine {
+    /// `POST /batches/{id}/cancel`: no more of the batch's runs start and those going are
+    /// cancelled; the batch as it then stands (none for an unknown id or another user's).
+    pub async fn cancel_batch(
+        &self,
+        id: &str,
+        user: &User,
+    ) -> Result<Option<BatchStatus>, SubmitError> {
+        if self.batch(id, user).await?.is_none() {
+            return Ok(None);
+        }
+        if let Some(driver) = self.batch_drivers.get(id) {
+            driver.cancel.cancel();
+            // Its inputs not started are stored as cancelled before it says it is done.
+            let _ = tokio::time::timeout(CANCEL_WAIT, driver.done.cancelled()).await;
+        }
+        let only = id.to_owned();
+        let found = self.store.call(move |c| store::load_batches(c, Some(&only))).await?.pop();
+        let runs: Vec<_> = found
+            .iter()
+            .flat_map(|batch| &batch.entries)
+            .filter_map(|entry| entry.run.as_ref().and_then(|run| self.run(run)))
+            .filter(|run| !run.is_finished())
+            .collect();
+        runs.iter().for_each(|run| run.cancel());
+        for run in &runs {
+            crate::routes::ended(run).await;
+        }
+        self.batch(id, user).await
     }
 }
 

@@ -45,6 +45,8 @@ pub struct Engine {
     pub(crate) access: Access,
     /// Who may use the API, by token (`--users`, `--api-token`).
     pub(crate) users: Users,
+    /// The batches being driven, to cancel and count them.
+    pub(crate) batch_drivers: crate::batch_drivers::Drivers,
 }
 
 /// Kept runs by id, in the order they were submitted.
@@ -61,7 +63,7 @@ pub enum SubmitError {
     Invalid(#[from] WorkflowError),
     #[error("the workflow has no input: give \"input\" in the workflow or with the request")]
     NoInput,
-    #[error("input: {0}")]
+    #[error("input: {0}{}", allow_hint(.0))]
     InputRefused(#[from] meshflow_api::fetch_rules::Refusal),
     #[error(transparent)]
     Busy(#[from] admission::Busy),
@@ -72,6 +74,20 @@ pub enum SubmitError {
     /// Another user's upload: answered as if it did not exist.
     #[error("no input \"{0}\"")]
     NotYourInput(String),
+    #[error("at most {0} batches of one user may be going at once: wait for one to end")]
+    TooManyBatches(usize),
+}
+
+/// What to do about an input from an origin the engine does not fetch from.
+fn allow_hint(refusal: &meshflow_api::fetch_rules::Refusal) -> &'static str {
+    match refusal {
+        meshflow_api::fetch_rules::Refusal::Origin(_) => {
+            " (inputs come from uploads, registered hosts and the origins the engine was \
+             started with --allow-input-from; upload the file, or start the engine and its \
+             hosts with --allow-input-from <origin>)"
+        }
+        _ => "",
+    }
 }
 
 impl Engine {
@@ -99,6 +115,7 @@ impl Engine {
             public_url,
             access: config.access,
             users,
+            batch_drivers: Default::default(),
         });
         let mut unfinished = Vec::new();
         for stored in stored {

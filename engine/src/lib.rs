@@ -12,6 +12,7 @@
 
 mod admission;
 pub mod auth;
+mod batch_drivers;
 mod batches;
 pub mod downloads;
 mod engine;

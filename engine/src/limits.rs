@@ -25,6 +25,10 @@ pub const MAX_STEPS_PER_RUN: usize = 20_000;
 /// 429.
 pub const MAX_ACTIVE_RUNS_PER_CLIENT: usize = 8;
 pub const MAX_QUEUED_RUNS_PER_CLIENT: usize = 64;
+/// Batches of one user not yet finished; `POST /batches` beyond it answers 429.
+pub const MAX_ACTIVE_BATCHES_PER_USER: usize = 16;
+/// How long `POST /runs/{id}/cancel` waits for the run to end, to answer its final status.
+pub const CANCEL_WAIT: Duration = Duration::from_secs(5);
 /// What a 429 asks the client to wait before trying again.
 pub const RETRY_AFTER: Duration = Duration::from_secs(5);
 

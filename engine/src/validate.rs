@@ -86,7 +86,8 @@ fn validate_task(
     let info = catalogue.describe(&task.service, task.plugin.as_deref()).ok_or_else(|| {
         let names = catalogue.names();
         let hint = did_you_mean(&task.service, names.iter().map(String::as_str));
-        WorkflowError::new(&task.path, format!("unknown service \"{}\"{hint}", task.service))
+        let service = meshflow_api::params::clip(&task.service);
+        WorkflowError::new(&task.path, format!("unknown service \"{service}\"{hint}"))
     })?;
     if info.kind != kind {
         let (is, wanted) = match kind {

@@ -1,4 +1,5 @@
-//! `POST /batches` (one workflow over many inputs) and `GET /batches/{id}`.
+//! `POST /batches` (one workflow over many inputs), `GET /batches/{id}` and
+//! `POST /batches/{id}/cancel`.
 
 use std::sync::Arc;
 
@@ -34,5 +35,16 @@ pub async fn status(
     Extension(user): Extension<User>,
 ) -> ApiResult<Json<BatchStatus>> {
     let batch = engine.batch(&id, &user).await?;
+    Ok(Json(batch.ok_or_else(|| not_found("batch", &id))?))
+}
+
+/// `POST /batches/{id}/cancel`: starts no more of its runs and cancels those going; the
+/// batch as it then stands (its inputs not started say `cancelled`).
+pub async fn cancel(
+    State(engine): State<Arc<Engine>>,
+    Path(id): Path<String>,
+    Extension(user): Extension<User>,
+) -> ApiResult<Json<BatchStatus>> {
+    let batch = engine.cancel_batch(&id, &user).await?;
     Ok(Json(batch.ok_or_else(|| not_found("batch", &id))?))
 }

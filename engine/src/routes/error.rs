@@ -54,6 +54,9 @@ impl From<SubmitError> for ApiError {
             SubmitError::NotYourInput(_) => {
                 Self::new(StatusCode::NOT_FOUND, "not-found", e.to_string())
             }
+            SubmitError::TooManyBatches(_) => {
+                Self::busy("too-many-batches", e.to_string(), RETRY_AFTER)
+            }
         }
     }
 }

@@ -14,6 +14,7 @@ mod inputs;
 mod ops;
 mod plugins;
 mod runs;
+pub(crate) use runs::ended;
 mod ui;
 mod workflows;
 
@@ -56,6 +57,7 @@ pub fn router(engine: Arc<Engine>) -> Router {
         .route("/runs/{id}/rerun", post(runs::rerun))
         .route("/batches", post(batches::submit).layer(DefaultBodyLimit::max(MAX_SUBMIT_BYTES)))
         .route("/batches/{id}", get(batches::status))
+        .route("/batches/{id}/cancel", post(batches::cancel))
         .route("/runs/{id}/comparison", get(runs::comparison))
         .route("/runs/{id}/events", get(events::stream))
         .route("/runs/{id}/workflow", get(runs::workflow))
@@ -72,5 +74,7 @@ pub fn router(engine: Arc<Engine>) -> Router {
         )
         .layer(axum::middleware::from_fn_with_state(engine.clone(), auth::check))
         .layer(axum::middleware::from_fn_with_state(browser::guard_of(&engine), browser::check))
+        // axum's own rejections (a path that does not parse: 400) in the JSON envelope too.
+        .layer(axum::middleware::from_fn(meshflow_api::server::json_errors))
         .with_state(engine)
 }

@@ -15,6 +15,7 @@ use serde_json::{Value, json};
 
 use super::error::{ApiError, ApiResult, not_found, rejected};
 use crate::engine::Engine;
+use crate::limits::CANCEL_WAIT;
 use crate::record::RunRecord;
 use crate::run::Run;
 use crate::users::User;
@@ -94,7 +95,7 @@ pub async fn comparison(
 }
 
 /// `POST /runs/{id}/cancel`: the run stops at once (a step running on a host is abandoned)
-/// and its host sessions are deleted.
+/// and its host sessions are deleted; the answer has its final status.
 pub async fn cancel(
     State(engine): State<Arc<Engine>>,
     Path(id): Path<String>,
@@ -106,7 +107,17 @@ pub async fn cancel(
         return Err(ApiError::conflict("finished", message));
     }
     run.cancel();
+    ended(&run).await;
     Ok((StatusCode::ACCEPTED, Json(summary(run.record()))))
+}
+
+/// Waits (at most [`CANCEL_WAIT`]) for a cancelled run's driver to end it, so the answer
+/// carries the final status (`cancelled`, or whatever it reached first), not `running`.
+pub(crate) async fn ended(run: &Run) {
+    let deadline = tokio::time::Instant::now() + CANCEL_WAIT;
+    while !run.is_finished() && tokio::time::Instant::now() < deadline {
+        tokio::time::sleep(std::time::Duration::from_millis(5)).await;
+    }
 }
 
 /// `GET /runs`: the user's runs (an admin's: everyone's), oldest first.
