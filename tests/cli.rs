@@ -640,6 +640,65 @@ fn up_prints_an_upload_token_and_its_hosts_on_fixed_ports_take_plugins() {
     assert!(String::from_utf8_lossy(&refused.stderr).contains("401"), "{refused:?}");
     let uploaded = upload(&token);
     assert!(uploaded.status.success(), "{}", String::from_utf8_lossy(&uploaded.stderr));
+    let digest = meshflow_runtime::digest(meshflow_builtin_plugins::fixture("hostile"));
+
+    // A publisher lists with the upload token and deletes by a pin's 12-digit prefix.
+    let plugin = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_meshflow"))
+            .arg("plugin")
+            .args(args)
+            .env("MESHFLOW_UPLOAD_TOKEN", &token)
+            .env_remove("MESHFLOW_CLUSTER_TOKEN")
+            .output()
+            .unwrap()
+    };
+    let listed = plugin(&["list", "--host", &expected[1]]);
+    assert!(listed.status.success(), "{}", String::from_utf8_lossy(&listed.stderr));
+    assert!(String::from_utf8_lossy(&listed.stdout).contains(&digest));
+    let deleted = plugin(&["delete", "--host", &expected[1], &digest[..12]]);
+    assert!(deleted.status.success(), "{}", String::from_utf8_lossy(&deleted.stderr));
+    assert_eq!(String::from_utf8_lossy(&deleted.stdout).trim(), format!("deleted {digest}"));
+
+    // Through the engine, a workflow pinned to the new plugin is accepted at once.
+    let engine = text
+        .lines()
+        .find_map(|l| l.strip_prefix("engine: "))
+        .map(|url| url.trim().to_owned())
+        .unwrap();
+    let api_token = text
+        .lines()
+        .find_map(|l| l.split_once("export MESHFLOW_API_TOKEN="))
+        .map(|(_, token)| token.trim().to_owned())
+        .unwrap();
+    let v2 = meshflow_builtin_plugins::fixture("smoothing-v2");
+    let v2_file = dir.path().join("v2.wasm");
+    std::fs::write(&v2_file, v2).unwrap();
+    let through_engine = Command::new(env!("CARGO_BIN_EXE_meshflow"))
+        .args(["plugin", "upload", "--replace", "--engine", &engine, "--host", &expected[0]])
+        .arg(&v2_file)
+        .env("MESHFLOW_UPLOAD_TOKEN", &token)
+        .env("MESHFLOW_API_TOKEN", &api_token)
+        .output()
+        .unwrap();
+    assert!(through_engine.status.success(), "{}", String::from_utf8_lossy(&through_engine.stderr));
+    let pinned = dir.path().join("pinned.json");
+    let v2_digest = meshflow_runtime::digest(v2);
+    let workflow = format!(
+        r#"{{"steps": [{{"run": "laplacian-smoothing", "plugin": "{}"}}]}}"#,
+        &v2_digest[..12]
+    );
+    std::fs::write(&pinned, workflow).unwrap();
+    let out = dir.path().join("out.ply");
+    let submitted = Command::new(env!("CARGO_BIN_EXE_meshflow"))
+        .args(["submit", "--engine", &engine])
+        .arg(&pinned)
+        .args(["--input", &bunny()])
+        .arg("-o")
+        .arg(&out)
+        .env("MESHFLOW_API_TOKEN", &api_token)
+        .output()
+        .unwrap();
+    assert!(submitted.status.success(), "{}", String::from_utf8_lossy(&submitted.stderr));
 }
 
 /// `run --plugin` puts a plugin on the embedded hosts: its service serves its name first,

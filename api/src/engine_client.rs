@@ -6,7 +6,8 @@ use crate::engine::{
     BatchStatus, Comparison, HostInfo, InputUploaded, RegisterHost, RerunRequest, RunRecord,
     RunSubmitted, RunSummary, ServiceOffer, SubmitBatch, SubmitRun,
 };
-use crate::transport::{ClientError, Endpoint, read_capped, send};
+use crate::host::UploadedPlugin;
+use crate::transport::{ClientError, Endpoint, WORK_TIMEOUT, read_capped, send};
 
 /// A client of one engine, e.g. `EngineClient::new("http://127.0.0.1:7000")`.
 #[derive(Clone, Debug)]
@@ -50,6 +51,26 @@ impl EngineClient {
     ) -> Result<InputUploaded, ClientError> {
         self.endpoint
             .json(Method::POST, "/inputs", |r| r.query(&[("name", name)]).body(bytes))
+            .await
+    }
+
+    /// Uploads a plugin component to the registered host `host` through the engine, which
+    /// learns its services at once; `upload_token` is that host's.
+    pub async fn upload_plugin(
+        &self,
+        host: &str,
+        wasm: Vec<u8>,
+        upload_token: &str,
+        replace: bool,
+    ) -> Result<UploadedPlugin, ClientError> {
+        let replace = if replace { "true" } else { "false" };
+        self.endpoint
+            .json(Method::POST, "/plugins", |r| {
+                r.query(&[("host", host), ("replace", replace)])
+                    .header("x-upload-token", upload_token)
+                    .timeout(WORK_TIMEOUT)
+                    .body(wasm)
+            })
             .await
     }
 
