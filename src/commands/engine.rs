@@ -49,6 +49,14 @@ pub struct EngineArgs {
     /// Listen on a non-loopback address without tokens (anyone reaching it can use it).
     #[arg(long)]
     insecure_no_auth: bool,
+    /// How far a host is trusted: `trusted` (default), `spot-check` (a share of its steps
+    /// replayed elsewhere) or `untrusted` (every result replayed before anyone builds on
+    /// it); kept in the database. Repeatable.
+    #[arg(long = "host-trust", value_name = "URL=LEVEL", value_parser = meshflow_engine::trust::parse_assignment)]
+    host_trust: Vec<(String, meshflow_engine::trust::Trust)>,
+    /// The share of a `spot-check` host's steps replayed on another host (0 to 1).
+    #[arg(long = "spot-check", value_name = "SHARE", default_value_t = meshflow_engine::trust::DEFAULT_SPOT_CHECK)]
+    spot_check: f64,
 }
 
 #[derive(Subcommand)]
@@ -93,6 +101,11 @@ pub fn run(args: EngineArgs) -> anyhow::Result<()> {
         let handle =
             meshflow_engine::start(args.data, args.public_url, &args.hosts, access, listener)
                 .await?;
+        let registry = &handle.engine.registry;
+        registry.set_spot_check_share(args.spot_check);
+        for (url, level) in &args.host_trust {
+            registry.set_trust(url, *level).await?;
+        }
         eprintln!("engine: {} (web UI at {0}/)", handle.url);
         tokio::select! {
             served = handle.wait() => served,
