@@ -63,7 +63,7 @@ pub enum SubmitError {
     Invalid(#[from] WorkflowError),
     #[error("the workflow has no input: give \"input\" in the workflow or with the request")]
     NoInput,
-    #[error("input: {0}{}", allow_hint(.0))]
+    #[error("input: {}{}", .0, allow_hint(.0))]
     InputRefused(#[from] meshflow_api::fetch_rules::Refusal),
     #[error(transparent)]
     Busy(#[from] admission::Busy),
