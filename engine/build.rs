@@ -8,7 +8,7 @@ use std::process::Command;
 
 /// What the bundle is made from; a change to any of these rebuilds it.
 const SOURCES: &[&str] =
-    &["src", "index.html", "package.json", "package-lock.json", "vite.config.js"];
+    &["src", "public", "index.html", "package.json", "package-lock.json", "vite.config.js"];
 
 fn main() {
     let web = PathBuf::from(env("CARGO_MANIFEST_DIR")).join("web");

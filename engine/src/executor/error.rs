@@ -8,13 +8,18 @@ use serde_json::Value as Json;
 use crate::limits::MAX_STEPS_PER_RUN;
 use crate::workflow::WorkflowError;
 
+/// A host's message without the input URL it starts with (the error names it once).
+fn without_url<'a>(message: &'a str, url: &str) -> &'a str {
+    message.strip_prefix(url).and_then(|rest| rest.strip_prefix(": ")).unwrap_or(message)
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum ExecError {
     /// No plan: some task's service is offered by no host.
     #[error(transparent)]
     Plan(#[from] WorkflowError),
     /// The input could not be loaded, for a reason of its own (not a host's).
-    #[error("input {input}: {message}")]
+    #[error("input {input}: {}", without_url(.message, .input))]
     Input { input: String, message: String },
     #[error("input {input}: hosts decoded it differently ({hashes:?})")]
     InputDecodedDifferently { input: String, hashes: BTreeSet<String> },

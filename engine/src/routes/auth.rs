@@ -1,5 +1,5 @@
 //! Who may call which engine route (DESIGN §10), checked from the headers before any body
-//! is read: `GET /` (the UI page), `GET /health` and `GET /ready` are open, `GET /metrics`
+//! is read: `GET /` (the UI page, its assets and icon), `GET /health` and `GET /ready` are open, `GET /metrics`
 //! checks its own rule; `POST /hosts` takes the
 //! cluster token (the API token when there is no cluster token); `GET /inputs/{file}` takes
 //! the cluster token (hosts fetch inputs with it) or a user's token (their own uploads);
@@ -38,7 +38,8 @@ pub async fn check(
     // The page and its bundled files are public; what they show needs the API token.
     // `/metrics` applies its own rule (`routes/ops.rs`).
     let operations = matches!(path, "/health" | "/ready" | "/metrics");
-    let page = path == "/" || operations || path.starts_with("/assets/");
+    let icon = matches!(path, "/favicon.ico" | "/favicon.svg");
+    let page = path == "/" || icon || operations || path.starts_with("/assets/");
     if get && page {
         return next.run(request).await;
     }
