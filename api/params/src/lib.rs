@@ -58,6 +58,18 @@ impl Value {
     }
 }
 
+/// As a user wrote it: `28088`, `0.5`, `true`, `"uniform"` (never Rust's debug form).
+impl std::fmt::Display for Value {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Value::Boolean(b) => write!(f, "{b}"),
+            Value::Integer(i) => write!(f, "{i}"),
+            Value::Real(r) => write!(f, "{r}"),
+            Value::Text(t) => write!(f, "{t:?}"),
+        }
+    }
+}
+
 /// One parameter a service accepts.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ParamInfo {
@@ -121,6 +133,28 @@ mod tests {
         );
         let back: ServiceInfo = serde_json::from_value(json).unwrap();
         assert_eq!(back, info);
+    }
+
+    #[test]
+    fn messages_show_values_as_written() {
+        let info = ServiceInfo {
+            name: "smooth".into(),
+            kind: ServiceKind::Filter,
+            doc: String::new(),
+            params: vec![ParamInfo {
+                name: "flag".into(),
+                ty: ValueType::Boolean,
+                default: Value::Boolean(false),
+                min: None,
+                max: None,
+                choices: vec![],
+                doc: String::new(),
+            }],
+            result_type: None,
+        };
+        let error = resolve(&info, &[("flag".into(), Value::Integer(28088))]).unwrap_err();
+        assert!(error.problem.ends_with("got 28088"), "{}", error.problem);
+        assert_eq!(Value::Text("uniform".into()).to_string(), "\"uniform\"");
     }
 
     #[test]

@@ -50,7 +50,7 @@ pub fn resolve(
 enum ValueError {
     #[error("parameter `{name}`: `{text}` is not {expected}")]
     Unparsed { name: String, text: String, expected: &'static str },
-    #[error("parameter `{name}` must be {expected}, got {}", crate::clip(&format!("{given:?}")))]
+    #[error("parameter `{name}` must be {expected}, got {}", crate::clip(&given.to_string()))]
     WrongType { name: String, expected: &'static str, given: Value },
     #[error("parameter `{name}` = {value} is out of range {range}")]
     OutOfRange { name: String, value: f64, range: String },

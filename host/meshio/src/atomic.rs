@@ -33,7 +33,7 @@ fn write_with_mode(
     let name = path.display().to_string();
     let fail = |action: &'static str| {
         let name = name.clone();
-        move |source: io::Error| SaveError::Io { name, action, source }
+        move |cause: io::Error| SaveError::Io { name, action, cause }
     };
     // Same directory, so the final rename never crosses file systems.
     let dir = match path.parent() {

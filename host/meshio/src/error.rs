@@ -28,12 +28,10 @@ impl fmt::Display for Position {
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
     /// The file could not be read at all.
-    #[error("{name}: cannot read: {source}")]
-    Io {
-        name: String,
-        #[source]
-        source: std::io::Error,
-    },
+    // The I/O error is said in the message and not also as the source, so a chain of
+    // causes (`{:#}`) does not repeat it.
+    #[error("{name}: cannot read: {cause}")]
+    Io { name: String, cause: std::io::Error },
     /// The file name does not tell which format it has.
     #[error("{name}: unknown mesh format (expected .obj, .ply, .off or .stl)")]
     UnknownFormat { name: String },
@@ -53,13 +51,8 @@ pub enum SaveError {
     #[error("{name}: refusing to save an invalid mesh: {reason}")]
     InvalidMesh { name: String, reason: MeshDefect },
     /// Creating, writing or renaming the file failed.
-    #[error("{name}: {action}: {source}")]
-    Io {
-        name: String,
-        action: &'static str,
-        #[source]
-        source: std::io::Error,
-    },
+    #[error("{name}: {action}: {cause}")]
+    Io { name: String, action: &'static str, cause: std::io::Error },
 }
 
 /// What makes a mesh impossible to save: a file written from it would not load back.

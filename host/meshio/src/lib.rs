@@ -96,8 +96,7 @@ pub fn load_as(path: &Path, format: Format) -> Result<MeshData, LoadError> {
     let name = path.display().to_string();
     // One read of the whole file: every reader works on a byte slice, which is the fastest
     // way to parse and lets binary readers check counts against the remaining size.
-    let bytes =
-        std::fs::read(path).map_err(|source| LoadError::Io { name: name.clone(), source })?;
+    let bytes = std::fs::read(path).map_err(|cause| LoadError::Io { name: name.clone(), cause })?;
     load_bytes(&bytes, format, &name)
 }
 
@@ -154,7 +153,7 @@ pub fn write_as<W: Write>(
     let mut out = std::io::BufWriter::with_capacity(1 << 16, writer);
     encode(&mut out, mesh, format, ply_encoding)
         .and_then(|()| out.flush())
-        .map_err(|source| SaveError::Io { name: NAME.to_owned(), action: "write failed", source })
+        .map_err(|cause| SaveError::Io { name: NAME.to_owned(), action: "write failed", cause })
 }
 
 fn encode(

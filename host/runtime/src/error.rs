@@ -64,10 +64,10 @@ pub enum RunError {
 /// How a service's result disagrees with its description.
 #[derive(Debug, thiserror::Error)]
 pub enum ResultError {
-    #[error("a filter returned a value ({0:?})")]
+    #[error("a filter returned a value ({0})")]
     FilterValue(Value),
     #[error("a check returned no value; expected {expected}")]
     NoValue { expected: &'static str },
-    #[error("expected {expected}, got {found:?}")]
+    #[error("expected {expected}, got {found}")]
     WrongType { expected: &'static str, found: Value },
 }

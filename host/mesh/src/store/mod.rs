@@ -380,14 +380,20 @@ fn with_room<T: Copy>(values: &[T]) -> Vec<T> {
     copy
 }
 
+/// Refuses a non-finite value, named as a coordinate (`y`, or `point 2's z` in a list of
+/// points) or, in a matrix, by its place.
 fn check_finite(values: &[f32], what: &str) -> Result<(), EditError> {
-    match values.iter().position(|v| !v.is_finite()) {
-        None => Ok(()),
-        Some(i) => Err(EditError::argument(format!(
-            "{what}: value {i} is {}, coordinates must be finite",
-            values[i]
-        ))),
-    }
+    let Some(i) = values.iter().position(|v| !v.is_finite()) else { return Ok(()) };
+    let axis = ["x", "y", "z"][i % 3];
+    let place = match (what.ends_with("matrix"), values.len()) {
+        (true, _) => format!("entry {i}"),
+        (false, 3) => axis.to_owned(),
+        (false, _) => format!("point {}'s {axis}", i / 3),
+    };
+    Err(EditError::argument(format!(
+        "{what}: {place} is {}; coordinates must be finite",
+        values[i]
+    )))
 }
 
 fn check_triples(len: usize, what: &str) -> Result<(), EditError> {

@@ -123,6 +123,16 @@ fn every_edit_that_carries_coordinates_refuses_non_finite_values() {
 }
 
 #[test]
+fn a_non_finite_coordinate_is_named_by_its_axis() {
+    let message = |op| store().apply(op).unwrap_err().to_string();
+    let at = Some([0.5, f32::NAN, 0.5]);
+    assert!(message(Op::SplitEdge { edge: 1, at }).contains("split-edge: y is NaN"));
+    let xyz = vec![0.0, 0.0, 0.0, 0.0, 0.0, f32::INFINITY];
+    let moved = message(Op::AddVertices { xyz });
+    assert!(moved.contains("add-vertices: point 1's z is inf"), "{moved}");
+}
+
+#[test]
 fn removed_elements_refuse_further_edits() {
     let mut s = store();
     s.apply(Op::RemoveTriangles { ids: vec![1] }).unwrap();
