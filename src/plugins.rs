@@ -12,19 +12,39 @@ pub fn load(args: &PluginArgs) -> anyhow::Result<(Runtime, Catalog)> {
     let cache = cache_dir();
     let runtime = Runtime::new(args.sandbox.limits(), cache.as_deref())?;
     let mut catalog = Catalog::new();
+    let mut local = Vec::new();
     for path in &args.plugins {
         let bytes = read_plugin_file(path)?;
         let plugin =
             runtime.load(&bytes).with_context(|| format!("loading plugin {}", path.display()))?;
+        local.push((path.as_path(), plugin.services.iter().map(|s| s.name.clone()).collect()));
         catalog.add(plugin);
     }
     for builtin in meshflow_builtin_plugins::PLUGINS {
         let plugin = runtime
             .load(builtin.wasm)
             .with_context(|| format!("loading built-in plugin {}", builtin.name))?;
+        warn_shadowed(&local, &plugin);
         catalog.add(plugin);
     }
     Ok((runtime, catalog))
+}
+
+/// One line on stderr per built-in service a `--plugin` file hides: the local plugin's
+/// service of that name runs instead (a host would refuse such an upload without
+/// `--replace`).
+fn warn_shadowed(local: &[(&Path, Vec<String>)], builtin: &meshflow_runtime::Plugin) {
+    use std::io::Write;
+    for service in &builtin.services {
+        if let Some((file, _)) = local.iter().find(|(_, names)| names.contains(&service.name)) {
+            let _ = writeln!(
+                std::io::stderr(),
+                "warning: `{}` of --plugin {} shadows the built-in service of that name",
+                service.name,
+                file.display()
+            );
+        }
+    }
 }
 
 /// The built-in plugins' component bytes, for a host server to load.

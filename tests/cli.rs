@@ -329,9 +329,10 @@ fn a_crate_pasted_from_the_template_readme_builds_and_runs_outside_the_checkout(
     let dir = tempfile::tempdir().unwrap();
     let big = dir.path().join("big.ply").display().to_string();
     let area = |mesh: &str| -> f64 {
-        ok(&["check", "surface-area", mesh, "--plugin", plugin]).trim().parse().unwrap()
+        ok(&["check", "total-area", mesh, "--plugin", plugin]).trim().parse().unwrap()
     };
-    ok(&["apply", "scale", &bunny(), "-o", &big, "--param", "factor=3", "--plugin", plugin]);
+    let apply = ["apply", "scale-about-centroid", &bunny(), "-o", &big, "--param", "factor=3"];
+    ok(&[&apply[..], &["--plugin", plugin]].concat());
     let ratio = area(&big) / area(&bunny());
     assert!((ratio - 9.0).abs() < 1e-3, "area grew by {ratio}, not 9");
 }

@@ -9,6 +9,8 @@ use meshflow_api::host::PluginEntry;
 use meshflow_api::{EngineClient, HostClient};
 use meshflow_runtime::{Limits, Runtime};
 
+mod new;
+
 #[derive(Subcommand)]
 pub enum PluginCommand {
     /// Upload a plugin component (.wasm) to a host; prints its digest and which services
@@ -58,6 +60,8 @@ pub enum PluginCommand {
         #[command(flatten)]
         token: UploadToken,
     },
+    /// Write a new plugin project (Rust or C++) that builds anywhere with one command.
+    New(new::NewArgs),
     /// Turn a wasm32-wasip1 core module (C, C++: clang with wasi-libc) into a plugin
     /// component, with the WASI preview-1 adapter; checked as a host checks an upload.
     Componentize {
@@ -201,6 +205,7 @@ pub fn run(command: PluginCommand) -> anyhow::Result<()> {
             out!("deleted {digest}");
             Ok(())
         }
+        PluginCommand::New(args) => new::run(args),
         PluginCommand::Componentize { core, output } => {
             let bytes = crate::plugins::read_plugin_file(&core)?;
             let sandbox = Runtime::new(Limits::default(), crate::plugins::cache_dir().as_deref())?;

@@ -25,9 +25,9 @@ fn area(mesh: &Mesh, _: &Params) -> Result<Value> {
 
 fn services() -> Vec<Service> {
     vec![
-        Service::filter("scale", "Scales the mesh about its centroid.", scale)
+        Service::filter("scale-about-centroid", "Scales the mesh about its centroid.", scale)
             .param(ParamSpec::real("factor", 2.0).range(1e-3, 1e3).doc("Scale factor.")),
-        Service::check("surface-area", "Total triangle area.", ValueType::Real, area),
+        Service::check("total-area", "Total triangle area.", ValueType::Real, area),
     ]
 }
 
