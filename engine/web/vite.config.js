@@ -9,4 +9,6 @@ export default defineConfig({
     chunkSizeWarningLimit: 1024,
     sourcemap: false,
   },
+  // The viewer's mesh worker (`src/worker.js`) is a module worker of the page's origin.
+  worker: { format: 'es' },
 });

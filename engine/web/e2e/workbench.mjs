@@ -70,6 +70,30 @@ async function canvasNotBlank(page, label) {
   assert.ok(share > 0.01, `the viewer's canvas is blank (${share})`);
 }
 
+/** No page-level sideways scrolling; the page as a screenshot at `width`×`height`. */
+async function narrow(page, width, height, name) {
+  await page.setViewportSize({ width, height });
+  await page.waitForTimeout(300);
+  const fits = await page.evaluate(() => ({ scroll: document.documentElement.scrollWidth, inner: innerWidth }));
+  log(`at ${width}×${height}: scrollWidth ${fits.scroll}, innerWidth ${fits.inner}`);
+  assert.ok(fits.scroll <= fits.inner, `the page scrolls sideways at ${width} px (${fits.scroll} > ${fits.inner})`);
+  await shot(page, name);
+}
+
+/** Pairs of the bytes chart's labels whose boxes overlap by more than a pixel. */
+async function chartOverlaps(page) {
+  return page.evaluate(() => {
+    const boxes = [...document.querySelectorAll('[data-testid=bytes-chart] text')].map((t) => [t.textContent, t.getBoundingClientRect()]);
+    const clash = [];
+    boxes.forEach(([x, a], i) => boxes.slice(i + 1).forEach(([y, b]) => {
+      const w = Math.min(a.right, b.right) - Math.max(a.left, b.left);
+      const h = Math.min(a.bottom, b.bottom) - Math.max(a.top, b.top);
+      if (w > 1 && h > 1) clash.push(`${x} / ${y}`);
+    }));
+    return clash;
+  });
+}
+
 /** The login against the engine's real token check, and an unreachable engine, in words. */
 async function login(page) {
   // A wrong token in the address goes as a bearer header; the engine refuses it, the page asks.
@@ -99,6 +123,14 @@ async function main(page) {
   // A fresh load (not a same-page fragment change), so the page reads the token anew.
   await page.goto('about:blank');
   await page.goto(HOME);
+  // On opening: the empty workflow is said neutrally, the icon needs no token, and the step
+  // picker starts at a harmless common service.
+  await page.getByTestId('validation').getByText('Add a step to begin').waitFor();
+  assert.ok(!(await page.getByTestId('validation').getAttribute('class')).includes('error'), 'no error before the user did anything');
+  const icon = await page.request.get(`${BASE}/favicon.ico`);
+  assert.equal(icon.status(), 200, `GET /favicon.ico answered ${icon.status()}`);
+  await page.waitForFunction(() => document.querySelector('[data-testid=add-step-service]')?.value);
+  assert.equal(await page.getByTestId('add-step-service').inputValue(), 'remove-smallest-components');
   await page.getByTestId('tab-catalogue').click();
   await page.getByTestId('service-list').locator('[data-service=fill-holes]').waitFor();
   const catalogue = await page.getByTestId('service-list').textContent();
@@ -114,6 +146,10 @@ async function main(page) {
     await page.getByTestId('add-step-service').selectOption(service);
     await page.getByTestId('add-step').click();
   }
+  // The picker keeps the last choice; focus went to the new step.
+  assert.equal(await page.getByTestId('add-step-service').inputValue(), 'remove-degenerate-triangles');
+  assert.equal(await page.evaluate(() => document.activeElement?.closest('[data-testid=step-card]')?.dataset.path), 'steps[3]',
+    'focus is on the step just added');
   await page.locator('[data-path="steps[1]"] [data-param=iterations]').fill('1');
   await page.getByText('The engine accepts this workflow.').waitFor();
   const built = JSON.parse(await page.getByTestId('workflow-json').inputValue());
@@ -218,6 +254,49 @@ async function main(page) {
   assert.ok(values.some((v) => v.includes('✗ condition did not hold')), values.join(' | '));
   assert.ok(values.every((v) => !/\d\.\d{5}/.test(v)), `values are rounded: ${values.join(' | ')}`);
   await shot(page, '05b-run-while');
+  assert.deepEqual(await chartOverlaps(page), [], 'the bytes chart\'s labels do not overlap');
+
+  // Narrow windows: no sideways scrolling, the builder stacked, step rows as cards.
+  await narrow(page, 1024, 700, '12-width-1024');
+  await narrow(page, 390, 844, '13-width-390');
+  const layout = await page.evaluate(() => ({
+    json: document.querySelector('[data-testid=workflow-json]').getBoundingClientRect().width,
+    row: getComputedStyle(document.querySelector('[data-testid=step-row]')).display,
+  }));
+  log('at 390 px', JSON.stringify(layout));
+  assert.ok(layout.json > 300, `the JSON box is ${layout.json} px wide at 390 px`);
+  assert.equal(layout.row, 'grid', 'step rows are cards at 390 px');
+  await page.getByTestId('step-row').first().scrollIntoViewIfNeeded();
+  await page.screenshot({ path: join(ARTEFACTS, '13b-width-390-steps.png') });
+  await page.setViewportSize({ width: 1400, height: 1000 });
+
+  // A WHILE false at once runs no filter: its result is its input, shown and downloaded.
+  await page.getByTestId('workflow-json').fill(JSON.stringify({ steps: [{ while: { check: 'component-count', op: '>', value: 1000000 },
+    'max-iterations': 3, do: [{ run: 'laplacian-smoothing' }] }] }));
+  await page.getByText('The engine accepts this workflow.').waitFor();
+  await page.getByTestId('run').click();
+  await page.waitForFunction((last) => document.querySelector('[data-testid=run-status]')?.dataset.run !== last, runs.loop);
+  assert.equal(await finalStatus(page), 'completed');
+  runs.noFilter = await runId(page);
+  await canvasNotBlank(page, 'result');
+  const [unchanged] = await Promise.all([page.waitForEvent('download'), page.getByTestId('download-ply').click()]);
+  assert.match(unchanged.suggestedFilename(), /^bunny-result\.ply$/);
+  await unchanged.saveAs(join(ARTEFACTS, unchanged.suggestedFilename()));
+  // "Before" loads the input when chosen; "Side by side" shows both.
+  await page.getByTestId('view-before').click();
+  await canvasNotBlank(page, 'input');
+  await page.getByTestId('view-side').click();
+  assert.equal(await page.getByTestId('viewer').getAttribute('data-mode'), 'side');
+  // The canvas takes focus; arrows orbit and + zooms.
+  await page.getByTestId('viewer').focus();
+  const camera = () => page.getByTestId('viewer').getAttribute('data-camera');
+  const before = await camera();
+  await page.keyboard.press('ArrowLeft');
+  const orbited = await camera();
+  assert.notEqual(orbited, before, 'ArrowLeft orbits');
+  await page.keyboard.press('+');
+  assert.notEqual(await camera(), orbited, '+ zooms');
+  await shot(page, '05d-no-filter-side-by-side');
 
   // A WHILE and an IF by clicks, nested: the builder's own JSON, accepted by the engine.
   await page.getByTestId('clear-workflow').click();
@@ -229,8 +308,13 @@ async function main(page) {
   assert.ok(nested.steps[0].while && nested.steps[0].do[0].if && nested.steps[0].do[0].then[0].run, JSON.stringify(nested));
   await shot(page, '05c-builder-nested');
 
-  // Failures show failed, in words, never "running" forever; a new run never mixes with the last.
+  // An input from an origin the engine does not fetch from: the refusal says what to do.
   await page.getByTestId('mesh-file').setInputFiles([]);
+  await page.getByTestId('input-url').fill('http://203.0.113.7/scan.ply');
+  await page.getByTestId('run').click();
+  await page.getByTestId('run-note').getByText('--allow-input-from').waitFor();
+
+  // Failures show failed, in words, never "running" forever; a new run never mixes with the last.
   await page.getByTestId('input-url').fill('http://127.0.0.1:9/nothing.ply');
   await page.getByTestId('run').click();
   assert.equal(await finalStatus(page), 'failed');
@@ -244,6 +328,10 @@ async function main(page) {
   assert.equal(await finalStatus(page), 'failed');
   runs.badMesh = await runId(page);
   assert.equal(await page.getByTestId('viewer').getAttribute('data-shown'), null, 'no mesh of an earlier run is shown');
+  const badError = await page.getByTestId('run-error').textContent();
+  log('bad upload:', badError);
+  assert.ok(badError.includes('"random.stl"'), `the error names the uploaded file: ${badError}`);
+  assert.ok(!badError.includes('/inputs/'), `the error does not show the stored file: ${badError}`);
   await shot(page, '07-failed-bad-mesh');
 
   // Values from users and hosts are text: markup in a service name stays inert.
@@ -271,6 +359,8 @@ async function main(page) {
   await page.getByTestId('plugin-token').fill(process.env.UPLOAD_TOKEN);
   await page.getByTestId('plugin-upload').click();
   await page.getByTestId('plugin-answer').getByText('laplacian-smoothing').waitFor();
+  // These bytes are a plugin the host has: said so, not as a new upload.
+  await page.getByTestId('plugin-answer').getByText('already').waitFor();
   await shot(page, '07b-plugin-uploaded');
   await page.getByTestId('tab-build').click();
 
@@ -280,7 +370,17 @@ async function main(page) {
   for (const id of [runs.bunny, runs.scan, runs.deadPort, runs.badMesh]) {
     await page.locator(`[data-testid=history-row][data-run="${id}"]`).waitFor();
   }
+  // Rows say when, which input, what workflow, how long; the filter narrows them.
+  const bunnyRow = page.locator(`[data-testid=history-row][data-run="${runs.bunny}"]`);
+  const scanRow = page.locator(`[data-testid=history-row][data-run="${runs.scan}"]`);
+  const bunnyText = await bunnyRow.textContent();
+  assert.ok(bunnyText.includes('bunny.obj') && bunnyText.includes('remove-smallest-components → laplacian-smoothing'), bunnyText);
+  assert.ok(!(await bunnyRow.locator('td.when').textContent()).includes('—'), 'the row says when');
+  await page.getByTestId('history-filter').fill('scan.ply');
+  await scanRow.waitFor();
+  assert.equal(await bunnyRow.isHidden(), true, 'the filter hides the bunny run');
   await shot(page, '08-history');
+  await page.getByTestId('history-filter').fill('');
   writeFileSync(join(ARTEFACTS, 'runs.json'), JSON.stringify(runs, null, 2));
 }
 
@@ -321,11 +421,27 @@ async function restarted(page) {
 
 /** Opens the page on a finished run with a large result: time from navigation to its first frame. */
 async function big(page) {
+  // Long tasks of the main thread, recorded from before the page loads.
+  await page.addInitScript(() => {
+    window.__longTasks = [];
+    new PerformanceObserver((list) => {
+      for (const entry of list.getEntries()) window.__longTasks.push({ start: Math.round(entry.startTime), ms: Math.round(entry.duration) });
+    }).observe({ type: 'longtask', buffered: true });
+  });
   await page.goto(`${BASE}/?run=${process.env.BIG_RUN}#token=${API_TOKEN}`);
   await page.waitForFunction(() => document.querySelector('[data-testid=viewer]')?.dataset.shown === 'result', null, { timeout: RUN_TIMEOUT });
   const figures = await page.evaluate(() => ({ ...document.querySelector('[data-testid=viewer]').dataset }));
   assert.ok(Number(figures.vertices) > 900_000, `the large result has ${figures.vertices} vertices`);
   log('large result', JSON.stringify(figures));
+  await page.waitForFunction(() => document.querySelector('[data-testid=viewer]')?.dataset.boundaryEdges !== undefined, null, { timeout: RUN_TIMEOUT });
+  await page.waitForTimeout(300);
+  const tasks = await page.evaluate(() => window.__longTasks);
+  const loading = tasks.filter((t) => t.start + t.ms >= Number(figures.loadStartedMs));
+  const longest = Math.max(0, ...loading.map((t) => t.ms));
+  log('long tasks (all, ms):', JSON.stringify(tasks), `while the large mesh loaded: ${loading.length}, longest ${longest} ms`);
+  figures.longTasks = tasks;
+  figures.longestWhileLoadingMs = longest;
+  assert.ok(longest <= 200, `a main-thread task of ${longest} ms while the large mesh loaded`);
   await canvasNotBlank(page, 'result');
   await shot(page, '11-large-result');
   writeFileSync(join(ARTEFACTS, 'first-frame.json'), JSON.stringify(figures, null, 2));

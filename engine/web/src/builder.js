@@ -18,6 +18,8 @@ const OPS = ['<', '<=', '==', '!=', '>=', '>'];
 const TRANSFERS = ['auto', 'correction', 'replay', 'full'];
 /** How the engine picks hosts; `link` (the default) weighs measured links and load. */
 const PLACEMENTS = ['link', 'load'];
+/** The step picker's first choice: common and harmless (it never removes what matters). */
+const FIRST_CHOICES = ['remove-smallest-components', 'laplacian-smoothing'];
 /** Quiet time after the last keystroke before asking the engine to validate. */
 const VALIDATE_DELAY_MS = 250;
 
@@ -131,10 +133,17 @@ export class Builder {
   }
 
   validateSoon() {
+    clearTimeout(this.validateTimer);
+    // An empty workflow is where everyone starts: said plainly, not as an error.
+    if (Array.isArray(this.workflow.steps) && this.workflow.steps.length === 0) {
+      this.cards.querySelectorAll('.invalid').forEach((card) => card.classList.remove('invalid'));
+      this.validation.className = 'validation empty';
+      this.validation.textContent = 'Add a step to begin: a workflow needs at least one step.';
+      return;
+    }
     // No verdict of an earlier version stays on show.
     this.validation.className = 'validation pending';
     this.validation.textContent = 'Checking with the engine…';
-    clearTimeout(this.validateTimer);
     this.validateTimer = setTimeout(() => this.validate(), VALIDATE_DELAY_MS);
   }
 
@@ -168,11 +177,17 @@ export class Builder {
 
   /** A list of steps with its add bar; `top` marks the workflow's own list (testids). */
   stepList(steps, path, top) {
-    const serviceSelect = el('select', { testid: top ? 'add-step-service' : undefined },
-      this.services('filter').map((name) => el('option', { value: name }, name)));
+    const filters = this.services('filter');
+    const chosen = [this.lastService, ...FIRST_CHOICES].find((name) => filters.includes(name)) ?? filters[0];
+    const serviceSelect = el('select', { testid: top ? 'add-step-service' : undefined, 'aria-label': 'service of the step to add',
+      onchange: () => { this.lastService = serviceSelect.value; } },
+      filters.map((name) => el('option', { value: name, selected: name === chosen }, name)));
     const add = (step) => {
       steps.push(step);
       this.redraw();
+      // Focus goes to the new step, so keyboard users carry on there.
+      const card = this.cards.querySelector(`[data-path="${CSS.escape(`${path}[${steps.length - 1}]`)}"]`);
+      (card?.querySelector('select, input, button') ?? card)?.focus();
     };
     const checks = this.services('check');
     const condition = () => this.defaultCondition(checks[0]);
@@ -180,7 +195,8 @@ export class Builder {
       steps.map((step, index) => this.card(steps, index, `${path}[${index}]`)),
       el('div', { className: 'add-bar' },
         serviceSelect,
-        el('button', { testid: top ? 'add-step' : undefined, onclick: () => add({ run: serviceSelect.value }) }, '+ step'),
+        el('button', { testid: top ? 'add-step' : undefined,
+          onclick: () => { this.lastService = serviceSelect.value; add({ run: serviceSelect.value }); } }, '+ step'),
         el('button', { testid: top ? 'add-if' : undefined, disabled: !checks.length,
           onclick: () => add({ if: condition(), then: [], else: [] }) }, '+ IF'),
         el('button', { testid: top ? 'add-while' : undefined, disabled: !checks.length,
@@ -203,7 +219,7 @@ export class Builder {
       el('button', { title: 'move up', testid: 'step-up', disabled: index === 0, onclick: () => move(-1) }, '↑'),
       el('button', { title: 'move down', testid: 'step-down', disabled: index === steps.length - 1, onclick: () => move(1) }, '↓'),
       el('button', { title: 'remove', testid: 'step-remove', onclick: () => { steps.splice(index, 1); this.redraw(); } }, '✕'));
-    const card = el('div', { className: 'card', testid: 'step-card', 'data-path': path });
+    const card = el('div', { className: 'card', testid: 'step-card', 'data-path': path, tabIndex: -1 });
     if (step && typeof step.run === 'string') {
       const select = el('select', { onchange: () => { step.run = select.value; delete step.params; this.redraw(); } },
         this.services('filter').map((name) => el('option', { value: name, selected: name === step.run }, name)));

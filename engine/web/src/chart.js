@@ -10,8 +10,9 @@ const SERIES = [
   { key: 'full mesh', colour: '#9ca3af', of: (s) => s.full_bytes ?? null },
   { key: 'sent', colour: '#f59e0b', of: (s) => s.transfers.reduce((sum, t) => sum + t.bytes, 0) },
 ];
-const BAR = 8;
-const ROW = SERIES.length * BAR + 8;
+// A bar per series, each tall enough for its 10 px label, so labels never overlap.
+const BAR = 12;
+const ROW = SERIES.length * BAR + 10;
 const LABEL = 190;
 const WIDTH = 640;
 
@@ -26,7 +27,8 @@ export function bytesChart(steps) {
   const filters = steps.filter((s) => s.kind === 'filter');
   const most = Math.max(1, ...filters.flatMap((s) => SERIES.map((series) => series.of(s))));
   const height = filters.length * ROW + 24;
-  const chart = svg('svg', { width: WIDTH, height, viewBox: `0 0 ${WIDTH} ${height}`, 'data-testid': 'bytes-chart', role: 'img' });
+  const chart = svg('svg', { width: WIDTH, height, viewBox: `0 0 ${WIDTH} ${height}`, 'data-testid': 'bytes-chart', role: 'img',
+    'aria-label': 'bytes moved per step' });
   filters.forEach((step, row) => {
     const y = row * ROW;
     chart.append(svg('text', { x: 0, y: y + ROW / 2 + 4, 'font-size': 11 }, `${step.index} ${step.service}`));
@@ -36,7 +38,9 @@ export function bytesChart(steps) {
       const label = value === null ? `${series.key} not measured` : bytes(value);
       const bar = svg('rect', { x: LABEL, y: y + i * BAR, width: Math.max(width, 1), height: BAR - 1, fill: series.colour });
       bar.append(svg('title', {}, `${series.key}: ${label}`));
-      chart.append(bar, svg('text', { x: LABEL + width + 4, y: y + i * BAR + BAR - 1, 'font-size': 9 }, label));
+      const text = svg('text', { x: LABEL + width + 4, y: y + i * BAR + BAR - 2, 'font-size': 10, fill: value === null ? '#64748b' : '#1f2937' }, label);
+      if (value === null) text.setAttribute('font-style', 'italic');
+      chart.append(bar, text);
     });
   });
   SERIES.forEach((series, i) => {

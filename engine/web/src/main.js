@@ -68,6 +68,8 @@ const runNote = el('span', { className: 'note', testid: 'run-note' });
 const runRoot = el('div', { className: 'run' });
 const viewer = new Viewer(el('div', {}));
 let current = null;
+/** Uploaded inputs' names by URL (this page's uploads and history), so errors say the file. */
+const inputNames = new Map();
 
 fill(panels.build,
   el('h2', {}, 'Workflow'), builderRoot,
@@ -80,7 +82,11 @@ fill(panels.build,
 function open(id) {
   current?.close();
   viewer.clear();
-  current = new RunView(runRoot, id, { show: (label, path) => viewer.load(label, path) });
+  current = new RunView(runRoot, id, {
+    show: (label, path) => viewer.load(label, path),
+    input: (path) => viewer.setInput(path),
+    nameOf: (url) => inputNames.get(url) ?? null,
+  });
   cancelButton.hidden = false;
   showTab('build');
   current.follow();
@@ -114,6 +120,7 @@ async function startRun() {
       progress.value = 0;
       runNote.textContent = `uploading ${file.name}…`;
       input = (await uploadInput(file, (share) => { progress.value = share; })).url;
+      inputNames.set(input, file.name);
     }
     runNote.textContent = 'submitting…';
     const run = await postJson('/runs', { workflow: builder.workflow, input });
@@ -132,6 +139,7 @@ async function startRun() {
 // Catalogue, history, plugins.
 const history = new History(el('div', {}), {
   open,
+  named: (url, name) => inputNames.set(url, name),
   rerun: (submission) => {
     builder.load(submission.workflow);
     inputUrl.value = submission.input ?? '';

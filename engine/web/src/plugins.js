@@ -42,7 +42,10 @@ export class Plugins {
         body: file,
       });
       const body = await response.json();
-      fill(this.answer, el('p', { className: 'ok' }, `${this.host.value} took plugin ${body.digest.slice(0, 16)}…, offering:`),
+      const lead = body.present?.length
+        ? `${this.host.value} has ${file.name} already (plugin ${body.digest.slice(0, 16)}…, the same bytes): nothing changed. It offers:`
+        : `${this.host.value} took ${file.name} (plugin ${body.digest.slice(0, 16)}…), offering:`;
+      fill(this.answer, el('p', { className: 'ok' }, lead),
         el('ul', {}, body.services.map((s) => el('li', {}, el('b', {}, s.name), ` (${s.kind}): ${s.doc}`))));
       this.uploaded();
     } catch (error) {

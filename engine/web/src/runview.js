@@ -7,6 +7,7 @@ import { followEvents, getJson, request } from './api.js';
 import { bytesChart } from './chart.js';
 
 export const FORMATS = ['ply', 'obj', 'off', 'stl', 'mfm'];
+const STEP_COLUMNS = ['#', 'step', 'service', 'host', 'compute', 'queue', 'overhead', 'transfer / apply', 'mesh', 'correction vs full', 'sent', 'value', ''];
 const FINAL = new Set(['completed', 'failed', 'cancelled', 'interrupted']);
 /** Events that change a part of the record the view patches in place. */
 const PATCHES = {
@@ -34,11 +35,15 @@ export async function download(path) {
 }
 
 export class RunView {
-  /** `show(label, path)` puts a mesh (a `?format=raw` path) into the viewer. */
-  constructor(root, id, { show }) {
+  /** `show(label, path)` puts a mesh (a `?format=raw` path) into the viewer; `input(path)`
+   *  tells it where the run's input is (for "Before"); `nameOf(url)` is the name an input
+   *  URL was uploaded under, if known, so errors name the user's file. */
+  constructor(root, id, { show, input = () => {}, nameOf = () => null }) {
     this.root = root;
     this.id = id;
     this.show = show;
+    this.input = input;
+    this.nameOf = nameOf;
     this.abort = new AbortController();
     this.record = null;
     this.shownResult = false;
@@ -94,7 +99,7 @@ export class RunView {
     fill(this.root,
       status,
       running && el('p', { className: 'note' }, running),
-      r.error && el('p', { className: 'error', testid: 'run-error' }, plainError(r.error)),
+      r.error && el('p', { className: 'error', testid: 'run-error' }, plainError(this.named(r.error))),
       r.warnings.length > 0 && el('ul', { className: 'warnings', testid: 'run-warnings' }, r.warnings.map((w) => el('li', {}, w))),
       r.input && el('p', {}, `Input: ${r.input.vertices.toLocaleString('en')} vertices, ${r.input.triangles.toLocaleString('en')} triangles `,
         el('button', { testid: 'show-input', onclick: () => this.show('input', this.path('input')) }, 'view input')),
@@ -103,10 +108,19 @@ export class RunView {
       this.stepTable(steps),
       steps.length > 0 && el('div', { className: 'chart' }, el('h4', {}, `Bytes moved per step (transfer: ${r.transfer})`), bytesChart(steps)),
       r.result && this.resultBar(r));
+    if (r.input) this.input(this.path('input'));
     if (r.status === 'completed' && r.result && !this.shownResult) {
       this.shownResult = true;
       this.show('result', this.path('result'));
     }
+  }
+
+  /** An error with each uploaded input's URL replaced by the file's name. */
+  named(error) {
+    return error.replace(/\bhttps?:\/\/[^\s"]*\/inputs\/[0-9a-f]+(\.[a-z0-9]+)?/gi, (url) => {
+      const name = this.nameOf(url);
+      return name ? `"${name}"` : url;
+    });
   }
 
   path(which) {
@@ -131,9 +145,8 @@ export class RunView {
 
   stepTable(steps) {
     if (!steps.length) return el('p', { className: 'note' }, 'No step has finished yet.');
-    const head = ['#', 'step', 'service', 'host', 'compute', 'queue', 'overhead', 'transfer / apply', 'mesh', 'correction vs full', 'sent', 'value', ''];
     return el('table', { className: 'steps' },
-      el('thead', {}, el('tr', {}, head.map((h) => el('th', {}, h)))),
+      el('thead', {}, el('tr', {}, STEP_COLUMNS.map((h) => el('th', {}, h)))),
       el('tbody', {}, steps.map((s) => this.stepRow(s))));
   }
 
@@ -148,8 +161,9 @@ export class RunView {
     const actions = s.kind === 'filter' && el('span', {},
       el('button', { testid: 'show-step', onclick: () => this.show(`step ${s.index}`, this.path(`steps/${s.index}/output`)) }, 'view'),
       stepDownload(this.path(`steps/${s.index}/output`)));
-    return el('tr', { testid: 'step-row', className: s.kind, 'data-path': s.path },
-      el('td', {}, s.index), el('td', {}, el('code', {}, s.path)), el('td', { title: s.report }, s.service),
+    const cells = [
+      el('td', { className: 'index' }, s.index), el('td', { className: 'path' }, el('code', {}, s.path)),
+      el('td', { className: 'service', title: s.report }, s.service),
       el('td', {}, s.host, s.failed_hosts.length ? ` (after ${s.failed_hosts.join(', ')} failed)` : ''),
       el('td', {}, ms(s.compute_ms)), el('td', {}, ms(s.wait_ms)), el('td', {}, ms(s.overhead_ms)),
       el('td', {}, s.transfers.length ? `${ms(transferMs)} / ${ms(applyMs)}` : '—'),
@@ -157,7 +171,10 @@ export class RunView {
       el('td', {}, s.kind === 'filter' ? `${s.correction_estimated ? '≈ ' : ''}${bytes(s.correction_bytes)} vs ${bytes(s.full_bytes)}` : ''),
       el('td', { className: 'sent' }, sent.length ? sent.map((line) => el('div', {}, line)) : '—'),
       el('td', { testid: 'step-value' }, value),
-      el('td', {}, actions));
+      el('td', { className: 'actions' }, actions)];
+    // Each cell names its column: on a narrow screen a row is a card of labelled cells.
+    cells.forEach((cell, i) => cell.setAttribute('data-label', STEP_COLUMNS[i]));
+    return el('tr', { testid: 'step-row', className: s.kind, 'data-path': s.path }, cells);
   }
 }
 

@@ -1,61 +1,75 @@
 // The 3D viewer (three.js, WebGL). Meshes arrive as the engine's `raw` arrays (a 12-byte
 // header, then f32 positions and u32 corners, little endian), which become GPU buffers
-// without parsing. Two slots, before and after, shown alone or side by side in one canvas
-// (two scissored viewports sharing a camera). Boundary edges (holes) are found after the
-// first frame, so a large mesh shows at once.
+// without parsing. Reading them, their normals and bounding sphere, and then their
+// boundary edges (holes) happen in a worker (`worker.js`, buffers transferred, not copied),
+// so a 1M-vertex mesh never holds the main thread; the holes follow the first frame. Two
+// slots, before and after, shown alone or side by side in one canvas (two scissored
+// viewports sharing a camera). The canvas takes focus: arrows orbit, + and - zoom.
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 import { request } from './api.js';
 import { el, fill } from './dom.js';
 
-const RAW_MAGIC = 'MFR1';
-const RAW_HEADER_BYTES = 12;
 const SLOTS = ['before', 'after'];
+/** One keyboard orbit step, and one zoom step's factor. */
+const KEY_ANGLE = THREE.MathUtils.degToRad(10);
+const KEY_ZOOM = 0.85;
 
-/** Reads a `raw` answer into typed arrays over the same buffer (no copy). */
-export function parseRaw(buffer) {
-  const header = new DataView(buffer, 0, RAW_HEADER_BYTES);
-  const magic = String.fromCharCode(...new Uint8Array(buffer, 0, 4));
-  if (magic !== RAW_MAGIC) throw new Error('the engine sent no raw mesh');
-  const vertices = header.getUint32(4, true);
-  const triangles = header.getUint32(8, true);
-  const positions = new Float32Array(buffer, RAW_HEADER_BYTES, vertices * 3);
-  const corners = new Uint32Array(buffer, RAW_HEADER_BYTES + vertices * 12, triangles * 3);
-  return { vertices, triangles, positions, corners };
+/** The worker, started on the first mesh; answers go to the waiting load by id. */
+let worker = null;
+const waiting = new Map();
+let nextId = 0;
+
+function meshWorker() {
+  if (worker) return worker;
+  worker = new Worker(new URL('./worker.js', import.meta.url), { type: 'module' });
+  worker.onmessage = ({ data }) => waiting.get(data.id)?.(data);
+  worker.onerror = (event) => {
+    for (const answer of waiting.values()) answer({ kind: 'error', message: `the viewer's worker failed: ${event.message ?? 'unknown error'}` });
+  };
+  return worker;
 }
 
-/** Edges used by exactly one triangle, as vertex pairs: sort all edge keys, keep singles. */
-export function boundaryEdges({ vertices, corners }) {
-  const keys = new Float64Array(corners.length);
-  for (let t = 0; t < corners.length; t += 3) {
-    for (let k = 0; k < 3; k += 1) {
-      const a = corners[t + k];
-      const b = corners[t + ((k + 1) % 3)];
-      keys[t + k] = a < b ? a * vertices + b : b * vertices + a;
-    }
-  }
-  keys.sort();
-  const pairs = [];
-  for (let i = 0; i < keys.length; ) {
-    let j = i + 1;
-    while (j < keys.length && keys[j] === keys[i]) j += 1;
-    if (j - i === 1) pairs.push(Math.floor(keys[i] / vertices), keys[i] % vertices);
-    i = j;
-  }
-  return new Uint32Array(pairs);
+/** Hands a `raw` buffer to the worker: `onMesh(mesh)` for the first frame, then
+ *  `onBoundary(pairs)`; rejects when the bytes are not a mesh. */
+function decode(buffer, onBoundary) {
+  const id = (nextId += 1);
+  return new Promise((resolve, reject) => {
+    waiting.set(id, (data) => {
+      if (data.kind === 'mesh') {
+        const { vertices, triangles } = data;
+        resolve({
+          vertices, triangles, normals: data.normals, sphere: data.sphere,
+          positions: new Float32Array(data.buffer, 12, vertices * 3),
+          corners: new Uint32Array(data.buffer, 12 + vertices * 12, triangles * 3),
+        });
+        return;
+      }
+      waiting.delete(id);
+      if (data.kind === 'boundary') onBoundary(data.pairs);
+      else reject(new Error(data.message));
+    });
+    meshWorker().postMessage({ id, buffer }, [buffer]);
+  });
 }
 
 export class Viewer {
   constructor(root) {
     this.root = root;
-    this.canvas = el('canvas', { testid: 'viewer', width: 800, height: 500 });
-    this.status = el('div', { className: 'note', testid: 'viewer-status' }, 'Nothing to show yet: run a workflow or open a run.');
+    this.canvas = el('canvas', {
+      testid: 'viewer', width: 800, height: 500, tabIndex: 0,
+      'aria-label': 'Mesh viewer: arrow keys orbit, + and - zoom, F fits',
+      onkeydown: (event) => this.key(event),
+    });
+    this.status = el('div', { className: 'note', testid: 'viewer-status', 'aria-live': 'polite' }, 'Nothing to show yet: run a workflow or open a run.');
     this.slots = {};
     /** Counts clears, so a load that began before one is dropped. */
     this.generation = 0;
+    /** Where the shown run's input is, for "Before" and "Side by side" (`setInput`). */
+    this.inputPath = null;
     this.mode = 'after';
-    const toggle = (label, mode) => el('button', { testid: `view-${mode}`, onclick: () => this.setMode(mode) }, label);
+    const toggle = (label, mode) => el('button', { testid: `view-${mode}`, onclick: () => this.choose(mode) }, label);
     this.wireframe = el('input', { type: 'checkbox', testid: 'view-wireframe', onchange: () => this.applyStyle() });
     this.edges = el('input', { type: 'checkbox', testid: 'view-edges', checked: true, onchange: () => this.applyStyle() });
     fill(root,
@@ -76,6 +90,28 @@ export class Viewer {
     this.resize();
   }
 
+  /** The shown run's input (`/runs/{id}/input`), loaded when "Before" or "Side by side" is
+   *  chosen and not shown yet. */
+  setInput(path) {
+    this.inputPath = path;
+    if ((this.mode === 'before' || this.mode === 'side') && !this.slots.before && !this.loadingInput) this.loadInput();
+  }
+
+  loadInput() {
+    if (!this.inputPath) return;
+    this.loadingInput = true;
+    this.load('input', this.inputPath).finally(() => { this.loadingInput = false; });
+  }
+
+  /** A view the user chose: the input is fetched if it is needed and not there. */
+  choose(mode) {
+    this.setMode(mode);
+    if (mode !== 'after' && !this.slots.before && !this.loadingInput) {
+      if (this.inputPath) this.loadInput();
+      else this.status.textContent = 'No input to show yet: run a workflow or open a run.';
+    }
+  }
+
   /** Fetches a mesh (`path?format=raw`) into a slot ('before' for the input, else 'after'). */
   async load(label, path) {
     const slot = label === 'input' ? 'before' : 'after';
@@ -84,10 +120,13 @@ export class Viewer {
     const asked = (this.latest = Symbol(label));
     const generation = this.generation;
     delete this.canvas.dataset.shown;
+    this.canvas.dataset.loadStartedMs = started.toFixed(0);
     this.status.textContent = `loading ${label}…`;
     let mesh;
     try {
-      mesh = parseRaw(await (await request(`${path}?format=raw`)).arrayBuffer());
+      const buffer = await (await request(`${path}?format=raw`)).arrayBuffer();
+      if (generation !== this.generation) return;
+      mesh = await decode(buffer, (pairs) => this.addBoundary(slot, mesh, pairs));
     } catch (error) {
       if (asked === this.latest) this.status.textContent = `cannot show ${label}: ${error.message}`;
       return;
@@ -95,7 +134,9 @@ export class Viewer {
     if (generation !== this.generation) return; // Cleared meanwhile: another run's mesh.
     this.put(slot, label, mesh);
     if (asked === this.latest) {
-      this.setMode(this.slots.before && this.slots.after && this.mode === 'side' ? 'side' : slot);
+      const side = this.slots.before && this.slots.after && this.mode === 'side';
+      // The input loaded for "Before" or "Side by side" keeps that view.
+      this.setMode(side ? 'side' : slot === 'before' && this.mode === 'side' ? 'side' : slot);
       this.fit();
       await new Promise((resolve) => requestAnimationFrame(resolve));
       const firstFrameMs = performance.now() - started;
@@ -107,17 +148,17 @@ export class Viewer {
       });
       this.status.textContent = `${label}: ${mesh.vertices.toLocaleString('en')} vertices, ${mesh.triangles.toLocaleString('en')} triangles; first frame ${firstFrameMs.toFixed(0)} ms after asking`;
     }
-    // Holes after the first frame: sorting a large mesh's edges takes a moment.
-    setTimeout(() => this.addBoundary(slot, mesh), 0);
   }
 
   /** Forgets both meshes (another run is shown: its meshes must not mix with these). */
   clear() {
     for (const entry of Object.values(this.slots)) entry.scene.traverse((node) => node.geometry?.dispose());
     this.slots = {};
+    this.inputPath = null;
     this.generation += 1;
     this.latest = Symbol('cleared');
     delete this.canvas.dataset.shown;
+    delete this.canvas.dataset.boundaryEdges;
     this.status.textContent = 'Nothing to show yet.';
     this.render();
   }
@@ -126,9 +167,9 @@ export class Viewer {
     this.slots[slot]?.scene.traverse((node) => node.geometry?.dispose());
     const geometry = new THREE.BufferGeometry();
     geometry.setAttribute('position', new THREE.BufferAttribute(mesh.positions, 3));
+    geometry.setAttribute('normal', new THREE.BufferAttribute(mesh.normals, 3));
     geometry.setIndex(new THREE.BufferAttribute(mesh.corners, 1));
-    geometry.computeVertexNormals();
-    geometry.computeBoundingSphere();
+    geometry.boundingSphere = new THREE.Sphere(new THREE.Vector3(...mesh.sphere.center), mesh.sphere.radius);
     const surface = new THREE.Mesh(geometry, new THREE.MeshStandardMaterial({
       color: slot === 'before' ? 0xb0b8c8 : 0x9cc3a8, side: THREE.DoubleSide, roughness: 0.7, metalness: 0.05,
       polygonOffset: true, polygonOffsetFactor: 1, polygonOffsetUnits: 1,
@@ -143,13 +184,14 @@ export class Viewer {
     this.applyStyle();
   }
 
-  addBoundary(slot, mesh) {
+  /** The holes the worker found, once the mesh they belong to is still shown. */
+  addBoundary(slot, mesh, pairs) {
     const entry = this.slots[slot];
-    if (!entry || entry.surface.geometry.attributes.position.array !== mesh.positions) return;
-    const pairs = boundaryEdges(mesh);
+    if (!mesh || !entry || entry.surface.geometry.attributes.position.array !== mesh.positions) return;
     const geometry = new THREE.BufferGeometry();
     geometry.setAttribute('position', entry.surface.geometry.attributes.position);
     geometry.setIndex(new THREE.BufferAttribute(pairs, 1));
+    geometry.boundingSphere = entry.surface.geometry.boundingSphere;
     entry.boundary = new THREE.LineSegments(geometry, new THREE.LineBasicMaterial({ color: 0xdc2626 }));
     entry.scene.add(entry.boundary);
     this.canvas.dataset.boundaryEdges = pairs.length / 2;
@@ -168,6 +210,29 @@ export class Viewer {
     this.mode = mode;
     this.canvas.dataset.mode = mode;
     this.resize();
+  }
+
+  /** Arrows orbit around the target, + and - zoom, F fits. */
+  key(event) {
+    const offset = this.camera.position.clone().sub(this.controls.target);
+    const spin = (axis, angle) => offset.applyAxisAngle(axis, angle);
+    const right = new THREE.Vector3().crossVectors(this.camera.up, offset).normalize();
+    switch (event.key) {
+      case 'ArrowLeft': spin(this.camera.up, -KEY_ANGLE); break;
+      case 'ArrowRight': spin(this.camera.up, KEY_ANGLE); break;
+      case 'ArrowUp': spin(right, -KEY_ANGLE); break;
+      case 'ArrowDown': spin(right, KEY_ANGLE); break;
+      case '+': case '=': offset.multiplyScalar(KEY_ZOOM); break;
+      case '-': case '_': offset.multiplyScalar(1 / KEY_ZOOM); break;
+      case 'f': case 'F': this.fit(); event.preventDefault(); return;
+      default: return;
+    }
+    event.preventDefault();
+    // Not over a pole: the camera would flip.
+    if (Math.abs(offset.clone().normalize().dot(this.camera.up)) > 0.99) return;
+    this.camera.position.copy(this.controls.target).add(offset);
+    this.controls.update();
+    this.render();
   }
 
   /** Puts the camera where the shown meshes fill the view. */
@@ -208,5 +273,7 @@ export class Viewer {
       this.renderer.setScissor(i * part, 0, part, height);
       this.renderer.render(entry.scene, this.camera);
     });
+    const p = this.camera.position;
+    this.canvas.dataset.camera = `${p.x.toFixed(3)},${p.y.toFixed(3)},${p.z.toFixed(3)}`;
   }
 }
