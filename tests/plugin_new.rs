@@ -33,15 +33,18 @@ fn stdout(out: &Output) -> String {
 }
 
 fn files_under(dir: &Path) -> Vec<PathBuf> {
-    let mut found = Vec::new();
-    for entry in std::fs::read_dir(dir).unwrap() {
-        let path = entry.unwrap().path();
-        if path.is_dir() {
-            found.extend(files_under(&path));
-        } else {
-            found.push(path.strip_prefix(dir).unwrap().to_owned());
+    fn walk(root: &Path, dir: &Path, found: &mut Vec<PathBuf>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                walk(root, &path, found);
+            } else {
+                found.push(path.strip_prefix(root).unwrap().to_owned());
+            }
         }
     }
+    let mut found = Vec::new();
+    walk(dir, dir, &mut found);
     found.sort();
     found
 }

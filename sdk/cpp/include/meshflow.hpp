@@ -10,7 +10,8 @@
 //   - `MESHFLOW_EXPORT_PLUGIN(services)`: exports a `std::vector<Service> services()`.
 //
 // Errors are return values (`meshflow::Result<T>` = `std::expected<T, Error>`), so
-// plugins build with -fno-exceptions. Link ../generated/plugin.c and
+// plugins build with -fno-exceptions: `MESHFLOW_TRY(expr)` returns a failed result from the
+// enclosing service and otherwise gives its value; `meshflow::fail("{} holes", n)` formats. Link ../generated/plugin.c and
 // ../generated/plugin_component_type.o, build for wasm32-wasi (preview 1) as a reactor, then
 // `meshflow plugin componentize CORE.wasm -o PLUGIN.wasm`.
 #pragma once
@@ -19,10 +20,15 @@ extern "C" {
 #include "plugin.h"
 }
 
+#include <array>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <expected>
+#include <format>
+#include <functional>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -43,8 +49,15 @@ struct Error {
 template <class T = void>
 using Result = std::expected<T, Error>;
 
+// A failed result with this message: `return meshflow::fail("no triangles");`.
 inline std::unexpected<Error> fail(std::string message) {
     return std::unexpected(Error{std::move(message)});
+}
+// A failed result with a std::format message: `return meshflow::fail("{} > {}", a, b);`.
+template <class... Args>
+    requires(sizeof...(Args) > 0)
+std::unexpected<Error> fail(std::format_string<Args...> format, Args&&... args) {
+    return std::unexpected(Error{std::format(format, std::forward<Args>(args)...)});
 }
 
 // What the triangles of a removed triangle read, in all three corners.
@@ -77,6 +90,21 @@ inline Error edit_error(meshflow_geometry_mesh_edit_error_t& e) {
     return error;
 }
 
+// MESHFLOW_TRY's value: the result's, or nothing for Result<>.
+template <class T>
+T take_value(std::expected<T, Error>&& r) {
+    return std::move(*r);
+}
+inline void take_value(std::expected<void, Error>&&) {}
+
+// A plugin bug (a parameter it did not declare): no exceptions to throw, so the run stops
+// with the message on stderr, which the host shows.
+[[noreturn]] inline void bug(const std::string& message) {
+    std::fprintf(stderr, "meshflow plugin bug: %s\n", message.c_str());
+    std::fflush(stderr);
+    std::abort();
+}
+
 template <class List, class T>
 List list_of(std::span<const T> items) {
     return List{const_cast<T*>(items.data()), items.size()};
@@ -97,6 +125,15 @@ class Params {
 public:
     explicit Params(std::vector<std::pair<std::string, Value>> values) : values_(std::move(values)) {}
 
+    // Direct getters: the host has checked every declared parameter, so these return the
+    // value itself. Asking for a name the service did not declare (or with another type)
+    // is a bug in the plugin: the run stops with a message.
+    int64_t get_integer(std::string_view name) const { return must(integer(name)); }
+    bool get_boolean(std::string_view name) const { return must(boolean(name)); }
+    std::string get_text(std::string_view name) const { return must(text(name)); }
+    double get_real(std::string_view name) const { return must(real(name)); }
+
+    // The same as results, for code that would rather handle a wrong name itself.
     Result<int64_t> integer(std::string_view name) const { return get<int64_t>(name, "an integer"); }
     Result<bool> boolean(std::string_view name) const { return get<bool>(name, "a boolean"); }
     Result<std::string> text(std::string_view name) const { return get<std::string>(name, "a text"); }
@@ -110,6 +147,11 @@ public:
     }
 
 private:
+    template <class T>
+    static T must(Result<T> r) {
+        if (!r) detail::bug(r.error().message);
+        return std::move(*r);
+    }
     std::optional<const Value*> find(std::string_view name) const {
         for (auto& [n, v] : values_)
             if (n == name) return &v;
@@ -144,25 +186,69 @@ struct Param {
         p.choices = std::move(choices);
         return p;
     }
-    // Inclusive bounds; the host refuses values outside them.
-    Param range(double lo, double hi) && {
+    // Inclusive bounds; the host refuses values outside them. Chains on a temporary
+    // (`Param::real("x", 1).range(0, 2).doc("…")`) and on a named one (`p.range(0, 2);`).
+    Param& range(double lo, double hi) & {
         min = lo;
         max = hi;
-        return std::move(*this);
+        return *this;
     }
-    Param doc(std::string text) && {
+    Param range(double lo, double hi) && { return std::move(range(lo, hi)); }
+    Param& doc(std::string text) & {
         doc_text = std::move(text);
-        return std::move(*this);
+        return *this;
     }
+    Param doc(std::string text) && { return std::move(doc(std::move(text))); }
 };
 
 // ---- the mesh ---------------------------------------------------------------------------------
 
-// A borrowed handle to the mesh a service runs on. Read arrays once, compute, write edits
-// back in bulk: each call crosses the sandbox boundary (~100 ns), each element is copied.
+// An array the host handed over (positions, triangles, ids), owned without a second copy:
+// the bindings allocate it, this frees it. Reads like a span (size(), [], begin/end), passes
+// where a std::span<const T> is taken, and is writable in place; `to_vector()` copies.
+template <class T>
+class Array {
+public:
+    Array() = default;
+    Array(T* data, size_t size) : data_(data), size_(size) {}
+
+    size_t size() const { return size_; }
+    bool empty() const { return size_ == 0; }
+    T* data() { return data_.get(); }
+    const T* data() const { return data_.get(); }
+    T& operator[](size_t i) { return data_.get()[i]; }
+    const T& operator[](size_t i) const { return data_.get()[i]; }
+    T* begin() { return data(); }
+    T* end() { return data() + size_; }
+    const T* begin() const { return data(); }
+    const T* end() const { return data() + size_; }
+
+    operator std::span<const T>() const { return {data(), size_}; }
+    operator std::span<T>() { return {data(), size_}; }
+    std::span<const T> span() const { return *this; }
+    std::vector<T> to_vector() const { return {begin(), end()}; }
+
+private:
+    struct Free {
+        void operator()(T* p) const { std::free(p); }
+    };
+    std::unique_ptr<T, Free> data_;
+    size_t size_ = 0;
+};
+
+// The half-edge from corner `k` (0, 1, 2) of triangle `t` to corner `(k + 1) % 3`: the edge
+// ids that split_edge, swap_edge, collapse_edge and extend_edge take.
+constexpr uint32_t half_edge(uint32_t t, uint32_t k) { return 3 * t + k; }
+
+// A borrowed handle to the mesh a service runs on: every call of the WIT `mesh` resource.
+// Read arrays once, compute, write edits back in bulk: each call crosses the sandbox boundary
+// (~100 ns) and each element is copied. Every edit is recorded by the host; a refused one
+// comes back as an error value, the mesh unchanged.
 class Mesh {
 public:
     explicit Mesh(meshflow_geometry_mesh_borrow_mesh_t raw) : raw_(raw) {}
+
+    // ---- reading
 
     // Vertex and triangle ids in use (removed ones included), and live counts.
     uint32_t vertex_slots() const { return meshflow_geometry_mesh_method_mesh_vertex_slots(raw_); }
@@ -170,29 +256,49 @@ public:
     uint32_t vertex_count() const { return meshflow_geometry_mesh_method_mesh_vertex_count(raw_); }
     uint32_t triangle_count() const { return meshflow_geometry_mesh_method_mesh_triangle_count(raw_); }
 
-    // x y z per vertex slot.
-    std::vector<float> positions() const {
+    // x y z per vertex slot (removed vertices keep their last position).
+    Array<float> positions() const {
         plugin_list_f32_t list;
         meshflow_geometry_mesh_method_mesh_positions(raw_, &list);
-        return take<float>(list);
+        return {list.ptr, list.len};
     }
     // a b c per triangle slot; a removed triangle reads REMOVED three times.
-    std::vector<uint32_t> triangles() const {
+    Array<uint32_t> triangles() const {
         plugin_list_u32_t list;
         meshflow_geometry_mesh_method_mesh_triangles(raw_, &list);
-        return take<uint32_t>(list);
+        return {list.ptr, list.len};
+    }
+    // Ids of the vertices removed during this run, ascending.
+    Array<uint32_t> removed_vertices() const {
+        plugin_list_u32_t list;
+        meshflow_geometry_mesh_method_mesh_removed_vertices(raw_, &list);
+        return {list.ptr, list.len};
+    }
+    // One vertex's x y z; an error for a dead or unknown id.
+    Result<std::array<float, 3>> position(uint32_t vertex) const {
+        plugin_tuple3_f32_f32_f32_t p;
+        if (!meshflow_geometry_mesh_method_mesh_position(raw_, vertex, &p, &error_)) return failed();
+        return std::array<float, 3>{p.f0, p.f1, p.f2};
+    }
+    // One triangle's corners; an error for a dead or unknown id.
+    Result<std::array<uint32_t, 3>> triangle(uint32_t triangle) const {
+        plugin_tuple3_u32_u32_u32_t t;
+        if (!meshflow_geometry_mesh_method_mesh_triangle(raw_, triangle, &t, &error_)) return failed();
+        return std::array<uint32_t, 3>{t.f0, t.f1, t.f2};
+    }
+    bool is_vertex_live(uint32_t vertex) const {
+        return meshflow_geometry_mesh_method_mesh_is_vertex_live(raw_, vertex);
+    }
+    bool is_triangle_live(uint32_t triangle) const {
+        return meshflow_geometry_mesh_method_mesh_is_triangle_live(raw_, triangle);
     }
 
-    // Moves every vertex: 3 values per vertex slot. One edit, coded as displacements.
-    Result<> set_positions(std::span<const float> xyz) const {
-        auto list = detail::list_of<plugin_list_f32_t>(xyz);
-        return unit(meshflow_geometry_mesh_method_mesh_set_positions(raw_, &list, &error_));
-    }
-    // Moves ids[i] to xyz[3i .. 3i + 3].
-    Result<> move_vertices(std::span<const uint32_t> ids, std::span<const float> xyz) const {
-        auto i = detail::list_of<plugin_list_u32_t>(ids);
-        auto p = detail::list_of<plugin_list_f32_t>(xyz);
-        return unit(meshflow_geometry_mesh_method_mesh_move_vertices(raw_, &i, &p, &error_));
+    // ---- vertices
+
+    // Appends a vertex; its id.
+    Result<uint32_t> add_vertex(float x, float y, float z) const {
+        uint32_t v;
+        return id(meshflow_geometry_mesh_method_mesh_add_vertex(raw_, x, y, z, &v, &error_), v);
     }
     // Appends xyz.size() / 3 vertices; the first new id.
     Result<uint32_t> add_vertices(std::span<const float> xyz) const {
@@ -200,9 +306,35 @@ public:
         uint32_t first;
         return id(meshflow_geometry_mesh_method_mesh_add_vertices(raw_, &list, &first, &error_), first);
     }
+    Result<> move_vertex(uint32_t vertex, float x, float y, float z) const {
+        return unit(meshflow_geometry_mesh_method_mesh_move_vertex(raw_, vertex, x, y, z, &error_));
+    }
+    // Moves ids[i] to xyz[3i .. 3i + 3].
+    Result<> move_vertices(std::span<const uint32_t> ids, std::span<const float> xyz) const {
+        auto i = detail::list_of<plugin_list_u32_t>(ids);
+        auto p = detail::list_of<plugin_list_f32_t>(xyz);
+        return unit(meshflow_geometry_mesh_method_mesh_move_vertices(raw_, &i, &p, &error_));
+    }
+    // Moves every vertex: 3 values per vertex slot (removed slots ignored). One edit.
+    Result<> set_positions(std::span<const float> xyz) const {
+        auto list = detail::list_of<plugin_list_f32_t>(xyz);
+        return unit(meshflow_geometry_mesh_method_mesh_set_positions(raw_, &list, &error_));
+    }
+    // Removes a vertex and every triangle that uses it.
+    Result<> remove_vertex(uint32_t vertex) const {
+        return unit(meshflow_geometry_mesh_method_mesh_remove_vertex(raw_, vertex, &error_));
+    }
     Result<> remove_vertices(std::span<const uint32_t> ids) const {
         auto list = detail::list_of<plugin_list_u32_t>(ids);
         return unit(meshflow_geometry_mesh_method_mesh_remove_vertices(raw_, &list, &error_));
+    }
+
+    // ---- triangles
+
+    // Appends a triangle of live, distinct corners; its id.
+    Result<uint32_t> add_triangle(uint32_t a, uint32_t b, uint32_t c) const {
+        uint32_t t;
+        return id(meshflow_geometry_mesh_method_mesh_add_triangle(raw_, a, b, c, &t, &error_), t);
     }
     // Appends abc.size() / 3 triangles of live, distinct corners; the first new id.
     Result<uint32_t> add_triangles(std::span<const uint32_t> abc) const {
@@ -210,34 +342,92 @@ public:
         uint32_t first;
         return id(meshflow_geometry_mesh_method_mesh_add_triangles(raw_, &list, &first, &error_), first);
     }
+    // Removes triangles; their vertices stay, even if no triangle uses them any more.
+    Result<> remove_triangle(uint32_t triangle) const {
+        return unit(meshflow_geometry_mesh_method_mesh_remove_triangle(raw_, triangle, &error_));
+    }
     Result<> remove_triangles(std::span<const uint32_t> ids) const {
         auto list = detail::list_of<plugin_list_u32_t>(ids);
         return unit(meshflow_geometry_mesh_method_mesh_remove_triangles(raw_, &list, &error_));
+    }
+    // Reverses orientation (swaps corners 1 and 2).
+    Result<> flip_triangle(uint32_t triangle) const {
+        return unit(meshflow_geometry_mesh_method_mesh_flip_triangle(raw_, triangle, &error_));
     }
     Result<> flip_triangles(std::span<const uint32_t> ids) const {
         auto list = detail::list_of<plugin_list_u32_t>(ids);
         return unit(meshflow_geometry_mesh_method_mesh_flip_triangles(raw_, &list, &error_));
     }
-    // Applies a row-major 3x4 affine map to every vertex.
+    // Splits a triangle into three around a new vertex at its centroid; the new vertex. The
+    // triangle keeps its id as the piece on edge 0; the two others are appended.
+    Result<uint32_t> split_triangle(uint32_t triangle) const {
+        uint32_t v;
+        return id(meshflow_geometry_mesh_method_mesh_split_triangle(raw_, triangle, &v, &error_), v);
+    }
+    // As split_triangle, with the new vertex at (x, y, z).
+    Result<uint32_t> split_triangle_at(uint32_t triangle, float x, float y, float z) const {
+        uint32_t v;
+        return id(meshflow_geometry_mesh_method_mesh_split_triangle_at(raw_, triangle, x, y, z, &v, &error_),
+                  v);
+    }
+
+    // ---- edges: half-edge ids, see half_edge(t, k)
+
+    // Adds the triangle on the far side of half-edge a -> b with apex `vertex`, oriented
+    // b a vertex; its id.
+    Result<uint32_t> extend_edge(uint32_t edge, uint32_t vertex) const {
+        uint32_t t;
+        return id(meshflow_geometry_mesh_method_mesh_extend_edge(raw_, edge, vertex, &t, &error_), t);
+    }
+    // Splits the edge at its midpoint, and every triangle that has it; the new vertex.
+    Result<uint32_t> split_edge(uint32_t edge) const {
+        uint32_t v;
+        return id(meshflow_geometry_mesh_method_mesh_split_edge(raw_, edge, &v, &error_), v);
+    }
+    // As split_edge, with the new vertex at (x, y, z).
+    Result<uint32_t> split_edge_at(uint32_t edge, float x, float y, float z) const {
+        uint32_t v;
+        return id(meshflow_geometry_mesh_method_mesh_split_edge_at(raw_, edge, x, y, z, &v, &error_), v);
+    }
+    // Replaces the two triangles on a manifold interior edge by the two on the other diagonal.
+    Result<> swap_edge(uint32_t edge) const {
+        return unit(meshflow_geometry_mesh_method_mesh_swap_edge(raw_, edge, &error_));
+    }
+    // Merges the edge's end vertex into its start vertex, which keeps its position; triangles
+    // that become degenerate are removed.
+    Result<> collapse_edge(uint32_t edge) const {
+        return unit(meshflow_geometry_mesh_method_mesh_collapse_edge(raw_, edge, &error_));
+    }
+
+    // ---- whole components, the whole mesh
+
+    // Removes the edge-connected component containing `triangle`, and the vertices no
+    // triangle uses any more.
+    Result<> remove_component(uint32_t triangle) const {
+        return unit(meshflow_geometry_mesh_method_mesh_remove_component(raw_, triangle, &error_));
+    }
+    // Applies a row-major 3x4 affine map to every vertex of the component of `triangle`.
+    Result<> transform_component(uint32_t triangle, std::span<const float, 12> matrix) const {
+        auto list = detail::list_of<plugin_list_f32_t>(std::span<const float>(matrix));
+        return unit(meshflow_geometry_mesh_method_mesh_transform_component(raw_, triangle, &list, &error_));
+    }
+    // Applies a row-major 3x4 affine map ([r00 r01 r02 t0 r10 … t2]) to every vertex.
     Result<> transform(std::span<const float, 12> matrix) const {
         auto list = detail::list_of<plugin_list_f32_t>(std::span<const float>(matrix));
         return unit(meshflow_geometry_mesh_method_mesh_transform(raw_, &list, &error_));
     }
+    // Removes every vertex and triangle.
+    Result<> clear() const { return unit(meshflow_geometry_mesh_method_mesh_clear(raw_, &error_)); }
 
 private:
-    template <class T, class List>
-    static std::vector<T> take(List& list) {
-        std::vector<T> out(list.ptr, list.ptr + list.len);
-        std::free(list.ptr);
-        return out;
-    }
+    std::unexpected<Error> failed() const { return std::unexpected(detail::edit_error(error_)); }
     Result<> unit(bool ok) const {
         if (ok) return {};
-        return std::unexpected(detail::edit_error(error_));
+        return failed();
     }
     Result<uint32_t> id(bool ok, uint32_t value) const {
         if (ok) return value;
-        return std::unexpected(detail::edit_error(error_));
+        return failed();
     }
 
     meshflow_geometry_mesh_borrow_mesh_t raw_;
@@ -246,10 +436,11 @@ private:
 
 // ---- services ---------------------------------------------------------------------------------
 
-// A filter edits the mesh and returns a short report of what it did.
-using FilterFn = Result<std::string> (*)(const Mesh&, const Params&);
+// A filter edits the mesh and returns a short report of what it did. Any callable: a
+// function, or a lambda that captures.
+using FilterFn = std::function<Result<std::string>(const Mesh&, const Params&)>;
 // A check reads the mesh (the host refuses edits) and returns a value.
-using CheckFn = Result<Value> (*)(const Mesh&, const Params&);
+using CheckFn = std::function<Result<Value>(const Mesh&, const Params&)>;
 
 // One service of a plugin: its description and the function that runs it.
 struct Service {
@@ -259,15 +450,17 @@ struct Service {
     std::vector<Param> params;
 
     static Service filter(std::string name, std::string doc, FilterFn f) {
-        return {std::move(name), std::move(doc), f, ValueType::Integer, {}};
+        return {std::move(name), std::move(doc), std::move(f), ValueType::Integer, {}};
     }
     static Service check(std::string name, std::string doc, ValueType result, CheckFn f) {
-        return {std::move(name), std::move(doc), f, result, {}};
+        return {std::move(name), std::move(doc), std::move(f), result, {}};
     }
-    Service param(Param p) && {
+    // Declares a parameter; chains on a temporary and on a named service.
+    Service& param(Param p) & {
         params.push_back(std::move(p));
-        return std::move(*this);
+        return *this;
     }
+    Service param(Param p) && { return std::move(param(std::move(p))); }
 };
 
 namespace detail {
@@ -357,12 +550,15 @@ inline bool run(const std::vector<Service>& services, plugin_string_t* name,
             Mesh mesh(target);
             Params given(std::move(values));
             if (auto* filter = std::get_if<FilterFn>(&s.run)) {
+                if (!*filter) return fail("service `" + wanted + "` has no function");
                 Result<std::string> report = (*filter)(mesh, given);
                 if (!report) return std::unexpected(report.error());
                 ret->report = owned(*report);
                 return meshflow_geometry_types_option_value_t{};
             }
-            Result<Value> value = std::get<CheckFn>(s.run)(mesh, given);
+            const CheckFn& check = std::get<CheckFn>(s.run);
+            if (!check) return fail("service `" + wanted + "` has no function");
+            Result<Value> value = check(mesh, given);
             if (!value) return std::unexpected(value.error());
             ret->report = owned("");
             return meshflow_geometry_types_option_value_t{true, to_c(*value)};
@@ -383,7 +579,11 @@ inline bool run(const std::vector<Service>& services, plugin_string_t* name,
 
 // Exports the services returned by `std::vector<meshflow::Service> services()` as this
 // component's meshflow:geometry/service interface.
+// It also gives weak definitions of the stack-protector symbols that Debian's wasm32
+// compiler-rt (128-bit division, which std::format uses) refers to and wasi-libc lacks.
 #define MESHFLOW_EXPORT_PLUGIN(services_fn)                                                    \
+    extern "C" __attribute__((weak)) uintptr_t __stack_chk_guard = 0x6d657368u;                \
+    extern "C" __attribute__((weak, noreturn)) void __stack_chk_fail(void) { __builtin_trap(); } \
     extern "C" void exports_meshflow_geometry_service_describe(                               \
         exports_meshflow_geometry_service_list_service_info_t* ret) {                          \
         ::meshflow::detail::describe(services_fn(), ret);                                      \
@@ -394,3 +594,15 @@ inline bool run(const std::vector<Service>& services, plugin_string_t* name,
         exports_meshflow_geometry_service_outcome_t* ret, plugin_string_t* err) {              \
         return ::meshflow::detail::run(services_fn(), name, target, params, ret, err);         \
     }
+
+// Early return for results, like Rust's `?`: `auto xyz = MESHFLOW_TRY(mesh.position(v));`
+// gives the value, or returns the error from the enclosing function (any function returning
+// a meshflow::Result). For a Result<> it is a statement: `MESHFLOW_TRY(mesh.clear());`.
+// (A statement expression, as clang and GCC support.)
+#define MESHFLOW_TRY(...)                                                                       \
+    ({                                                                                          \
+        auto meshflow_try_result_ = (__VA_ARGS__);                                              \
+        if (!meshflow_try_result_)                                                              \
+            return ::std::unexpected(::std::move(meshflow_try_result_).error());                \
+        ::meshflow::detail::take_value(::std::move(meshflow_try_result_));                      \
+    })

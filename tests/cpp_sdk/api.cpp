@@ -1,0 +1,104 @@
+// Exercises every part of meshflow.hpp against a real host (tests/cpp_sdk.rs): each Mesh
+// wrapper, MESHFLOW_TRY on values and on Result<>, formatted fail(), direct parameter
+// getters, builders on named objects, and capturing lambdas as services.
+#include <meshflow.hpp>
+
+#include <string>
+
+using meshflow::half_edge;
+using meshflow::Mesh;
+using meshflow::Params;
+using meshflow::Result;
+
+namespace {
+
+// Every edit of the WIT mesh, once, on a mesh of at least 200 triangles.
+Result<std::string> edits(const Mesh& mesh, const Params& params) {
+    int64_t rounds = params.get_integer("rounds");
+    std::string log;
+    auto note = [&](std::string_view what, uint32_t n) { log += std::format("{}={} ", what, n); };
+
+    auto p0 = MESHFLOW_TRY(mesh.position(0));
+    auto t0 = MESHFLOW_TRY(mesh.triangle(0));
+    if (!mesh.is_vertex_live(t0[0]) || !mesh.is_triangle_live(0)) return meshflow::fail("dead");
+    MESHFLOW_TRY(mesh.move_vertex(0, p0[0], p0[1], p0[2] + 0.001f));
+
+    // An isolated square: a triangle, extended across its diagonal, the diagonal swapped,
+    // both flipped, moved, then removed whole.
+    uint32_t a = MESHFLOW_TRY(mesh.add_vertex(10, 0, 0));
+    uint32_t b = MESHFLOW_TRY(mesh.add_vertices(std::vector<float>{11, 0, 0, 11, 1, 0, 10, 1, 0}));
+    uint32_t lone = MESHFLOW_TRY(mesh.add_triangle(a, b, b + 1));
+    uint32_t far = MESHFLOW_TRY(mesh.extend_edge(half_edge(lone, 2), b + 2));
+    note("extended", far);
+    MESHFLOW_TRY(mesh.swap_edge(half_edge(lone, 2)));
+    MESHFLOW_TRY(mesh.flip_triangle(far));
+    MESHFLOW_TRY(mesh.flip_triangles(std::vector<uint32_t>{far}));
+    const float shift[12] = {1, 0, 0, 5, 0, 1, 0, 0, 0, 0, 1, 0};
+    MESHFLOW_TRY(mesh.transform_component(lone, shift));
+    MESHFLOW_TRY(mesh.remove_component(lone));
+    if (mesh.is_triangle_live(far)) return meshflow::fail("remove_component left {}", far);
+
+    for (int64_t r = 0; r < rounds; ++r) {
+        uint32_t t = 10 + uint32_t(r) * 20;
+        uint32_t v = MESHFLOW_TRY(mesh.split_triangle(t));
+        uint32_t w = MESHFLOW_TRY(mesh.split_triangle_at(t + 1, p0[0], p0[1], p0[2]));
+        uint32_t x = MESHFLOW_TRY(mesh.split_edge(half_edge(t + 2, 0)));
+        uint32_t y = MESHFLOW_TRY(mesh.split_edge_at(half_edge(t + 3, 1), p0[0], p0[1], p0[2]));
+        note("split", v + w + x + y);
+        MESHFLOW_TRY(mesh.collapse_edge(half_edge(t + 5, 0)));
+    }
+    uint32_t more = MESHFLOW_TRY(mesh.add_triangles(std::vector<uint32_t>{1, 2, 3}));
+    MESHFLOW_TRY(mesh.remove_triangle(more));
+    MESHFLOW_TRY(mesh.remove_triangles(std::vector<uint32_t>{more - 1}));
+    MESHFLOW_TRY(mesh.remove_vertex(7));
+    MESHFLOW_TRY(mesh.remove_vertices(std::vector<uint32_t>{8}));
+    MESHFLOW_TRY(mesh.move_vertices(std::vector<uint32_t>{9}, std::vector<float>{0, 0, 0}));
+
+    // A refused edit is a value, with the host's reason.
+    auto refused = mesh.remove_triangle(0xFFFFFFF0u);
+    if (refused) return meshflow::fail("a dead triangle was removed");
+    log += refused.error().message + " ";
+
+    // positions() and triangles() hand over the host's arrays without a copy.
+    meshflow::Array<float> xyz = mesh.positions();
+    meshflow::Array<uint32_t> abc = mesh.triangles();
+    for (float& c : xyz) c *= 2;
+    MESHFLOW_TRY(mesh.set_positions(xyz));
+    const float unit[12] = {0.5f, 0, 0, 0, 0, 0.5f, 0, 0, 0, 0, 0.5f, 0};
+    MESHFLOW_TRY(mesh.transform(unit));
+    std::span<const uint32_t> ids = abc;
+    note("removed", uint32_t(mesh.removed_vertices().size()));
+    note("slots", uint32_t(ids.size() / 3));
+    return log;
+}
+
+}  // namespace
+
+std::vector<meshflow::Service> services() {
+    using meshflow::Param;
+    using meshflow::Service;
+    // Builders on named objects.
+    Param rounds = Param::integer("rounds", 3);
+    rounds.range(1, 10);
+    rounds.doc("Split and collapse rounds.");
+    Service edit = Service::filter("sdk-api-edits", "Every mesh edit, once.", edits);
+    edit.param(rounds);
+
+    // A capturing lambda as a check, and a formatted failure.
+    std::string unit = "triangles";
+    auto fails = [unit](const Mesh& mesh, const Params&) -> Result<meshflow::Value> {
+        return meshflow::fail("{} {} and a failure", mesh.triangle_count(), unit);
+    };
+    return {
+        edit,
+        Service::check("sdk-api-fail", "Fails, saying how many triangles.",
+                       meshflow::ValueType::Text, fails),
+        Service::filter("sdk-api-clear", "Removes everything.",
+                        [](const Mesh& mesh, const Params&) -> Result<std::string> {
+                            MESHFLOW_TRY(mesh.clear());
+                            return std::format("{} left", mesh.triangle_count());
+                        }),
+    };
+}
+
+MESHFLOW_EXPORT_PLUGIN(services)
