@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs every test of the workspace, installing what they need first: the wasm target for
 # the plugins, Debian's Chromium for the workbench's browser test (tests/workbench.rs), and
-# Debian's clang for wasm32-wasi, with which tests/cpp_template.rs builds the C++ template.
+# Debian's clang for wasm32-wasi, with which tests/cpp_template.rs builds the C++ template,
+# and a Python venv (target/python-venv) for the Python client's tests (python/tests).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 rustup target add wasm32-wasip2
@@ -14,3 +15,17 @@ if ((${#missing[@]})); then
     apt-get update && apt-get install -y "${missing[@]}"
 fi
 cargo test --workspace --locked "$@"
+
+# The Python client (python/) against `meshflow up`, in a venv under target/.
+command -v python3 >/dev/null || { apt-get update && apt-get install -y python3; }
+venv=target/python-venv
+if [[ ! -x $venv/bin/python ]]; then
+    python3 -m venv "$venv" 2>/dev/null || {
+        rm -rf "$venv"
+        apt-get update && apt-get install -y python3-venv
+        python3 -m venv "$venv"
+    }
+fi
+"$venv/bin/pip" install --quiet --disable-pip-version-check -e 'python[test]'
+cargo build --locked --bin meshflow   # a no-op after cargo test; the tests run this binary
+MESHFLOW_BIN="${MESHFLOW_BIN:-$PWD/target/debug/meshflow}" "$venv/bin/python" -m pytest -q python/tests
