@@ -1,0 +1,328 @@
+"""meshflow's plugin SDK for Python: the twin of the Rust SDK's ``Mesh`` and ``export_plugin!``.
+
+A plugin is a module that describes its services in code, one decorator per service, and
+re-exports :class:`Service`, the class componentize-py binds to the WIT's ``service``
+interface::
+
+    from array import array
+    from meshflow_plugin import Mesh, Real, Service, filter  # Service: the export
+
+    @filter("lift", "Moves every vertex up by `dz`.",
+            params=[Real("dz", 1.0, min=-1e3, max=1e3, doc="Distance along z.")])
+    def lift(mesh: Mesh, params: dict) -> str:
+        p = mesh.positions()                 # array('f'): x y z per vertex slot
+        for i in range(2, len(p), 3):
+            p[i] += params["dz"]
+        mesh.set_positions(p)                # one recorded edit
+        return f"lifted {mesh.vertex_count()} vertices"
+
+Build it with ``componentize-py -d wit -w plugin componentize app -o plugin.wasm`` (see
+examples/plugin-template-python/). Inside the sandbox there is no numpy, no files, no
+network, a frozen clock and seeded randomness: plain Python and the standard library.
+
+The host checks parameters against the description before ``run`` (names, types, ranges,
+choices) and fills in defaults, so a service gets every declared parameter. An exception a
+service raises becomes the run's error string (``MeshError`` for a refused edit keeps the
+WIT's ``edit-error-kind``); nothing half-done escapes: the host keeps only runs that return.
+"""
+
+from __future__ import annotations
+
+from array import array
+from typing import Any, Callable, Sequence
+
+__all__ = [
+    "Mesh", "MeshError", "ServiceError", "Boolean", "Integer", "Real", "Text", "filter", "check",
+    "services", "Service", "NativeMesh", "run_native",
+]
+
+
+# ---- errors ---------------------------------------------------------------------------------
+class MeshError(Exception):
+    """An edit the host refused (the WIT's ``edit-error``); ``kind`` is its kind as written
+    in the WIT (``invalid-vertex``, ``not-applicable``, ``read-only``, …). The mesh is
+    unchanged by a refused edit."""
+
+    def __init__(self, kind: str, message: str):
+        super().__init__(f"{kind}: {message}")
+        self.kind, self.message = kind, message
+
+
+class ServiceError(Exception):
+    """Raise to fail a run with this message (any exception does; this one is reported
+    without its type name)."""
+
+
+# ---- parameters -----------------------------------------------------------------------------
+class _Param:
+    ty = ""
+
+    def __init__(self, name: str, default, *, min: float | None = None, max: float | None = None,
+                 doc: str = "", choices: Sequence[str] = ()):
+        self.name, self.default, self.min, self.max = name, default, min, max
+        self.doc, self.choices = doc, list(choices)
+
+    def _info(self):
+        from wit_world.imports import types as t
+
+        return t.ParamInfo(name=self.name, doc=self.doc, ty=_VALUE_TYPES[self.ty](),
+                           default=_to_value(self.ty, self.default),
+                           min=None if self.min is None else float(self.min),
+                           max=None if self.max is None else float(self.max),
+                           choices=list(self.choices))
+
+
+class Boolean(_Param):
+    """A ``boolean`` parameter: ``Boolean("keep-boundary", True, doc=...)``."""
+    ty = "boolean"
+
+
+class Integer(_Param):
+    """An ``integer`` parameter with an inclusive range: ``Integer("iterations", 10, min=1, max=1000)``."""
+    ty = "integer"
+
+
+class Real(_Param):
+    """A ``real`` parameter with an inclusive range: ``Real("lambda", 0.5, min=1e-6, max=1.0)``."""
+    ty = "real"
+
+
+class Text(_Param):
+    """A ``text`` parameter; ``choices`` lists the accepted words (empty: any text)."""
+    ty = "text"
+
+
+def _vt(name):
+    def make():
+        from wit_world.imports import types as t
+
+        return getattr(t.ValueType, name.upper())
+    return make
+
+
+_VALUE_TYPES = {k: _vt(k) for k in ("boolean", "integer", "real", "text")}
+
+
+def _to_value(ty: str, v):
+    from wit_world.imports import types as t
+
+    if ty == "boolean":
+        return t.Value_Boolean(bool(v))
+    if ty == "integer":
+        return t.Value_Integer(int(v))
+    if ty == "real":
+        return t.Value_Real(float(v))
+    if ty == "text":
+        return t.Value_Text(str(v))
+    raise ValueError(f"unknown value type {ty!r}")
+
+
+# ---- services -------------------------------------------------------------------------------
+class _Svc:
+    def __init__(self, name, kind, doc, params, fn, result):
+        self.name, self.kind, self.doc, self.params, self.fn, self.result = name, kind, doc, list(params), fn, result
+
+    def _info(self):
+        from wit_world.imports import types as t
+
+        kind = t.ServiceKind.FILTER if self.kind == "filter" else t.ServiceKind.CHECK
+        return t.ServiceInfo(name=self.name, kind=kind, doc=self.doc,
+                             params=[p._info() for p in self.params],
+                             result_type=None if self.result is None else _VALUE_TYPES[self.result]())
+
+
+_SERVICES: dict[str, _Svc] = {}
+
+
+def _register(svc: _Svc) -> None:
+    if svc.name in _SERVICES:
+        raise ValueError(f"service {svc.name!r} is declared twice")
+    _SERVICES[svc.name] = svc
+
+
+def filter(name: str, doc: str, params: Sequence[_Param] = ()) -> Callable:
+    """Declares a filter: ``fn(mesh, params) -> str`` edits ``mesh`` and returns a short
+    report (``None`` reads as an empty report)."""
+    def deco(fn):
+        _register(_Svc(name, "filter", doc, params, fn, None))
+        return fn
+    return deco
+
+
+def check(name: str, doc: str, result: str, params: Sequence[_Param] = ()) -> Callable:
+    """Declares a check of ``result`` type ``boolean | integer | real | text``:
+    ``fn(mesh, params)`` returns the value, or ``(value, report)``. Checks cannot edit."""
+    if result not in _VALUE_TYPES:
+        raise ValueError(f"result must be boolean, integer, real or text, not {result!r}")
+
+    def deco(fn):
+        _register(_Svc(name, "check", doc, params, fn, result))
+        return fn
+    return deco
+
+
+def services() -> list[_Svc]:
+    """The services declared so far, in declaration order."""
+    return list(_SERVICES.values())
+
+
+def _call(svc: _Svc, mesh, params: dict):
+    """Runs a service; returns ``(value or None, report)``."""
+    out = svc.fn(mesh, params)
+    if svc.kind == "filter":
+        return None, "" if out is None else str(out)
+    value, report = out if isinstance(out, tuple) else (out, "")
+    return value, str(report)
+
+
+class Service:
+    """The export componentize-py binds to ``service`` (``describe`` and ``run``); a plugin
+    module makes it visible with ``from meshflow_plugin import Service``."""
+
+    def describe(self):
+        return [s._info() for s in _SERVICES.values()]
+
+    def run(self, name, target, params):
+        from componentize_py_types import Err
+        from wit_world.imports import types as t
+
+        svc = _SERVICES.get(name)
+        if svc is None:
+            raise Err(f"unknown service {name!r}; this plugin offers {', '.join(_SERVICES)}")
+        values = {p.name: p.value.value for p in params}
+        try:
+            value, report = _call(svc, Mesh(target), values)
+            return t.Outcome(value=None if value is None else _to_value(svc.result, value), report=report)
+        except Err:
+            raise
+        except ServiceError as e:
+            raise Err(f"{name}: {e}")
+        except MeshError as e:
+            raise Err(f"{name}: {e}")
+        except Exception as e:  # any other failure: the run's error, with its type
+            raise Err(f"{name}: {type(e).__name__}: {e}")
+
+
+# ---- the mesh -------------------------------------------------------------------------------
+def _edit(call, *args):
+    from componentize_py_types import Err
+
+    try:
+        return call(*args)
+    except Err as e:
+        err = e.value
+        kind = getattr(getattr(err, "kind", None), "name", "invalid-argument").lower().replace("_", "-")
+        raise MeshError(kind, getattr(err, "message", str(err))) from None
+
+
+def _list(a):
+    return a.tolist() if isinstance(a, array) else list(a)
+
+
+class Mesh:
+    """The host's mesh (the WIT's ``mesh`` resource) with Python types: bulk reads as
+    ``array('f')`` / ``array('I')``, bulk edits from any sequence, refused edits as
+    :class:`MeshError`. Every edit is recorded by the host. A call costs ~100 ns and a list
+    element ~1 ns: read arrays once, compute, write back in bulk."""
+
+    def __init__(self, raw):
+        self.raw = raw
+
+    # bulk reads
+    def vertex_slots(self) -> int: return self.raw.vertex_slots()
+    def triangle_slots(self) -> int: return self.raw.triangle_slots()
+    def vertex_count(self) -> int: return self.raw.vertex_count()
+    def triangle_count(self) -> int: return self.raw.triangle_count()
+
+    def positions(self) -> array:
+        """``x y z`` per vertex slot (removed ones keep their last position)."""
+        return array("f", self.raw.positions())
+
+    def triangles(self) -> array:
+        """``a b c`` per triangle slot; a removed triangle reads ``0xFFFFFFFF`` three times."""
+        return array("I", self.raw.triangles())
+
+    def removed_vertices(self) -> array: return array("I", self.raw.removed_vertices())
+
+    # per element
+    def position(self, v: int): return _edit(self.raw.position, v)
+    def triangle(self, t: int): return _edit(self.raw.triangle, t)
+    def is_vertex_live(self, v: int) -> bool: return self.raw.is_vertex_live(v)
+    def is_triangle_live(self, t: int) -> bool: return self.raw.is_triangle_live(t)
+
+    # edits, bulk first
+    def set_positions(self, xyz) -> None: _edit(self.raw.set_positions, _list(xyz))
+    def move_vertices(self, ids, xyz) -> None: _edit(self.raw.move_vertices, _list(ids), _list(xyz))
+    def add_vertices(self, xyz) -> int: return _edit(self.raw.add_vertices, _list(xyz))
+    def remove_vertices(self, ids) -> None: _edit(self.raw.remove_vertices, _list(ids))
+    def add_triangles(self, abc) -> int: return _edit(self.raw.add_triangles, _list(abc))
+    def remove_triangles(self, ids) -> None: _edit(self.raw.remove_triangles, _list(ids))
+    def flip_triangles(self, ids) -> None: _edit(self.raw.flip_triangles, _list(ids))
+    def transform(self, matrix) -> None: _edit(self.raw.transform, _list(matrix))
+    def transform_component(self, t: int, matrix) -> None: _edit(self.raw.transform_component, t, _list(matrix))
+    def add_vertex(self, x, y, z) -> int: return _edit(self.raw.add_vertex, x, y, z)
+    def move_vertex(self, v, x, y, z) -> None: _edit(self.raw.move_vertex, v, x, y, z)
+    def remove_vertex(self, v) -> None: _edit(self.raw.remove_vertex, v)
+    def add_triangle(self, a, b, c) -> int: return _edit(self.raw.add_triangle, a, b, c)
+    def remove_triangle(self, t) -> None: _edit(self.raw.remove_triangle, t)
+    def flip_triangle(self, t) -> None: _edit(self.raw.flip_triangle, t)
+    def split_triangle(self, t) -> int: return _edit(self.raw.split_triangle, t)
+    def split_triangle_at(self, t, x, y, z) -> int: return _edit(self.raw.split_triangle_at, t, x, y, z)
+    def extend_edge(self, e, v) -> int: return _edit(self.raw.extend_edge, e, v)
+    def split_edge(self, e) -> int: return _edit(self.raw.split_edge, e)
+    def split_edge_at(self, e, x, y, z) -> int: return _edit(self.raw.split_edge_at, e, x, y, z)
+    def swap_edge(self, e) -> None: _edit(self.raw.swap_edge, e)
+    def collapse_edge(self, e) -> None: _edit(self.raw.collapse_edge, e)
+    def remove_component(self, t) -> None: _edit(self.raw.remove_component, t)
+    def clear(self) -> None: _edit(self.raw.clear)
+
+
+# ---- native runs (plain CPython, for unit tests of an algorithm) -----------------------------
+class NativeMesh:
+    """A stand-in for the host's mesh in plain CPython, with the bulk reads and the
+    position edits (``set_positions``, ``move_vertices``, ``transform``): enough to test a
+    smoothing or deformation service with pytest before building the component."""
+
+    def __init__(self, positions, triangles):
+        self._p = array("f", positions)
+        self._t = array("I", triangles)
+        self.edits = 0
+
+    def vertex_slots(self): return len(self._p) // 3
+    def triangle_slots(self): return len(self._t) // 3
+    vertex_count = vertex_slots
+    triangle_count = triangle_slots
+    def positions(self): return array("f", self._p)
+    def triangles(self): return array("I", self._t)
+
+    def set_positions(self, xyz):
+        if len(xyz) != len(self._p):
+            raise MeshError("invalid-argument", f"{len(xyz)} coordinates for {len(self._p) // 3} vertex slots")
+        self._p = array("f", xyz)
+        self.edits += 1
+
+    def move_vertices(self, ids, xyz):
+        for k, v in enumerate(ids):
+            self._p[3 * v:3 * v + 3] = array("f", xyz[3 * k:3 * k + 3])
+        self.edits += 1
+
+    def transform(self, m):
+        p = self._p
+        for i in range(0, len(p), 3):
+            x, y, z = p[i], p[i + 1], p[i + 2]
+            p[i], p[i + 1], p[i + 2] = (m[0] * x + m[1] * y + m[2] * z + m[3],
+                                        m[4] * x + m[5] * y + m[6] * z + m[7],
+                                        m[8] * x + m[9] * y + m[10] * z + m[11])
+        self.edits += 1
+
+
+def run_native(name: str, mesh: NativeMesh, **params: Any):
+    """Runs a declared service on a :class:`NativeMesh` with the declared defaults filled
+    in (keyword ``_`` → ``-``); returns ``(value or None, report)``."""
+    svc = _SERVICES[name]
+    values = {p.name: p.default for p in svc.params}
+    values.update({k.rstrip("_").replace("_", "-"): v for k, v in params.items()})
+    unknown = set(values) - {p.name for p in svc.params}
+    if unknown:
+        raise ServiceError(f"{name}: unknown parameter(s) {sorted(unknown)}")
+    return _call(svc, mesh, values)
