@@ -233,6 +233,10 @@ pub struct Updated {
     pub apply_ms: f64,
     /// Why the transfer asked for was not used, when the host fell back to another.
     pub fallback: Option<String>,
+    /// The mesh the producer's own edit log or replay reached here when it was not the one
+    /// the step announced (the host then took the full mesh): a disagreement between hosts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub disagreed: Option<String>,
 }
 
 /// `POST /sessions/{id}/run`.

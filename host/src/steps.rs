@@ -84,6 +84,21 @@ pub enum TransferFailure {
     Blob(#[from] BlobError),
 }
 
+impl TransferFailure {
+    /// The mesh the producer's edit log or replay reached, when it was not the announced
+    /// one: the producer's data contradicts its own claim (or this host computes wrong).
+    fn reached_another_mesh(&self) -> Option<String> {
+        match self {
+            Self::Replay(ReplayFailure::OtherResult { found, .. })
+            | Self::Replay(ReplayFailure::Diverged { found, .. }) => Some(found.clone()),
+            Self::Correction { source: CorrectionError::ResultMismatch { found, .. }, .. } => {
+                Some(found.to_hex())
+            }
+            _ => None,
+        }
+    }
+}
+
 /// Session `id` takes another host's step: re-run it (`replay`) or replay its edit log
 /// (`correction`), as asked, falling back to the edit log and then to the full mesh.
 /// `peers` are the cluster's origins the engine vouched for.
@@ -98,6 +113,7 @@ pub async fn update(
     let mut downloaded = 0;
     let mut download_ms = 0.0;
     let mut reasons = Vec::new();
+    let mut disagreed = None;
     let order: &[Transfer] = match update.use_ {
         Transfer::Replay => &[Transfer::Replay, Transfer::Correction],
         Transfer::Correction => &[Transfer::Correction],
@@ -126,11 +142,15 @@ pub async fn update(
                     download_ms,
                     apply_ms: attempt.apply_ms,
                     fallback: fallback(&reasons),
+                    disagreed,
                 };
                 session.commit(next, name)?;
                 return Ok(updated);
             }
-            Err(reason) => reasons.push(format!("{}: {reason}", via.name())),
+            Err(reason) => {
+                disagreed = disagreed.or_else(|| reason.reached_another_mesh());
+                reasons.push(format!("{}: {reason}", via.name()));
+            }
         }
     }
     let fallback = fallback(&reasons);
@@ -165,6 +185,7 @@ pub async fn update(
         download_ms,
         apply_ms: millis(started.elapsed()),
         fallback,
+        disagreed,
     };
     session.commit(next, name)?;
     drop(stored);

@@ -150,8 +150,9 @@ fn judge(
     match outcome {
         Ok(updated) => match super::verify::updated(&updated, announced) {
             Ok(()) => {
-                if let Some(fallback) = updated.fallback.as_deref().filter(|f| other_result(f)) {
-                    let message = format!("took the full mesh: {fallback}");
+                if let Some(reached) = &updated.disagreed {
+                    let fallback = updated.fallback.as_deref().unwrap_or_default();
+                    let message = format!("reached mesh {reached}, took the full mesh: {fallback}");
                     tracing::warn!(host = %receiver.url, "step {step}: {message}");
                     let found = dispute(None, message, Position::Neutral);
                     disputes.lock().unwrap().push(found);
@@ -176,12 +177,6 @@ fn judge(
         }
         Err(error) => Err(error),
     }
-}
-
-/// Whether a receiver's fallback says the producer's edit log or replay reached another
-/// mesh than announced (the host's `ResultMismatch`, `OtherResult` and `Diverged`).
-fn other_result(fallback: &str) -> bool {
-    ["gave mesh", "gives mesh", "reached mesh"].iter().any(|words| fallback.contains(words))
 }
 
 /// What an update's answer tells the cost model: the link's speed (a full mesh or a large
@@ -263,6 +258,7 @@ mod tests {
             download_ms: 0.0,
             apply_ms: 0.0,
             fallback: fallback.map(str::to_owned),
+            disagreed: fallback.map(|_| "b".repeat(64)),
         };
         let disputes = Disputes::default();
         let judged = |outcome| judge(outcome, &announced, &receiver, &producer, 3, &disputes);

@@ -378,6 +378,7 @@ mod tests {
             download_ms: 0.0,
             apply_ms: 0.0,
             fallback: None,
+            disagreed: None,
         };
         assert_eq!(updated(&update(hash('b')), &hash('b')), Ok(()));
         assert!(updated(&update(hash('c')), &hash('b')).is_err());
