@@ -191,6 +191,17 @@ impl HostClient {
         read_capped(send(request, &url).await?, &url, limit).await
     }
 
+    /// `POST /meshes/convert`, its successful answer unread: the caller streams and caps it.
+    pub async fn convert_response(
+        &self,
+        request: ConvertMesh,
+    ) -> Result<reqwest::Response, ClientError> {
+        let url = format!("{}/meshes/convert", self.endpoint.base);
+        let body = Vouched { body: request, peers: self.access.peers() };
+        let request = self.endpoint.request(Method::POST, &url).timeout(WORK_TIMEOUT).json(&body);
+        send(request, &url).await
+    }
+
     /// The size of a blob (any URL), by `HEAD`.
     pub async fn blob_size(&self, url: &str) -> Result<u64, ClientError> {
         let request = self.endpoint.request(Method::HEAD, url).timeout(QUERY_TIMEOUT);

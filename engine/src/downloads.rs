@@ -13,6 +13,7 @@ use tokio::sync::Semaphore;
 
 use crate::limits::{DOWNLOAD_FETCH_TIMEOUT, MAX_CONCURRENT_DOWNLOADS, MAX_DOWNLOAD_FETCH_BYTES};
 use crate::record::{RunRecord, Status};
+use crate::verified;
 
 /// Which mesh of a run.
 #[derive(Clone, Copy, Debug)]
@@ -55,22 +56,35 @@ pub enum DownloadError {
     HashMismatch { host: String, expected: String, actual: String },
     #[error("the mesh from {host} is not a raw mesh: {error}")]
     Corrupt { host: String, error: raw_mesh::RawMeshError },
+    #[error("the mesh from {host} could not be kept: {message}")]
+    Spool { host: String, message: String },
 }
 
 /// A converted mesh and the file name it is offered under.
+/// Checked before it is offered (see `crate::verified`); on disk, deleted when dropped.
 pub struct Download {
-    pub bytes: Vec<u8>,
+    pub file: tempfile::TempPath,
+    pub bytes: u64,
     pub file_name: String,
 }
 
 /// Asks hosts for meshes, at most [`MAX_CONCURRENT_DOWNLOADS`] at a time.
 pub struct Downloads {
     slots: Arc<Semaphore>,
+    /// Where hosts' answers are spooled and files written (`DATA/spool`).
+    dir: std::path::PathBuf,
 }
 
 impl Default for Downloads {
     fn default() -> Self {
-        Self { slots: Arc::new(Semaphore::new(MAX_CONCURRENT_DOWNLOADS)) }
+        Self::spooling_in(std::env::temp_dir().join("meshflow-engine-spool"))
+    }
+}
+
+impl Downloads {
+    /// Spooling under `dir` (made when first needed).
+    pub fn spooling_in(dir: std::path::PathBuf) -> Self {
+        Self { slots: Arc::new(Semaphore::new(MAX_CONCURRENT_DOWNLOADS)), dir }
     }
 }
 
@@ -110,39 +124,79 @@ impl Downloads {
             }
             None => input_writer(record, hosts).ok_or(DownloadError::NoHost)?,
         };
-        // A slot before the request: memory stays bounded by the slots, not the requests.
+        // A slot before the request: disk and connections stay bounded by the slots.
         let _slot = self.slots.acquire().await.expect("the semaphore is never closed");
+        let host = writer.base_url().to_owned();
+        let (file, bytes) =
+            tokio::time::timeout(DOWNLOAD_FETCH_TIMEOUT, self.verified(&writer, &source, format))
+                .await
+                .unwrap_or_else(|_| {
+                    let message = format!("no whole answer in {DOWNLOAD_FETCH_TIMEOUT:?}");
+                    let error = ClientError::Timeout { url: host.clone(), message };
+                    Err(DownloadError::Fetch { host, error })
+                })?;
+        let file_name = format!("{stem}-{}.{}", source.label, format.extension());
+        Ok(Download { file, bytes, file_name })
+    }
+
+    /// The mesh as `format`, on disk, its hash checked: the host's `raw` answer hashed as it
+    /// is spooled, then PLY/OBJ/OFF/STL written here from it, or `.mfm` taken from the same
+    /// host once its `raw` proved it holds the mesh (see `crate::verified`).
+    async fn verified(
+        &self,
+        writer: &HostClient,
+        source: &Source,
+        format: MeshFileFormat,
+    ) -> Result<(tempfile::TempPath, u64), DownloadError> {
+        let host = writer.base_url().to_owned();
+        let raw = self.spooled(writer, source, MeshFileFormat::Raw).await?;
+        let actual = raw.hash.clone().expect("a raw answer is hashed");
+        if actual != source.hash {
+            let expected = source.hash.clone();
+            return Err(DownloadError::HashMismatch { host, expected, actual });
+        }
+        match format {
+            MeshFileFormat::Raw => Ok((raw.path, raw.bytes)),
+            MeshFileFormat::Mfm => {
+                let packed = self.spooled(writer, source, format).await?;
+                Ok((packed.path, packed.bytes))
+            }
+            _ => verified::write_format(&raw.path, format, &self.dir)
+                .await
+                .map_err(|e| DownloadError::Spool { host, message: e.to_string() }),
+        }
+    }
+
+    /// The host's answer for `format`, spooled under the cap (and hashed, for `raw`).
+    async fn spooled(
+        &self,
+        writer: &HostClient,
+        source: &Source,
+        format: MeshFileFormat,
+    ) -> Result<verified::Spooled, DownloadError> {
+        let host = writer.base_url().to_owned();
+        let failed = |error| match (error, source.step) {
+            (ClientError::Refused { status: 404, .. }, Some(index)) => {
+                DownloadError::Gone { index, host: host.clone() }
+            }
+            (error, _) => DownloadError::Fetch { host: host.clone(), error },
+        };
         let request = ConvertMesh {
             hash: source.hash.clone(),
             from: source.from.clone(),
             format,
             grid: source.grid,
         };
-        let host = writer.base_url().to_owned();
-        let converted = tokio::time::timeout(
-            DOWNLOAD_FETCH_TIMEOUT,
-            writer.convert(request, MAX_DOWNLOAD_FETCH_BYTES),
-        )
-        .await
-        .unwrap_or_else(|_| {
-            let message = format!("no whole answer in {DOWNLOAD_FETCH_TIMEOUT:?}");
-            Err(ClientError::Timeout { url: host.clone(), message })
-        });
-        let bytes = converted.map_err(|error| match (error, source.step) {
-            (ClientError::Refused { status: 404, .. }, Some(index)) => {
-                DownloadError::Gone { index, host: host.clone() }
+        let response = writer.convert_response(request).await.map_err(failed)?;
+        let raw = format == MeshFileFormat::Raw;
+        let limit = MAX_DOWNLOAD_FETCH_BYTES;
+        verified::spool(response, &host, &self.dir, limit, raw).await.map_err(|e| match e {
+            verified::SpoolError::Fetch(error) => failed(error),
+            verified::SpoolError::NotRaw(error) => {
+                DownloadError::Corrupt { host: host.clone(), error }
             }
-            (error, _) => DownloadError::Fetch { host: host.clone(), error },
-        })?;
-        if format == MeshFileFormat::Raw {
-            let actual = raw_mesh::content_hash(&bytes)
-                .map_err(|error| DownloadError::Corrupt { host: host.clone(), error })?;
-            if actual != source.hash {
-                return Err(DownloadError::HashMismatch { host, expected: source.hash, actual });
-            }
-        }
-        let file_name = format!("{stem}-{}.{}", source.label, format.extension());
-        Ok(Download { bytes, file_name })
+            other => DownloadError::Spool { host: host.clone(), message: other.to_string() },
+        })
     }
 }
 
@@ -159,20 +213,6 @@ fn input_writer(record: &RunRecord, hosts: &dyn Hosts) -> Option<HostClient> {
 fn locate(record: &RunRecord, which: Which) -> Result<Source, DownloadError> {
     match which {
         Which::Result => match (&record.result, record.status) {
-            // No filter ran (a WHILE false at once): the result is the input, written as one.
-            (Some(result), Status::Completed)
-                if record.input.as_ref().is_some_and(|input| input.url == result.url) =>
-            {
-                let input = record.input.as_ref().expect("checked just above");
-                Ok(Source {
-                    holder: None,
-                    from: Some(input.url.clone()),
-                    step: None,
-                    hash: result.hash.clone(),
-                    label: "result".into(),
-                    grid: input.grid,
-                })
-            }
             (Some(result), Status::Completed) => Ok(Source {
                 // A blob URL of the host that holds it.
                 holder: Some(result.url.clone()),
@@ -335,7 +375,7 @@ mod tests {
         let served = downloads.mesh(&good, Which::Result, raw_format, "tri", &cluster).await;
         let served = served.unwrap();
         assert_eq!(served.file_name, "tri-result.raw");
-        assert_eq!(served.bytes, raw);
+        assert_eq!(std::fs::read(&served.file).unwrap(), raw);
         assert_eq!(
             seen.lock().unwrap()[0],
             ConvertMesh { hash: hash.clone(), from: None, format: raw_format, grid: None }
@@ -383,10 +423,18 @@ mod tests {
         let ply = MeshFileFormat::Ply;
         let served = downloads.mesh(&record, Which::Input, ply, "bunny", &cluster).await.unwrap();
         assert_eq!(served.file_name, "bunny-input.ply");
+        let written = std::fs::read(&served.file).unwrap();
+        assert!(written.starts_with(b"ply\nformat binary_little_endian 1.0\nelement vertex 3\n"));
         assert!(other_seen.lock().unwrap().is_empty());
         let asked = used_seen.lock().unwrap().clone();
-        let request =
-            ConvertMesh { hash: hash.clone(), from: Some(input_url), format: ply, grid: None };
+        // Asked for the arrays, which are hashed here; the PLY is written from them.
+        let raw_format = MeshFileFormat::Raw;
+        let request = ConvertMesh {
+            hash: hash.clone(),
+            from: Some(input_url),
+            format: raw_format,
+            grid: None,
+        };
         assert_eq!(asked, std::slice::from_ref(&request));
 
         // A quantised run's input hash names the mesh on the run's grid: the host is told

@@ -110,7 +110,7 @@ impl Engine {
             inputs: inputs::Inputs::new(config.data_dir.join("inputs"))?,
             store,
             admission: admission::Admission::default(),
-            downloads: downloads::Downloads::default(),
+            downloads: downloads::Downloads::spooling_in(config.data_dir.join("spool")),
             changed,
             public_url,
             access: config.access,

@@ -33,6 +33,7 @@ pub mod summary;
 pub mod trust;
 pub mod users;
 pub mod validate;
+mod verified;
 pub mod workflow;
 
 use std::path::PathBuf;

@@ -7,6 +7,7 @@ use axum::Extension;
 use axum::extract::{Path, Query, State};
 use axum::http::header;
 use axum::response::{IntoResponse, Response};
+use futures_util::StreamExt;
 use meshflow_api::host::MeshFileFormat;
 use serde::Deserialize;
 
@@ -72,6 +73,14 @@ async fn mesh(
     let headers = [
         (header::CONTENT_TYPE, "application/octet-stream".to_owned()),
         (header::CONTENT_DISPOSITION, format!("attachment; filename=\"{}\"", download.file_name)),
+        (header::CONTENT_LENGTH, download.bytes.to_string()),
     ];
-    Ok((headers, download.bytes).into_response())
+    // Checked already; streamed from its file, which goes once the stream ends.
+    let file = tokio::fs::File::open(&download.file).await.map_err(super::error::internal)?;
+    let spool = download.file;
+    let stream = tokio_util::io::ReaderStream::with_capacity(file, 64 << 10).map(move |chunk| {
+        let _kept = &spool;
+        chunk
+    });
+    Ok((headers, axum::body::Body::from_stream(stream)).into_response())
 }

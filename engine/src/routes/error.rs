@@ -94,7 +94,7 @@ impl From<DownloadError> for ApiError {
                 (StatusCode::NOT_FOUND, "not-found")
             }
             E::Gone { .. } => (StatusCode::GONE, "gone"),
-            E::Fetch { .. } | E::UnknownHost(_) | E::Corrupt { .. } => {
+            E::Fetch { .. } | E::UnknownHost(_) | E::Corrupt { .. } | E::Spool { .. } => {
                 (StatusCode::BAD_GATEWAY, "download-failed")
             }
             E::NoHost => (StatusCode::SERVICE_UNAVAILABLE, "no-host"),
