@@ -106,7 +106,7 @@ export class RunView {
       r.broadcast && el('p', { className: 'note' }, `Input loaded on ${r.broadcast.hosts.length} host(s) in ${ms(r.broadcast.ms)}: `,
         r.broadcast.hosts.map((h) => `${h.host} (${bytes(h.bytes)}, ${ms(h.download_ms)} download, ${ms(h.load_ms)} load)`).join('; ')),
       this.stepTable(steps),
-      steps.length > 0 && el('div', { className: 'chart' }, el('h4', {}, `Bytes moved per step (transfer: ${r.transfer})`), bytesChart(steps)),
+      steps.some((s) => s.kind === 'filter') && el('div', { className: 'chart' }, el('h4', {}, `Bytes moved per step (transfer: ${r.transfer})`), bytesChart(steps)),
       r.result && this.resultBar(r));
     if (r.input) this.input(this.path('input'));
     if (r.status === 'completed' && r.result && !this.shownResult) {

@@ -106,6 +106,9 @@ export class Viewer {
   /** A view the user chose: the input is fetched if it is needed and not there. */
   choose(mode) {
     this.setMode(mode);
+    // A mesh already there (the input fetched for an earlier "Side by side") is shown now.
+    const entry = this.slots[mode === 'before' ? 'before' : 'after'];
+    if (mode !== 'side' && entry) this.canvas.dataset.shown = entry.label;
     if (mode !== 'after' && !this.slots.before && !this.loadingInput) {
       if (this.inputPath) this.loadInput();
       else this.status.textContent = 'No input to show yet: run a workflow or open a run.';
