@@ -1,8 +1,12 @@
 //! The `meshflow` command line, end to end: real files, real plugins, real exit codes.
 
+mod common;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
+
+use common::process::UpProcess;
 
 fn meshflow(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_meshflow"))
@@ -409,52 +413,13 @@ fn run_goes_through_an_embedded_engine_and_hosts_with_fresh_tokens() {
     }
 }
 
-/// `meshflow up`, killed when dropped.
-struct Up(std::process::Child);
-
-impl Drop for Up {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
 #[test]
 fn up_prints_the_ui_address_with_its_token_and_submit_needs_that_token() {
-    use std::io::BufRead;
-    let mut up = Up(Command::new(env!("CARGO_BIN_EXE_meshflow"))
-        .args(["up", "--hosts", "2", "--layout", "all", "--listen", "127.0.0.1:0"])
-        .env("MESHFLOW_CACHE_DIR", Path::new(env!("CARGO_TARGET_TMPDIR")).join("components"))
-        .env_remove("MESHFLOW_API_TOKEN")
-        .env_remove("MESHFLOW_CLUSTER_TOKEN")
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .expect("starting meshflow up"));
-    // Read what `up` prints until the submit hint, in bounded time.
-    let stdout = up.0.stdout.take().unwrap();
-    let (lines, printed) = std::sync::mpsc::channel();
-    // Read to the end: a reader that stopped would close the pipe, and `up` dies of the
-    // broken pipe at the next line it prints (which made this test flaky).
-    std::thread::spawn(move || {
-        for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
-            let _ = lines.send(line);
-        }
-    });
-    let mut text = String::new();
-    while !text.contains("MESHFLOW_API_TOKEN") {
-        let line = printed.recv_timeout(std::time::Duration::from_secs(120)).expect("up printed");
-        text.push_str(&line);
-        text.push('\n');
-    }
-    let field = |prefix: &str| {
-        let line = text.lines().find_map(|l| l.split_once(prefix)).map(|(_, rest)| rest);
-        line.unwrap_or_else(|| panic!("no {prefix:?} in {text}")).trim().to_owned()
-    };
-    let engine = field("engine: ");
-    let token = field("export MESHFLOW_API_TOKEN=");
-    assert_eq!(token.len(), 64, "{text}");
-    assert_eq!(field("web UI: "), format!("{engine}/#token={token}"));
+    let up = UpProcess::start(&["--hosts", "2", "--layout", "all", "--listen", "127.0.0.1:0"]);
+    let engine = up.field("engine: ");
+    let token = up.field("export MESHFLOW_API_TOKEN=");
+    assert_eq!(token.len(), 64, "{}", up.printed);
+    assert_eq!(up.field("web UI: "), format!("{engine}/#token={token}"));
 
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out.ply").display().to_string();
@@ -592,39 +557,13 @@ fn two_free_ports() -> u16 {
 /// ports asked for and take a plugin with that token (and refuse it without).
 #[test]
 fn up_prints_an_upload_token_and_its_hosts_on_fixed_ports_take_plugins() {
-    use std::io::BufRead;
     let first = two_free_ports();
-    let mut up = Up(Command::new(env!("CARGO_BIN_EXE_meshflow"))
-        .args(["up", "--hosts", "2", "--listen", "127.0.0.1:0", "--host-ports", &first.to_string()])
-        .env("MESHFLOW_CACHE_DIR", Path::new(env!("CARGO_TARGET_TMPDIR")).join("components"))
-        .env_remove("MESHFLOW_UPLOAD_TOKEN")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("starting meshflow up"));
-    let stdout = up.0.stdout.take().unwrap();
-    let (lines, printed) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
-            let _ = lines.send(line);
-        }
-    });
-    let mut text = String::new();
-    while !text.contains("MESHFLOW_UPLOAD_TOKEN") {
-        let line = printed.recv_timeout(std::time::Duration::from_secs(120)).expect("up printed");
-        text.push_str(&line);
-        text.push('\n');
-    }
-    let hosts: Vec<&str> =
-        text.lines().filter_map(|l| l.strip_prefix("host:")).map(str::trim).collect();
+    let ports = first.to_string();
+    let up = UpProcess::start(&["--hosts", "2", "--listen", "127.0.0.1:0", "--host-ports", &ports]);
     let expected = [format!("http://127.0.0.1:{first}"), format!("http://127.0.0.1:{}", first + 1)];
-    assert_eq!(hosts, expected, "{text}");
-    let token = text
-        .lines()
-        .find_map(|l| l.split_once("export MESHFLOW_UPLOAD_TOKEN="))
-        .map(|(_, token)| token.trim().to_owned())
-        .unwrap();
-    assert_eq!(token.len(), 64, "{text}");
+    assert_eq!(up.hosts(), expected, "{}", up.printed);
+    let token = up.field("export MESHFLOW_UPLOAD_TOKEN=");
+    assert_eq!(token.len(), 64, "{}", up.printed);
 
     let dir = tempfile::tempdir().unwrap();
     let wasm = dir.path().join("hostile.wasm");
@@ -661,16 +600,8 @@ fn up_prints_an_upload_token_and_its_hosts_on_fixed_ports_take_plugins() {
     assert_eq!(String::from_utf8_lossy(&deleted.stdout).trim(), format!("deleted {digest}"));
 
     // Through the engine, a workflow pinned to the new plugin is accepted at once.
-    let engine = text
-        .lines()
-        .find_map(|l| l.strip_prefix("engine: "))
-        .map(|url| url.trim().to_owned())
-        .unwrap();
-    let api_token = text
-        .lines()
-        .find_map(|l| l.split_once("export MESHFLOW_API_TOKEN="))
-        .map(|(_, token)| token.trim().to_owned())
-        .unwrap();
+    let engine = up.field("engine: ");
+    let api_token = up.field("export MESHFLOW_API_TOKEN=");
     let v2 = meshflow_builtin_plugins::fixture("smoothing-v2");
     let v2_file = dir.path().join("v2.wasm");
     std::fs::write(&v2_file, v2).unwrap();

@@ -3,17 +3,12 @@
 //! builders on named objects and capturing lambdas (tests/cpp_sdk/api.cpp), built with
 //! `-Wall -Wextra` in a project `meshflow plugin new --lang cpp` wrote, and run by a host.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod common;
 
-fn meshflow_in(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_meshflow"))
-        .current_dir(dir)
-        .args(args)
-        .env("MESHFLOW_CACHE_DIR", Path::new(env!("CARGO_TARGET_TMPDIR")).join("components"))
-        .output()
-        .expect("running meshflow")
-}
+use std::path::Path;
+use std::process::Command;
+
+use common::process::meshflow_in;
 
 #[test]
 fn every_part_of_the_cpp_header_works_against_a_host() {

@@ -2,17 +2,12 @@
 //! with one command each and run with `meshflow apply --plugin`; and `--plugin` says when a
 //! local service hides a built-in.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn meshflow_in(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_meshflow"))
-        .current_dir(dir)
-        .args(args)
-        .env("MESHFLOW_CACHE_DIR", Path::new(env!("CARGO_TARGET_TMPDIR")).join("components"))
-        .output()
-        .expect("running meshflow")
-}
+use common::process::meshflow_in;
 
 fn ok_in(dir: &Path, args: &[&str]) -> Output {
     let out = meshflow_in(dir, args);

@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use common::local::Local;
+use common::process::UpProcess;
 use common::{
     API_TOKEN, CLUSTER_TOKEN, Input, bearer_client, builtins, components_cache, executed,
 };
@@ -174,58 +175,21 @@ async fn finished(api: &reqwest::Client, engine: &str, id: &str) -> Json {
     panic!("run {id} did not end in 120 s");
 }
 
-/// Kills `meshflow up` when the test ends, however it ends.
-struct Up(std::process::Child);
-
-impl Drop for Up {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
 /// `meshflow up --tls` serves everything over https with a throwaway CA, and `submit`,
 /// given that CA, runs the demo's WHILE workflow on the bunny to the local chain's mesh.
 #[test]
 fn up_with_tls_runs_the_demo_workflow() {
-    use std::io::BufRead;
-    use std::process::{Command, Stdio};
+    use std::process::Command;
     let dir = tempfile::tempdir().unwrap();
     let meshflow = env!("CARGO_BIN_EXE_meshflow");
-    let mut up = Up(Command::new(meshflow)
-        .args(["up", "--tls", "--hosts", "2", "--layout", "all", "--listen", "127.0.0.1:0"])
-        .arg("--data")
-        .arg(dir.path().join("up"))
-        .env("MESHFLOW_CACHE_DIR", components_cache())
-        .env_remove("MESHFLOW_API_TOKEN")
-        .env_remove("MESHFLOW_CLUSTER_TOKEN")
-        .env_remove("MESHFLOW_CA_FILE")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("starting meshflow up"));
-    let stdout = up.0.stdout.take().unwrap();
-    let (lines, printed) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
-            let _ = lines.send(line);
-        }
-    });
-    let mut text = String::new();
-    while !text.contains("MESHFLOW_API_TOKEN") {
-        let line = printed.recv_timeout(Duration::from_secs(120)).expect("up printed");
-        text.push_str(&line);
-        text.push('\n');
-    }
-    let field = |prefix: &str| {
-        let line = text.lines().find_map(|l| l.split_once(prefix)).map(|(_, rest)| rest);
-        line.unwrap_or_else(|| panic!("no {prefix:?} in {text}")).trim().to_owned()
-    };
-    let engine = field("engine: ");
-    assert!(engine.starts_with("https://127.0.0.1:"), "{text}");
-    assert!(text.lines().filter(|l| l.starts_with("host:")).all(|l| l.contains("https://")));
-    let token = field("export MESHFLOW_API_TOKEN=");
-    let ca = field("export MESHFLOW_CA_FILE=").trim_end_matches(')').to_owned();
+    let data = dir.path().join("up").display().to_string();
+    let args = ["--tls", "--hosts", "2", "--layout", "all", "--listen", "127.0.0.1:0", "--data"];
+    let up = UpProcess::start(&[&args[..], &[data.as_str()]].concat());
+    let engine = up.field("engine: ");
+    assert!(engine.starts_with("https://127.0.0.1:"), "{}", up.printed);
+    assert!(up.hosts().iter().all(|url| url.starts_with("https://")), "{}", up.printed);
+    let token = up.field("export MESHFLOW_API_TOKEN=");
+    let ca = up.field("export MESHFLOW_CA_FILE=").trim_end_matches(')').to_owned();
 
     let workflow =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/workflows/smooth-while-unstable.json");

@@ -126,3 +126,76 @@ fn free_port() -> u16 {
     let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     listener.local_addr().unwrap().port()
 }
+
+/// A `meshflow up` child process and what it printed up to its last hint; killed when
+/// dropped.
+pub struct UpProcess {
+    child: Child,
+    /// Everything `up` printed: the engine's and hosts' URLs, the tokens, the CA.
+    pub printed: String,
+}
+
+impl UpProcess {
+    /// Starts `meshflow up ARGS` with no tokens from the environment (so it makes fresh
+    /// ones) and reads its output until the last hint, in bounded time.
+    pub fn start(args: &[&str]) -> Self {
+        use std::io::BufRead;
+        let mut child = Command::new(env!("CARGO_BIN_EXE_meshflow"))
+            .arg("up")
+            .args(args)
+            .env("MESHFLOW_CACHE_DIR", super::components_cache())
+            .env_remove("MESHFLOW_API_TOKEN")
+            .env_remove("MESHFLOW_CLUSTER_TOKEN")
+            .env_remove("MESHFLOW_UPLOAD_TOKEN")
+            .env_remove("MESHFLOW_CA_FILE")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("starting meshflow up");
+        let stdout = child.stdout.take().unwrap();
+        let (lines, printed) = std::sync::mpsc::channel();
+        // Read to the end: a reader that stopped would close the pipe, and `up` would die of
+        // the broken pipe at the next line it prints.
+        std::thread::spawn(move || {
+            for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
+                let _ = lines.send(line);
+            }
+        });
+        let mut up = Self { child, printed: String::new() };
+        while !up.printed.contains("MESHFLOW_UPLOAD_TOKEN") {
+            let line = printed.recv_timeout(Duration::from_secs(120)).expect("up printed");
+            up.printed.push_str(&line);
+            up.printed.push('\n');
+        }
+        up
+    }
+
+    /// The rest of the first printed line that contains `prefix`, after it.
+    pub fn field(&self, prefix: &str) -> String {
+        let line = self.printed.lines().find_map(|l| l.split_once(prefix)).map(|(_, rest)| rest);
+        line.unwrap_or_else(|| panic!("no {prefix:?} in {}", self.printed)).trim().to_owned()
+    }
+
+    /// The hosts' URLs, as printed.
+    pub fn hosts(&self) -> Vec<String> {
+        let hosts = self.printed.lines().filter_map(|l| l.strip_prefix("host:"));
+        hosts.map(|url| url.trim().to_owned()).collect()
+    }
+}
+
+impl Drop for UpProcess {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Runs `meshflow ARGS` in `dir`, sharing the tests' compiled components.
+pub fn meshflow_in(dir: &Path, args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_meshflow"))
+        .current_dir(dir)
+        .args(args)
+        .env("MESHFLOW_CACHE_DIR", super::components_cache())
+        .output()
+        .expect("running meshflow")
+}

@@ -1,8 +1,8 @@
 //! Who may call which route, checked from the headers before any body is read: `/health`
 //! and `/ready` are open, `/metrics` checks its own rule (`ops.rs`); uploading and deleting
 //! plugins takes the upload token (refused outright when the host has none), and listing
-//! them takes it or the cluster token (a publisher has only the first); everything else
-//! takes the cluster token when the host has one.
+//! them and the services takes it or the cluster token (a publisher has only the first);
+//! everything else takes the cluster token when the host has one.
 
 use std::sync::Arc;
 
@@ -34,7 +34,7 @@ pub async fn check(State(host): State<Arc<Host>>, request: Request, next: Next) 
             )
             .into_response()),
         }
-    } else if path == "/plugins" && *request.method() == Method::GET {
+    } else if matches!(path, "/plugins" | "/services") && *request.method() == Method::GET {
         let tokens = [&host.config.cluster_token, &host.config.token];
         let accepted: Vec<&str> = tokens.iter().filter_map(|t| t.as_deref()).collect();
         // A host with an upload token but no cluster token is open to the cluster anyway.
