@@ -87,6 +87,11 @@ impl EngineClient {
         self.endpoint.json(Method::GET, &format!("/batches/{id}"), |r| r).await
     }
 
+    /// Stops a batch: no more of its runs start, those going are cancelled.
+    pub async fn cancel_batch(&self, id: &str) -> Result<BatchStatus, ClientError> {
+        self.endpoint.json(Method::POST, &format!("/batches/{id}/cancel"), |r| r).await
+    }
+
     /// Runs a kept run again, pinned to its recorded plugins and parameters.
     pub async fn rerun(
         &self,

@@ -85,14 +85,28 @@ pub fn run(args: SubmitArgs) -> anyhow::Result<()> {
 pub struct CancelArgs {
     #[command(flatten)]
     engine: EngineTarget,
-    /// The run to stop.
+    /// The run to stop, or a batch (its id starts with `b-`).
     run: String,
 }
 
-/// `meshflow cancel`: stops a run; it ends `cancelled` and its host sessions are freed.
+/// `meshflow cancel`: stops a run (it ends `cancelled` and its host sessions are freed), or
+/// a batch (no more of its runs start, those going are cancelled).
 pub fn cancel(args: CancelArgs) -> anyhow::Result<()> {
     let engine = args.engine.client()?;
-    let cancelled = tokio::runtime::Runtime::new()?.block_on(engine.cancel(&args.run))?;
-    out!("run {}: cancelled after {} step(s)", cancelled.id, cancelled.steps);
+    let runtime = tokio::runtime::Runtime::new()?;
+    if args.run.starts_with("b-") {
+        let batch = runtime.block_on(engine.cancel_batch(&args.run))?;
+        let cancelled = batch.rows.iter().filter(|row| row.status == "cancelled").count();
+        out!(
+            "batch {}: {}; {cancelled} of {} input(s) cancelled",
+            batch.id,
+            batch.status,
+            batch.rows.len()
+        );
+        return Ok(());
+    }
+    let cancelled = runtime.block_on(engine.cancel(&args.run))?;
+    let status = format!("{:?}", cancelled.status).to_lowercase();
+    out!("run {}: {status} after {} step(s)", cancelled.id, cancelled.steps);
     Ok(())
 }

@@ -181,9 +181,17 @@ impl<S: Send + Sync, T: serde::de::DeserializeOwned> axum::extract::FromRequest<
     type Rejection = ApiError;
 
     async fn from_request(request: axum::extract::Request, state: &S) -> Result<Self, ApiError> {
-        Json::<T>::from_request(request, state)
-            .await
-            .map(|Json(value)| ApiJson(value))
-            .map_err(|rejection| ApiError::bad_request("bad-json", rejection.body_text()))
+        Json::<T>::from_request(request, state).await.map(|Json(value)| ApiJson(value)).map_err(
+            |rejection| match rejection.status() {
+                // Over the body limit: 413, as the documented shape says.
+                StatusCode::PAYLOAD_TOO_LARGE => {
+                    ApiError::new(StatusCode::PAYLOAD_TOO_LARGE, "too-large", rejection.body_text())
+                }
+                _ => ApiError::bad_request(
+                    "bad-json",
+                    meshflow_api::params::clip(&rejection.body_text()),
+                ),
+            },
+        )
     }
 }
