@@ -60,7 +60,7 @@ pub enum PluginCommand {
         #[command(flatten)]
         token: UploadToken,
     },
-    /// Write a new plugin project (Rust or C++) that builds anywhere with one command.
+    /// Write a new plugin project (Rust, C++ or Python) that builds anywhere with one command.
     New(new::NewArgs),
     /// Turn a wasm32-wasip1 core module (C, C++: clang with wasi-libc) into a plugin
     /// component, with the WASI preview-1 adapter; checked as a host checks an upload.

@@ -1,4 +1,4 @@
-//! `meshflow plugin new NAME --lang rust|cpp`: a plugin project that builds anywhere with
+//! `meshflow plugin new NAME --lang rust|cpp|python`: a plugin project that builds anywhere with
 //! one command. The templates and, for C++, the SDK (header, generated bindings, the world's
 //! type object) are compiled into this binary, so a C++ author needs only meshflow and clang.
 
@@ -13,6 +13,7 @@ use crate::output::out;
 pub enum Lang {
     Rust,
     Cpp,
+    Python,
 }
 
 #[derive(Args)]
@@ -70,6 +71,19 @@ const CPP_SDK: [(&str, &[u8]); 4] = [
     ),
 ];
 
+const PY_FILES: [(&str, &str); 7] = [
+    ("Makefile", checkout_file!("examples/plugin-template-python/Makefile")),
+    ("app.py", checkout_file!("examples/plugin-template-python/app.py")),
+    ("taubin.py", checkout_file!("examples/plugin-template-python/taubin.py")),
+    ("test_app.py", checkout_file!("examples/plugin-template-python/test_app.py")),
+    (".gitignore", checkout_file!("examples/plugin-template-python/.gitignore")),
+    (
+        "meshflow-sdk/meshflow_plugin/__init__.py",
+        checkout_file!("sdk/python/meshflow_plugin/__init__.py"),
+    ),
+    ("wit/meshflow.wit", checkout_file!("wit/meshflow.wit")),
+];
+
 /// The Rust SDK of the checkout this binary was built from, when it is still there.
 const BUILT_FROM_SDK: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/sdk");
 
@@ -90,6 +104,15 @@ pub fn run(args: NewArgs) -> anyhow::Result<()> {
             }
             cpp_project(&args.name)
         }
+        Lang::Python => {
+            if args.sdk_path.is_some() || args.sdk_git.is_some() {
+                bail!(
+                    "--sdk-path and --sdk-git are for Rust projects: a Python project gets the \
+                     SDK from this meshflow"
+                );
+            }
+            python_project(&args.name)
+        }
     };
     for (name, bytes) in &files {
         let path = dir.join(name);
@@ -109,6 +132,13 @@ pub fn run(args: NewArgs) -> anyhow::Result<()> {
             out!("wrote {shown}: a C++ plugin; build it with clang-19 and wasi-libc:");
             out!("  cd {shown} && make        # MESHFLOW=/path/to/meshflow if not on PATH");
             out!("  meshflow services --plugin build/{}.wasm", args.name);
+        }
+        Lang::Python => {
+            out!(
+                "wrote {shown}: a Python plugin; build it with componentize-py (make makes a venv):"
+            );
+            out!("  cd {shown} && make");
+            out!("  meshflow services --plugin {}.wasm", args.name);
         }
     }
     Ok(())
@@ -211,6 +241,53 @@ fn cpp_project(name: &str) -> Files {
     files.extend(CPP_SOURCES.iter().map(|(path, source)| text(path, *source)));
     files.extend(CPP_SDK.iter().map(|(path, bytes)| (path.to_string(), bytes.to_vec())));
     files
+}
+
+fn python_project(name: &str) -> Files {
+    let mut files: Files = PY_FILES
+        .iter()
+        .map(|(path, source)| {
+            let source = match *path {
+                "Makefile" => source
+                    .replace("MESHFLOW_WIT ?= ../../wit", "MESHFLOW_WIT ?= wit")
+                    .replace("MESHFLOW_SDK ?= ../../sdk/python", "MESHFLOW_SDK ?= meshflow-sdk")
+                    .replace("OUT ?= py.wasm", &format!("OUT ?= {name}.wasm")),
+                ".gitignore" => source.replace("py.wasm", &format!("{name}.wasm")),
+                _ => source.to_string(),
+            };
+            text(path, source)
+        })
+        .collect();
+    files.push(text("README.md", python_readme(name)));
+    files
+}
+
+fn python_readme(name: &str) -> String {
+    format!(
+        "# {name}: a meshflow plugin in Python
+
+Written by `meshflow plugin new {name} --lang python`: Taubin smoothing
+(`taubin-smoothing-py`) and a check (`mean-valence-py`) in `app.py` and `taubin.py`, on
+meshflow's Python plugin SDK in `meshflow-sdk/meshflow_plugin/`, built against meshflow's
+WIT in `wit/` by componentize-py. Rename the services in `app.py` before you publish your
+own. Inside the sandbox there is CPython and its standard library: no numpy.
+
+```sh
+make                                     # a venv (.venv) with componentize-py, then {name}.wasm
+make test                                # the services in plain CPython (pytest)
+meshflow services --plugin {name}.wasm
+meshflow apply taubin-smoothing-py bunny.obj -o smooth.ply --param iterations=20 \\
+    --plugin {name}.wasm
+meshflow plugin upload --host http://server:7070 {name}.wasm
+```
+
+The component holds CPython (about 18 MB); a host compiles it once on first load (tens of
+seconds) and caches the result.
+
+{LIMITS}
+meshflow's `docs/python.md` describes the SDK.
+"
+    )
 }
 
 const LIMITS: &str = "\
