@@ -7,9 +7,8 @@ use anyhow::Context;
 use clap::{Args, Subcommand};
 use meshflow_engine::Access;
 
-use super::host::LogArgs;
-use super::options::ServerTlsArgs;
-use super::tokens::{ApiTokenArgs, ClusterArgs, MetricsTokenArgs};
+use super::options::ServerOpsArgs;
+use super::tokens::{ApiTokenArgs, ClusterArgs};
 
 #[derive(Args)]
 pub struct EngineArgs {
@@ -39,11 +38,7 @@ pub struct EngineArgs {
     #[arg(long, value_name = "ORIGIN")]
     allow_origin: Vec<String>,
     #[command(flatten)]
-    tls: ServerTlsArgs,
-    #[command(flatten)]
-    metrics_token: MetricsTokenArgs,
-    #[command(flatten)]
-    logs: LogArgs,
+    ops: ServerOpsArgs,
     #[command(flatten)]
     cluster: ClusterArgs,
     /// Listen on a non-loopback address without tokens (anyone reaching it can use it).
@@ -82,7 +77,7 @@ pub fn run(args: EngineArgs) -> anyhow::Result<()> {
         eprintln!("engine database backed up to {}", backup.output.display());
         return Ok(());
     }
-    super::host::init_logging(args.logs.log_format);
+    super::host::init_logging(args.ops.logs.log_format);
     let access = Access {
         api_token: args.api_token.get()?,
         users_file: args.users,
@@ -90,8 +85,8 @@ pub fn run(args: EngineArgs) -> anyhow::Result<()> {
         allow_input_from: args.cluster.allow_input_from,
         insecure_no_auth: args.insecure_no_auth,
         allow_origins: args.allow_origin,
-        tls: args.tls.files(),
-        metrics_token: args.metrics_token.get()?,
+        tls: args.ops.tls.files(),
+        metrics_token: args.ops.metrics_token.get()?,
         ..Access::default()
     };
     tokio::runtime::Runtime::new()?.block_on(async {

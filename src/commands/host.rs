@@ -6,8 +6,8 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::Args;
 
-use super::options::ServerTlsArgs;
-use super::tokens::{self, ClusterArgs, MetricsTokenArgs};
+use super::options::ServerOpsArgs;
+use super::tokens::{self, ClusterArgs};
 use meshflow_host::{
     DEFAULT_BLOB_BUDGET_BYTES, DEFAULT_MAX_DOWNLOAD_BYTES, DEFAULT_SESSION_TTL, HostConfig, serve,
 };
@@ -54,17 +54,13 @@ pub struct HostArgs {
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]
     builtin: Option<Vec<String>>,
     #[command(flatten)]
-    tls: ServerTlsArgs,
-    #[command(flatten)]
-    metrics_token: MetricsTokenArgs,
-    #[command(flatten)]
-    logs: LogArgs,
+    ops: ServerOpsArgs,
     #[command(flatten)]
     sandbox: crate::SandboxArgs,
 }
 
 pub fn run(args: HostArgs) -> anyhow::Result<()> {
-    init_logging(args.logs.log_format);
+    init_logging(args.ops.logs.log_format);
     tokens::warn_if_in_argv("--token", "--token-file", "MESHFLOW_UPLOAD_TOKEN");
     let config = HostConfig {
         token: tokens::read(args.token.as_deref(), args.token_file.as_deref())?,
@@ -73,8 +69,8 @@ pub fn run(args: HostArgs) -> anyhow::Result<()> {
         insecure_no_auth: args.insecure_no_auth,
         engine: args.engine,
         public_url: args.public_url,
-        tls: args.tls.files(),
-        metrics_token: args.metrics_token.get()?,
+        tls: args.ops.tls.files(),
+        metrics_token: args.ops.metrics_token.get()?,
         builtins: builtin_components(args.builtin.as_deref())?,
         blob_budget_bytes: args.blob_budget_mib << 20,
         session_ttl: Duration::from_secs(args.session_ttl),

@@ -6,7 +6,8 @@ use clap::Args;
 use meshflow_api::server::TlsFiles;
 use meshflow_api::tls::ClientPolicy;
 
-use super::tokens::{ApiTokenArgs, ClusterArgs, UploadTokenArgs};
+use super::host::LogArgs;
+use super::tokens::{ApiTokenArgs, ClusterArgs, MetricsTokenArgs, UploadTokenArgs};
 use crate::embedded::{self, Embedded, Layout, Spec, Tokens};
 use meshflow_engine::Access;
 
@@ -108,6 +109,18 @@ impl ClientTlsArgs {
         policy.install();
         Ok(())
     }
+}
+
+/// What both servers take for running on a network (`engine`, `host`): TLS, who may read
+/// `/metrics`, and the log format.
+#[derive(Args, Clone, Debug)]
+pub struct ServerOpsArgs {
+    #[command(flatten)]
+    pub tls: ServerTlsArgs,
+    #[command(flatten)]
+    pub metrics_token: MetricsTokenArgs,
+    #[command(flatten)]
+    pub logs: LogArgs,
 }
 
 /// A server's certificate and key (`engine`, `host`).
