@@ -65,3 +65,17 @@ def test_the_python_component_matches_the_builtin(binary, tmp_path):
           f"{first:.1f} s (compile + run), run {report['timings_ms']['run']:.1f} ms vs built-in "
           f"{builtin['timings_ms']['run']:.1f} ms, worst difference {worst:g}, "
           f"hashes {'equal' if report['output_hash'] == builtin['output_hash'] else 'differ'}")
+
+
+def test_plugin_new_writes_a_python_project_whose_services_pass_natively(binary, tmp_path):
+    subprocess.run([binary, "plugin", "new", "my-py", "--lang", "python", "--dir", "p"],
+                   cwd=tmp_path, check=True, capture_output=True)
+    project = tmp_path / "p"
+    for name in ("Makefile", "app.py", "taubin.py", "test_app.py", "README.md", "wit/meshflow.wit",
+                 "meshflow-sdk/meshflow_plugin/__init__.py"):
+        assert (project / name).is_file(), name
+    makefile = (project / "Makefile").read_text()
+    assert "MESHFLOW_WIT ?= wit" in makefile and "OUT ?= my-py.wasm" in makefile
+    env = dict(os.environ, PYTHONPATH=f"{project}{os.pathsep}{project / 'meshflow-sdk'}")
+    subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_app.py"],
+                   cwd=project, env=env, check=True, capture_output=True)
