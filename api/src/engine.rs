@@ -411,6 +411,10 @@ pub struct ResultRecord {
     pub bytes: Option<u64>,
     pub vertices: u64,
     pub triangles: u64,
+    /// The same packed mesh on other hosts of the run, which downloads fall back to when
+    /// the producer is gone.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub copies: Vec<String>,
 }
 
 impl RunRecord {

@@ -60,6 +60,20 @@ pub enum DownloadError {
     Spool { host: String, message: String },
 }
 
+impl DownloadError {
+    /// The host holding the mesh failed it (gone, unknown, down, lying): another copy may do.
+    fn is_holder_failure(&self) -> bool {
+        match self {
+            Self::Fetch { error, .. } => {
+                error.is_host_failure() || matches!(error, ClientError::Refused { status: 404, .. })
+            }
+            Self::UnknownHost(_) | Self::Gone { .. } | Self::HashMismatch { .. } => true,
+            Self::Corrupt { .. } | Self::Spool { .. } => true,
+            _ => false,
+        }
+    }
+}
+
 /// A converted mesh and the file name it is offered under.
 /// Checked before it is offered (see `crate::verified`); on disk, deleted when dropped.
 pub struct Download {
@@ -96,6 +110,7 @@ pub trait Hosts: Sync {
 }
 
 /// Where a mesh is and what hash it must have.
+#[derive(Clone)]
 struct Source {
     /// The host holding it; for an input, none (any host fetches it from `from`).
     holder: Option<String>,
@@ -118,6 +133,32 @@ impl Downloads {
         hosts: &dyn Hosts,
     ) -> Result<Download, DownloadError> {
         let source = locate(record, which)?;
+        // The result falls back to its copies on other hosts when its producer fails.
+        let copies = match (which, &record.result) {
+            (Which::Result, Some(result)) if source.holder.is_some() => result.copies.clone(),
+            _ => Vec::new(),
+        };
+        let mut outcome = self.mesh_from(record, &source, format, stem, hosts).await;
+        for copy in copies {
+            match &outcome {
+                Err(error) if error.is_holder_failure() => {
+                    let elsewhere = Source { holder: Some(copy), ..source.clone() };
+                    outcome = self.mesh_from(record, &elsewhere, format, stem, hosts).await;
+                }
+                _ => break,
+            }
+        }
+        outcome
+    }
+
+    async fn mesh_from(
+        &self,
+        record: &RunRecord,
+        source: &Source,
+        format: MeshFileFormat,
+        stem: &str,
+        hosts: &dyn Hosts,
+    ) -> Result<Download, DownloadError> {
         let writer = match &source.holder {
             Some(url) => {
                 hosts.registered(url).ok_or_else(|| DownloadError::UnknownHost(url.clone()))?
@@ -128,7 +169,7 @@ impl Downloads {
         let _slot = self.slots.acquire().await.expect("the semaphore is never closed");
         let host = writer.base_url().to_owned();
         let (file, bytes) =
-            tokio::time::timeout(DOWNLOAD_FETCH_TIMEOUT, self.verified(&writer, &source, format))
+            tokio::time::timeout(DOWNLOAD_FETCH_TIMEOUT, self.verified(&writer, source, format))
                 .await
                 .unwrap_or_else(|_| {
                     let message = format!("no whole answer in {DOWNLOAD_FETCH_TIMEOUT:?}");
@@ -350,6 +391,7 @@ mod tests {
             bytes: None,
             vertices: 3,
             triangles: 1,
+            copies: Vec::new(),
         });
         record
     }

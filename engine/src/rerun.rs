@@ -215,6 +215,7 @@ mod tests {
             bytes: Some(1),
             vertices: 3,
             triangles: 1,
+            copies: Vec::new(),
         });
         record
     }

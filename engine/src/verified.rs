@@ -271,6 +271,7 @@ mod tests {
             bytes: None,
             vertices: 3,
             triangles: 1,
+            copies: Vec::new(),
         });
         record
     }

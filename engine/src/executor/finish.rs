@@ -28,12 +28,16 @@ impl Executor {
         };
         let log_sizes = futures_util::future::join_all(self.log_sizes.drain(..));
         let (bytes, _) = tokio::join!(packed, log_sizes);
+        // The result outlives its producer: a second host of the run keeps it packed too.
+        let copies = self.second_copy().await.into_iter().collect();
+        let current = &self.current;
         let result = ResultRecord {
             url: current.full.url.clone(),
             hash: current.hash.clone(),
             bytes,
             vertices: current.vertices,
             triangles: current.triangles,
+            copies,
         };
         self.run.update("result", |r| {
             let json = json!(result);

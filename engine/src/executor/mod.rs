@@ -16,6 +16,7 @@ mod broadcast;
 mod busy;
 mod catch_up;
 mod control;
+mod copies;
 mod cost;
 mod current;
 mod error;
