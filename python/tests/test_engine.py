@@ -88,3 +88,14 @@ def test_cancelled_run_reads_cancelled(engine, bunny):
     with pytest.raises(meshflow.MeshflowError) as e:
         r.cancel()
     assert e.value.code == "finished"
+
+
+def test_trimesh_in_and_out(engine, bunny):
+    trimesh = pytest.importorskip("trimesh")
+    v, f = bunny
+    mesh = trimesh.Trimesh(vertices=v, faces=f, process=False)
+    r = engine.run(Workflow().run("taubin-smoothing", iterations=3), mesh).wait(progress=False)
+    out = r.result_trimesh()
+    assert isinstance(out, trimesh.Trimesh) and out.vertices.shape == v.shape
+    assert np.array_equal(out.faces, f)
+    assert meshflow.content_hash(out.vertices.astype(np.float32), out.faces) == r.result_hash
