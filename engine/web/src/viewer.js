@@ -259,7 +259,18 @@ export class Viewer {
     this.render();
   }
 
+  /** Draws at the next frame, once however many changes asked for it (a large mesh's
+   *  frame is costly: one per frame, not one per change). */
   render() {
+    const p = this.camera.position;
+    this.canvas.dataset.camera = `${p.x.toFixed(3)},${p.y.toFixed(3)},${p.z.toFixed(3)}`;
+    this.frame ||= requestAnimationFrame(() => {
+      this.frame = 0;
+      this.draw();
+    });
+  }
+
+  draw() {
     const width = this.canvas.clientWidth || 800;
     const height = this.canvas.clientHeight || 500;
     const shown = this.mode === 'side' ? SLOTS : [this.mode];
@@ -276,7 +287,5 @@ export class Viewer {
       this.renderer.setScissor(i * part, 0, part, height);
       this.renderer.render(entry.scene, this.camera);
     });
-    const p = this.camera.position;
-    this.canvas.dataset.camera = `${p.x.toFixed(3)},${p.y.toFixed(3)},${p.z.toFixed(3)}`;
   }
 }
