@@ -568,8 +568,10 @@ async fn submit_refuses_a_result_that_is_not_the_recorded_mesh_and_writes_nothin
     .unwrap();
     let stderr = String::from_utf8_lossy(&ran.stderr);
     assert!(!ran.status.success(), "submit took the fake's mesh: {stderr}");
-    // The fake writes the result itself (the engine decodes no mesh); the CLI checks it.
-    assert!(stderr.contains("not the recorded") && stderr.contains(&claimed), "{stderr}");
+    // The engine hashes the fake's raw arrays before serving any format (502 hash-mismatch);
+    // were a mesh to get past it, the CLI checks it once more ("not the recorded").
+    let refused = stderr.contains("hash-mismatch") || stderr.contains("not the recorded");
+    assert!(refused && stderr.contains(&claimed), "{stderr}");
     assert!(!output.exists(), "a file was written");
     assert_eq!(fake.runs(), 1);
     // The viewer's raw arrays the engine hashes itself, and refuses.
