@@ -36,7 +36,8 @@ async fn post(cluster: &Cluster, path: &str, body: Json) -> (u16, Json) {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_cancelled_batch_starts_no_more_runs_and_cancels_those_going() {
     let origin = hanging_server().await;
-    let cluster = Cluster::start_allowing(&[&["smoothing"]], &[], &[origin.clone()]).await;
+    let cluster =
+        Cluster::start_allowing(&[&["smoothing"]], &[], std::slice::from_ref(&origin)).await;
     let workflow = json!([{"run": "laplacian-smoothing"}]);
     let inputs: Vec<String> = (0..5).map(|i| format!("{origin}/in-{i}.ply")).collect();
     let body = json!({"workflow": workflow, "inputs": inputs, "concurrency": 2});

@@ -78,7 +78,8 @@ fn rss() -> u64 {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn cancelled_runs_stop_their_hosts_slow_large_downloads_at_once_in_bounded_memory() {
     let (origin, open, started) = slow_server().await;
-    let cluster = Cluster::start_allowing(&[&["smoothing"]], &[], &[origin.clone()]).await;
+    let cluster =
+        Cluster::start_allowing(&[&["smoothing"]], &[], std::slice::from_ref(&origin)).await;
     let before = rss();
     let workflow = json!([{"run": "laplacian-smoothing"}]);
     let mut runs = Vec::new();
