@@ -254,6 +254,20 @@ fn input_writer(record: &RunRecord, hosts: &dyn Hosts) -> Option<HostClient> {
 fn locate(record: &RunRecord, which: Which) -> Result<Source, DownloadError> {
     match which {
         Which::Result => match (&record.result, record.status) {
+            // No filter ran (a WHILE false at once): the result is the input, written as one.
+            (Some(result), Status::Completed)
+                if record.input.as_ref().is_some_and(|input| input.url == result.url) =>
+            {
+                let input = record.input.as_ref().expect("checked just above");
+                Ok(Source {
+                    holder: None,
+                    from: Some(input.url.clone()),
+                    step: None,
+                    hash: result.hash.clone(),
+                    label: "result".into(),
+                    grid: input.grid,
+                })
+            }
             (Some(result), Status::Completed) => Ok(Source {
                 // A blob URL of the host that holds it.
                 holder: Some(result.url.clone()),

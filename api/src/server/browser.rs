@@ -88,9 +88,7 @@ impl BrowserGuard {
     fn answers_to(&self, host: &str) -> bool {
         let name = host_name(host).to_ascii_lowercase();
         !name.is_empty()
-            && (name.parse::<IpAddr>().is_ok()
-                || name == "localhost"
-                || self.names.contains(&name))
+            && (name.parse::<IpAddr>().is_ok() || name == "localhost" || self.names.contains(&name))
     }
 
     fn origin_allowed(&self, origin: &str, host: &str) -> bool {

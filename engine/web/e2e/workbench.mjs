@@ -437,11 +437,17 @@ async function big(page) {
   await page.waitForFunction(() => document.querySelector('[data-testid=viewer]')?.dataset.boundaryEdges !== undefined, null, { timeout: RUN_TIMEOUT });
   await page.waitForTimeout(300);
   const tasks = await page.evaluate(() => window.__longTasks);
-  const loading = tasks.filter((t) => t.start + t.ms >= Number(figures.loadStartedMs));
+  // While the mesh is fetched and decoded (the worker's job) the page must stay responsive.
+  // Drawing a frame of 2M triangles is the GPU's job; this browser has none (SwiftShader
+  // draws in software on the main thread), so frame tasks are reported, not held to 200 ms.
+  const [from, to] = [Number(figures.loadStartedMs), Number(figures.decodedAtMs)];
+  const loading = tasks.filter((t) => t.start + t.ms >= from && t.start <= to);
   const longest = Math.max(0, ...loading.map((t) => t.ms));
-  log('long tasks (all, ms):', JSON.stringify(tasks), `while the large mesh loaded: ${loading.length}, longest ${longest} ms`);
+  const drawing = tasks.filter((t) => t.start > to).map((t) => t.ms);
+  log('long tasks (all, ms):', JSON.stringify(tasks), `while the large mesh loaded: ${loading.length}, longest ${longest} ms; drawing (software): ${JSON.stringify(drawing)}`);
   figures.longTasks = tasks;
   figures.longestWhileLoadingMs = longest;
+  assert.ok(to > from, `decoded at ${to} ms, asked at ${from} ms`);
   assert.ok(longest <= 200, `a main-thread task of ${longest} ms while the large mesh loaded`);
   await canvasNotBlank(page, 'result');
   await shot(page, '11-large-result');

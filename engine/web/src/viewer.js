@@ -130,6 +130,8 @@ export class Viewer {
       const buffer = await (await request(`${path}?format=raw`)).arrayBuffer();
       if (generation !== this.generation) return;
       mesh = await decode(buffer, (pairs) => this.addBoundary(slot, mesh, pairs));
+      // Fetched and decoded (in the worker): what follows is drawing.
+      this.canvas.dataset.decodedAtMs = performance.now().toFixed(0);
     } catch (error) {
       if (asked === this.latest) this.status.textContent = `cannot show ${label}: ${error.message}`;
       return;
