@@ -110,6 +110,10 @@ pub struct PluginArgs {
     /// A plugin component (.wasm); its services shadow built-in ones of the same name.
     #[arg(long = "plugin", value_name = "FILE.wasm")]
     pub plugins: Vec<PathBuf>,
+    /// Show what the plugin printed (stdout, stderr; 64 KiB each at most) after the run,
+    /// on stderr. A failed run shows its stderr anyway.
+    #[arg(long)]
+    pub plugin_output: bool,
     #[command(flatten)]
     pub sandbox: SandboxArgs,
 }

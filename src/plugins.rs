@@ -63,6 +63,20 @@ pub fn cache_dir() -> Option<PathBuf> {
     Some(base.join("meshflow").join("components"))
 }
 
+/// What the plugin printed, on stderr, when `--plugin-output` asks for it.
+pub fn show_output(args: &PluginArgs, output: &meshflow_runtime::RunOutput) {
+    if !args.plugin_output {
+        return;
+    }
+    for (name, text) in [("stdout", &output.stdout), ("stderr", &output.stderr)] {
+        if text.is_empty() {
+            eprintln!("plugin {name}: (nothing)");
+        } else {
+            eprintln!("plugin {name}:\n{}", text.trim_end());
+        }
+    }
+}
+
 /// A plugin file's bytes. A missing `.wasm` is usually a build that made none: say which
 /// (an `.rlib` alone beside it means the crate lacks `crate-type = ["cdylib"]`).
 pub fn read_plugin_file(path: &Path) -> anyhow::Result<Vec<u8>> {

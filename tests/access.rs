@@ -105,7 +105,9 @@ async fn host_routes_need_the_cluster_token_but_health() {
         anonymous
             .post(url("/meshes/convert"))
             .json(&json!({"hash": "0".repeat(64), "format": "ply"})),
-        anonymous.get(url("/services")).bearer_auth(TOKEN),
+        // A publisher's upload token lists plugins and services (issue 31), nothing more.
+        anonymous.get(url("/sessions/x")).bearer_auth(TOKEN),
+        anonymous.get(url("/blobs/x.mfm")).bearer_auth(TOKEN),
         // The cluster token does not publish plugins: that takes the upload token.
         anonymous.post(url("/plugins")).bearer_auth(CLUSTER_TOKEN).body(vec![0u8; 16]),
     ];
@@ -114,6 +116,10 @@ async fn host_routes_need_the_cluster_token_but_health() {
         assert_eq!((status, code), (401, json!("unauthorized")));
     }
     assert_eq!(anonymous.get(url("/health")).send().await.unwrap().status(), 200);
+    for listing in ["/services", "/plugins"] {
+        let publisher = anonymous.get(url(listing)).bearer_auth(TOKEN).send().await.unwrap();
+        assert_eq!(publisher.status(), 200, "{listing} with the upload token");
+    }
     let client = HostClient::new(&host.url).with_token(CLUSTER_TOKEN);
     assert!(client.services().await.unwrap().iter().any(|s| s.info.name == "is-manifold"));
 }

@@ -70,6 +70,7 @@ pub fn run(args: &ApplyArgs) -> anyhow::Result<()> {
     let load_time = started.elapsed();
 
     let output = runtime.run(plugin, &args.service, mesh.clone(), &params)?;
+    crate::plugins::show_output(&args.plugins, &output);
     let result = output.mesh.expect("a filter returns a mesh");
     // The plugin computes freely; the step's result goes back onto the grid here.
     let (result, log) = match &grid {

@@ -39,6 +39,7 @@ pub fn run(args: &CheckArgs) -> anyhow::Result<()> {
     let mesh = io::load(&args.input)?;
     let load_time = started.elapsed();
     let output = runtime.run(plugin, &args.service, mesh, &params)?;
+    crate::plugins::show_output(&args.plugins, &output);
     let value = output.value.expect("the runtime checks that a check returns a value");
     if args.json {
         let summary = serde_json::json!({

@@ -207,7 +207,13 @@ pub fn run(command: PluginCommand) -> anyhow::Result<()> {
         }
         PluginCommand::New(args) => new::run(args),
         PluginCommand::Componentize { core, output } => {
-            let bytes = crate::plugins::read_plugin_file(&core)?;
+            let bytes = std::fs::read(&core).with_context(|| {
+                format!(
+                    "reading {}: build the core module first (the C/C++ template's `make` \
+                     does, with clang --target=wasm32-wasi)",
+                    core.display()
+                )
+            })?;
             let sandbox = Runtime::new(Limits::default(), crate::plugins::cache_dir().as_deref())?;
             let (component, plugin) = crate::componentize::componentize(&sandbox, &bytes)
                 .with_context(|| format!("componentizing {}", core.display()))?;

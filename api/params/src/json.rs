@@ -15,10 +15,25 @@ pub fn from_json(
         .iter()
         .map(|(name, json)| {
             let declared = info.params.iter().find(|p| &p.name == name).map(|p| p.ty);
-            let value = json_value(declared, json).ok_or_else(|| ParamError {
+            let refuse = |problem: String| ParamError {
                 service: info.name.clone(),
-                problem: format!("parameter `{name}`: {json} is not a number, boolean or string"),
+                problem,
                 accepted: describe_params(info),
+            };
+            // JSON has numbers and booleans: "0.1" for a real is a typing slip, said rather
+            // than read (a command line's `k=v` is text, and is parsed in `resolve`).
+            if let (Json::String(text), Some(ty)) = (json, declared)
+                && ty != ValueType::Text
+            {
+                let shown = crate::clip(text);
+                return Err(refuse(format!(
+                    "parameter `{}`: \"{shown}\" is a string; {} is written without quotes",
+                    crate::clip(name),
+                    crate::type_name(ty)
+                )));
+            }
+            let value = json_value(declared, json).ok_or_else(|| {
+                refuse(format!("parameter `{name}`: {json} is not a number, boolean or string"))
             })?;
             Ok((name.clone(), value))
         })
@@ -81,6 +96,14 @@ mod tests {
 
     fn json(text: &str) -> Map<String, Json> {
         serde_json::from_str(text).unwrap()
+    }
+
+    #[test]
+    fn a_number_in_quotes_is_refused_saying_so() {
+        let error = from_json(&smoothing(), &json(r#"{"factor": "0.1"}"#)).unwrap_err();
+        let expected = "parameter `factor`: \"0.1\" is a string; a real is written without quotes";
+        assert_eq!(error.problem, expected);
+        assert!(from_json(&smoothing(), &json(r#"{"factor": 0.1}"#)).is_ok());
     }
 
     #[test]
