@@ -83,7 +83,8 @@ async fn forward(State(proxy): State<Arc<Proxy>>, request: Request) -> Response 
     let status = answer.status();
     let content_type = answer.headers().get(header::CONTENT_TYPE).cloned();
     let bytes = answer.bytes().await.unwrap_or_default();
-    let is_json = content_type.as_ref().is_some_and(|t| t.as_bytes().starts_with(b"application/json"));
+    let is_json =
+        content_type.as_ref().is_some_and(|t| t.as_bytes().starts_with(b"application/json"));
     let mut body = bytes.to_vec();
     if is_json {
         let text = String::from_utf8_lossy(&bytes).replace(&proxy.real, &proxy.me);
@@ -91,7 +92,8 @@ async fn forward(State(proxy): State<Arc<Proxy>>, request: Request) -> Response 
         if let (Some((hash, _)), true) = (&proxy.lies.result, path.ends_with("/run")) {
             if answer["kind"] == "filter" {
                 answer["output_hash"] = json!(hash);
-                answer["full"] = json!({"hash": hash, "url": format!("{}/blobs/{hash}.mfm", proxy.me)});
+                answer["full"] =
+                    json!({"hash": hash, "url": format!("{}/blobs/{hash}.mfm", proxy.me)});
             }
         }
         body = match answer {
@@ -242,5 +244,21 @@ async fn an_honest_untrusted_hosts_steps_are_replayed_and_verified() {
     let verified = first["verified_by"].as_array().expect("verified");
     assert_eq!(verified[0]["how"], "replay", "{first:#}");
     assert_eq!(verified[0]["hash"], first["output_hash"]);
+    assert_eq!(entry(&setup.api, &setup.hosts[0]).await["suspect"], Json::Null);
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn a_spot_checked_hosts_steps_are_replayed_elsewhere_off_the_critical_path() {
+    let setup = setup(Lies::default(), Lies::default()).await;
+    set_trust(&setup.api, &setup.hosts[0], "spot-check").await;
+    // Every step of a spot-checked host is replayed elsewhere (the default is one in ten).
+    setup._engine.engine.registry.set_spot_check_share(1.0);
+    let record = run(&setup).await;
+    let first = &steps(&record)[0];
+    assert_eq!(text(&first["host"]), setup.hosts[0]);
+    let verified = first["verified_by"].as_array().expect("spot-checked");
+    assert_eq!(verified[0]["how"], "spot-check", "{first:#}");
+    assert_eq!(verified[0]["hash"], first["output_hash"]);
+    assert_ne!(verified[0]["host"], first["host"], "replayed on another host");
     assert_eq!(entry(&setup.api, &setup.hosts[0]).await["suspect"], Json::Null);
 }
