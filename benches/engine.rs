@@ -7,11 +7,14 @@
 //!   transfers excluded (goal ≤ 5 ms);
 //! - downloading and applying each LS correction on the other host (goal ≤ 0.2 s);
 //! - the same with `transfer: full`, side by side;
-//! - all of it without tokens and with all three, side by side: what the bearer checks and
-//!   the fetch rules add per step.
+//! - all of it without tokens, with all three, and with all three over TLS (a throwaway CA
+//!   trusted by this process), side by side: what the bearer checks and the fetch rules add
+//!   per step, and what TLS adds on top of them per step and per MB moved.
 
 mod common;
 
+use meshflow_api::server::{TlsFiles, throwaway};
+use meshflow_api::tls::ClientPolicy;
 use meshflow_builtin_plugins::PLUGINS;
 use meshflow_generate::scan;
 use meshflow_host::{HostConfig, start};
@@ -24,17 +27,20 @@ fn family(name: &str) -> Vec<&'static [u8]> {
     PLUGINS.iter().filter(|p| p.name == name).map(|p| p.wasm).collect()
 }
 
-/// Two hosts (smoothing, cleanup) and an engine on loopback, with or without tokens.
+/// Two hosts (smoothing, cleanup) and an engine on loopback, with or without tokens, over
+/// TLS when `tls` is given.
 async fn cluster(
     dir: &std::path::Path,
     tokens: bool,
+    tls: Option<&TlsFiles>,
 ) -> anyhow::Result<(meshflow_engine::EngineHandle, Vec<meshflow_host::HostHandle>)> {
-    let token = |name: &str| tokens.then(|| format!("bench-{name}-token"));
+    let token = |name: &str| tokens.then(|| format!("bench-{name}-token-0123"));
     let mut hosts = Vec::new();
     for (i, builtins) in [family("smoothing"), family("cleanup")].into_iter().enumerate() {
         let config = HostConfig {
             builtins,
             cluster_token: token("cluster"),
+            tls: tls.cloned(),
             ..HostConfig::new(dir.join(format!("host-{i}")))
         };
         hosts.push(start(config, TcpListener::bind("127.0.0.1:0").await?).await?);
@@ -43,6 +49,7 @@ async fn cluster(
     let access = meshflow_engine::Access {
         api_token: token("api"),
         cluster_token: token("cluster"),
+        tls: tls.cloned(),
         ..Default::default()
     };
     let listener = TcpListener::bind("127.0.0.1:0").await?;
@@ -77,12 +84,15 @@ async fn main() -> anyhow::Result<()> {
     let mut totals = Vec::new();
     // The same cluster twice, without tokens and with all three (every request's bearer
     // checked, every download under the fetch rules): what the checks cost per step.
-    for tokens in [false, true] {
-        let security = if tokens { "tokens" } else { "open" };
-        let (engine, _hosts) = cluster(&dir.path().join(security), tokens).await?;
+    let pki = throwaway::make(&dir.path().join("pki"), "bench")?;
+    ClientPolicy::installed().with_ca_file(&pki.ca)?.install();
+    for (security, tokens, tls) in
+        [("open", false, None), ("tokens", true, None), ("tokens+tls", true, Some(&pki.server))]
+    {
+        let (engine, _hosts) = cluster(&dir.path().join(security), tokens, tls).await?;
         let bytes = axum::body::Bytes::from(std::fs::read(&input)?);
         let body = futures_util::stream::once(async { Ok::<_, String>(bytes) });
-        let (input_url, _) = engine.engine.put_input("scan.mfm", body).await?;
+        let (input_url, _) = engine.engine.put_input("scan.mfm", body, "bench").await?;
         for transfer in ["auto", "full"] {
             let workflow = json!({"steps": steps, "transfer": transfer});
             let run = engine.engine.submit(workflow, Some(input_url.clone()), "bench").await?;
@@ -115,9 +125,21 @@ async fn main() -> anyhow::Result<()> {
                 .collect();
             let worst = overheads.iter().cloned().fold(0.0, f64::max);
             let mean = overheads.iter().sum::<f64>() / overheads.len().max(1) as f64;
+            let transfers = record["steps"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .flat_map(|s| s["transfers"].as_array().into_iter().flatten());
+            let (mut moved, mut download_ms) = (0.0, 0.0);
+            for t in transfers {
+                moved += t["bytes"].as_f64().unwrap_or(0.0);
+                download_ms += t["download_ms"].as_f64().unwrap_or(0.0);
+            }
+            let per_mb = download_ms / (moved / 1e6).max(1e-9);
             totals.push(format!(
-            "{security}, {transfer}: total {:.2} s; engine overhead per step mean {mean:.2} ms, worst {worst:.2} ms (goal ≤ 5 ms)",
-            record["total_ms"].as_f64().unwrap_or(0.0) / 1e3
+            "{security}, {transfer}: total {:.2} s; engine overhead per step mean {mean:.2} ms, worst {worst:.2} ms (goal ≤ 5 ms); {:.1} MB moved, {per_mb:.1} ms per MB downloaded",
+            record["total_ms"].as_f64().unwrap_or(0.0) / 1e3,
+            moved / 1e6
         ));
         }
     }

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::ValueEnum;
+use meshflow_api::server::throwaway;
 use meshflow_api::tls::ClientPolicy;
 use meshflow_builtin_plugins::PLUGINS;
 use meshflow_engine::{Access, EngineHandle};
@@ -12,7 +13,6 @@ use meshflow_host::{HostConfig, HostHandle};
 use tokio::net::TcpListener;
 
 use crate::commands::tokens;
-use crate::throwaway_tls;
 
 /// Which built-in plugins each host offers.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
@@ -93,7 +93,7 @@ pub async fn start(spec: Spec) -> anyhow::Result<Embedded> {
         }
     };
     let tls = match tls {
-        true => Some(throwaway_tls::make(&data.join("tls"))?),
+        true => Some(throwaway::make(&data.join("tls"), "meshflow")?),
         false => None,
     };
     if let Some(tls) = &tls {

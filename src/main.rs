@@ -7,7 +7,6 @@ mod embedded;
 mod mlx;
 mod output;
 mod plugins;
-mod throwaway_tls;
 
 use std::io::Write;
 use std::path::PathBuf;

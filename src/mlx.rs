@@ -334,8 +334,7 @@ fn convert_params(
                 }
             },
             Conversion::PercentOfDiagonal => {
-                let absolute: f64 =
-                    value.parse().map_err(|_| not_a(name, value, "number"))?;
+                let absolute: f64 = value.parse().map_err(|_| not_a(name, value, "number"))?;
                 let diagonal: f64 = max
                     .and_then(|m| m.parse().ok())
                     .filter(|d: &f64| d.is_finite() && *d > 0.0)

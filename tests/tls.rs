@@ -6,7 +6,7 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Duration;
 
 use common::local::Local;
@@ -14,41 +14,12 @@ use common::process::UpProcess;
 use common::{
     API_TOKEN, CLUSTER_TOKEN, Input, bearer_client, builtins, components_cache, executed,
 };
-use meshflow_api::server::{TlsFiles, serve_with};
+use meshflow_api::server::{TlsFiles, serve_with, throwaway};
 use meshflow_api::tls::ClientPolicy;
 use meshflow_engine::workflow::Workflow;
 use meshflow_host::{HostConfig, HostHandle};
-use rcgen::{BasicConstraints, CertificateParams, DnType, IsCa, Issuer, KeyPair, KeyUsagePurpose};
 use serde_json::{Value as Json, json};
 use tokio::net::TcpListener;
-
-/// A CA and a certificate it signed for the loopback names, as PEM files under `dir`.
-struct Pki {
-    ca: PathBuf,
-    server: TlsFiles,
-}
-
-fn pki(dir: &Path, name: &str) -> Pki {
-    std::fs::create_dir_all(dir).unwrap();
-    let mut ca_params = CertificateParams::new(Vec::<String>::new()).unwrap();
-    ca_params.is_ca = IsCa::Ca(BasicConstraints::Unconstrained);
-    ca_params.distinguished_name.push(DnType::CommonName, format!("{name} CA"));
-    ca_params.key_usages = vec![KeyUsagePurpose::KeyCertSign];
-    let ca_key = KeyPair::generate().unwrap();
-    let ca_cert = ca_params.self_signed(&ca_key).unwrap();
-    let issuer = Issuer::new(ca_params, ca_key);
-    let names = vec!["localhost".to_owned(), "127.0.0.1".to_owned()];
-    let key = KeyPair::generate().unwrap();
-    let cert = CertificateParams::new(names).unwrap().signed_by(&key, &issuer).unwrap();
-    let pki = Pki {
-        ca: dir.join("ca.pem"),
-        server: TlsFiles { cert: dir.join("server.pem"), key: dir.join("server-key.pem") },
-    };
-    std::fs::write(&pki.ca, ca_cert.pem()).unwrap();
-    std::fs::write(&pki.server.cert, cert.pem()).unwrap();
-    std::fs::write(&pki.server.key, key.serialize_pem()).unwrap();
-    pki
-}
 
 /// An https server that serves `bytes` at `/scan.ply`: a public archive's input.
 async fn https_origin(files: &TlsFiles, bytes: Vec<u8>) -> String {
@@ -77,8 +48,8 @@ async fn tls_host(dir: &Path, families: &[&str], files: &TlsFiles, origin: &str)
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_cluster_over_tls_runs_the_repair_workflow_bit_identically() {
     let dir = tempfile::tempdir().unwrap();
-    let lab = pki(&dir.path().join("lab"), "lab");
-    let other = pki(&dir.path().join("other"), "other");
+    let lab = throwaway::make(&dir.path().join("lab"), "lab").unwrap();
+    let other = throwaway::make(&dir.path().join("other"), "other").unwrap();
     ClientPolicy::default().with_ca_file(&lab.ca).unwrap().install();
 
     let input = Input::scan(20_000, 5);

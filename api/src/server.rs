@@ -25,6 +25,7 @@ use crate::host::{ErrorBody, ErrorDetail};
 mod browser;
 mod json_errors;
 mod scrape;
+pub mod throwaway;
 mod tls;
 pub use browser::{BrowserGuard, guard as browser_guard};
 pub use json_errors::json_errors;

@@ -2,9 +2,9 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::mlx;
 use anyhow::Context;
 use clap::Subcommand;
-use crate::mlx;
 
 #[derive(Subcommand)]
 pub enum WorkflowCommand {
