@@ -63,11 +63,11 @@ async fn forward(State(proxy): State<Arc<Proxy>>, request: Request) -> Response 
         let error = json!({"error": {"code": "hash-mismatch", "message": "the mesh is not the announced one"}});
         return (StatusCode::BAD_GATEWAY, axum::Json(error)).into_response();
     }
-    if let Some((hash, bytes)) = &proxy.lies.result {
-        if path == format!("/blobs/{hash}.mfm") {
-            proxy.served_fake.fetch_add(1, Ordering::SeqCst);
-            return bytes.clone().into_response();
-        }
+    if let Some((hash, bytes)) = &proxy.lies.result
+        && path == format!("/blobs/{hash}.mfm")
+    {
+        proxy.served_fake.fetch_add(1, Ordering::SeqCst);
+        return bytes.clone().into_response();
     }
     let headers = request.headers().clone();
     let body = axum::body::to_bytes(request.into_body(), 1 << 30).await.unwrap();
@@ -89,12 +89,11 @@ async fn forward(State(proxy): State<Arc<Proxy>>, request: Request) -> Response 
     if is_json {
         let text = String::from_utf8_lossy(&bytes).replace(&proxy.real, &proxy.me);
         let mut answer: Json = serde_json::from_str(&text).unwrap_or(Json::Null);
-        if let (Some((hash, _)), true) = (&proxy.lies.result, path.ends_with("/run")) {
-            if answer["kind"] == "filter" {
-                answer["output_hash"] = json!(hash);
-                answer["full"] =
-                    json!({"hash": hash, "url": format!("{}/blobs/{hash}.mfm", proxy.me)});
-            }
+        if let (Some((hash, _)), true) = (&proxy.lies.result, path.ends_with("/run"))
+            && answer["kind"] == "filter"
+        {
+            answer["output_hash"] = json!(hash);
+            answer["full"] = json!({"hash": hash, "url": format!("{}/blobs/{hash}.mfm", proxy.me)});
         }
         body = match answer {
             Json::Null => text.into_bytes(),

@@ -87,7 +87,6 @@ pub fn run(args: EngineArgs) -> anyhow::Result<()> {
         allow_origins: args.allow_origin,
         tls: args.ops.tls.files(),
         metrics_token: args.ops.metrics_token.get()?,
-        ..Access::default()
     };
     tokio::runtime::Runtime::new()?.block_on(async {
         let listener = tokio::net::TcpListener::bind(&args.listen)
