@@ -13,8 +13,13 @@ use std::sync::{Arc, Mutex};
 use rusqlite::{Connection, OptionalExtension, params};
 
 use crate::measured::Snapshot;
-use crate::record::{BatchEntry, RunRecord, Status};
+use crate::record::{RunRecord, Status};
 use crate::run::{Changes, OpenSession};
+
+mod batches;
+mod inputs;
+pub use batches::*;
+pub use inputs::*;
 
 /// Bumped when the schema changes; an older file is migrated, a newer one refused.
 const SCHEMA_VERSION: i64 = 2;
@@ -336,172 +341,6 @@ pub fn load_hosts(connection: &mut Connection) -> Result<Vec<String>, StoreError
     let mut statement = connection.prepare("SELECT url FROM hosts ORDER BY added_unix, url")?;
     let rows = statement.query_map([], |row| row.get(0))?;
     Ok(rows.collect::<Result<_, _>>()?)
-}
-
-/// Records an uploaded input, the name it was uploaded under (the last name wins when the
-/// same bytes come again), which downloads are named after, and that `user` uploaded it.
-pub fn add_input(
-    connection: &mut Connection,
-    file: &str,
-    name: &str,
-    bytes: u64,
-    user: &str,
-) -> Result<(), StoreError> {
-    connection.execute(
-        "INSERT INTO inputs (file, bytes, stored_unix) VALUES (?1, ?2, ?3)
-         ON CONFLICT (file) DO UPDATE SET stored_unix = excluded.stored_unix",
-        params![file, bytes as i64, unix_now()],
-    )?;
-    connection.execute(
-        "INSERT INTO input_names (file, name) VALUES (?1, ?2)
-         ON CONFLICT (file) DO UPDATE SET name = excluded.name",
-        params![file, name],
-    )?;
-    connection.execute(
-        "INSERT OR IGNORE INTO input_users (file, user) VALUES (?1, ?2)",
-        params![file, user],
-    )?;
-    Ok(())
-}
-
-/// Whether `user` uploaded the input `file`.
-pub fn input_is_users(
-    connection: &mut Connection,
-    file: &str,
-    user: &str,
-) -> Result<bool, StoreError> {
-    let mut statement =
-        connection.prepare_cached("SELECT 1 FROM input_users WHERE file = ?1 AND user = ?2")?;
-    Ok(statement.exists(params![file, user])?)
-}
-
-/// The name an input was uploaded under.
-pub fn input_name(connection: &mut Connection, file: &str) -> Result<Option<String>, StoreError> {
-    let mut statement = connection.prepare("SELECT name FROM input_names WHERE file = ?1")?;
-    Ok(statement.query_row([file], |row| row.get(0)).optional()?)
-}
-
-/// Upload names by input file.
-pub type InputNames = std::collections::HashMap<String, String>;
-
-/// The names the given files were uploaded under, for those that were (one transaction for
-/// a whole batch's table).
-pub fn input_names(
-    connection: &mut Connection,
-    files: &[String],
-) -> Result<InputNames, StoreError> {
-    let mut statement =
-        connection.prepare_cached("SELECT name FROM input_names WHERE file = ?1")?;
-    let mut names = InputNames::new();
-    for file in files {
-        if let Some(name) = statement.query_row([file], |row| row.get(0)).optional()? {
-            names.insert(file.clone(), name);
-        }
-    }
-    Ok(names)
-}
-
-/// Inputs stored before `before` that no kept run names (by their file name in its input
-/// URL); they are removed from the table and returned for deletion from disk.
-pub fn take_unused_inputs(
-    connection: &mut Connection,
-    before: i64,
-) -> Result<Vec<String>, StoreError> {
-    let transaction = connection.transaction()?;
-    let files: Vec<String> = {
-        let mut statement = transaction.prepare(
-            "SELECT file FROM inputs WHERE stored_unix < ?1 AND NOT EXISTS
-             (SELECT 1 FROM runs WHERE runs.input LIKE '%/inputs/' || inputs.file)
-             AND NOT EXISTS (SELECT 1 FROM batch_entries WHERE batch_entries.run_id IS NULL
-               AND batch_entries.error IS NULL
-               AND batch_entries.input LIKE '%/inputs/' || inputs.file)",
-        )?;
-        let rows = statement.query_map([before], |row| row.get(0))?;
-        rows.collect::<Result<_, _>>()?
-    };
-    for file in &files {
-        transaction.execute("DELETE FROM inputs WHERE file = ?1", [file])?;
-        transaction.execute("DELETE FROM input_names WHERE file = ?1", [file])?;
-        transaction.execute("DELETE FROM input_users WHERE file = ?1", [file])?;
-    }
-    transaction.commit()?;
-    Ok(files)
-}
-
-/// A batch as stored: its workflow and each input's run or error.
-#[derive(Debug, Clone)]
-pub struct StoredBatch {
-    pub id: String,
-    /// The user whose batch it is.
-    pub user: String,
-    pub workflow: serde_json::Value,
-    /// How many of its runs may go at once.
-    pub concurrency: usize,
-    pub entries: Vec<BatchEntry>,
-}
-
-pub fn insert_batch(connection: &mut Connection, batch: &StoredBatch) -> Result<(), StoreError> {
-    let transaction = connection.transaction()?;
-    transaction.execute(
-        "INSERT INTO batches (id, seq, owner, user, workflow, concurrency)
-         VALUES (?1, (SELECT COALESCE(MAX(seq), 0) + 1 FROM batches), ?2, ?2, ?3, ?4)",
-        params![
-            batch.id,
-            batch.user,
-            serde_json::to_string(&batch.workflow)?,
-            batch.concurrency as i64
-        ],
-    )?;
-    for (index, entry) in batch.entries.iter().enumerate() {
-        transaction.execute(
-            "INSERT INTO batch_entries (batch_id, idx, input, run_id, error) VALUES (?1, ?2, ?3, ?4, ?5)",
-            params![batch.id, index as i64, entry.input, entry.run, entry.error],
-        )?;
-    }
-    transaction.commit()?;
-    Ok(())
-}
-
-/// Records the run an entry became, or why it did not.
-pub fn set_batch_entry(
-    connection: &mut Connection,
-    batch_id: &str,
-    index: usize,
-    entry: &BatchEntry,
-) -> Result<(), StoreError> {
-    connection.execute(
-        "UPDATE batch_entries SET run_id = ?3, error = ?4 WHERE batch_id = ?1 AND idx = ?2",
-        params![batch_id, index as i64, entry.run, entry.error],
-    )?;
-    Ok(())
-}
-
-/// Every batch, oldest first, or the one with `only` as its id.
-pub fn load_batches(
-    connection: &mut Connection,
-    only: Option<&str>,
-) -> Result<Vec<StoredBatch>, StoreError> {
-    let mut statement = connection.prepare(
-        "SELECT id, user, workflow, concurrency FROM batches WHERE ?1 IS NULL OR id = ?1
-         ORDER BY seq",
-    )?;
-    let heads: Vec<(String, String, String, i64)> = statement
-        .query_map([only], |row| Ok((row.get(0)?, row.get(1)?, row.get(2)?, row.get(3)?)))?
-        .collect::<Result<_, _>>()?;
-    let mut entries_of = connection.prepare(
-        "SELECT input, run_id, error FROM batch_entries WHERE batch_id = ?1 ORDER BY idx",
-    )?;
-    let mut batches = Vec::with_capacity(heads.len());
-    for (id, user, workflow, concurrency) in heads {
-        let rows = entries_of.query_map([&id], |row| {
-            Ok(BatchEntry { input: row.get(0)?, run: row.get(1)?, error: row.get(2)? })
-        })?;
-        let entries = rows.collect::<Result<_, _>>()?;
-        let workflow = serde_json::from_str(&workflow)?;
-        let concurrency = concurrency.max(1) as usize;
-        batches.push(StoredBatch { id, user, workflow, concurrency, entries });
-    }
-    Ok(batches)
 }
 
 /// Copies the database at `from` to `to` with SQLite's online backup, page by page, so an

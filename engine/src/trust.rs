@@ -43,11 +43,21 @@ impl Trust {
     }
 }
 
+/// Why a `--host-trust` value was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum AssignmentError {
+    #[error("{0:?} is not URL=LEVEL")]
+    NotAnAssignment(String),
+    #[error("{0:?} is not trusted, spot-check or untrusted")]
+    UnknownLevel(String),
+}
+
 /// `--host-trust URL=LEVEL`: the URL and the level, or why not.
-pub fn parse_assignment(text: &str) -> Result<(String, Trust), String> {
-    let (url, level) = text.rsplit_once('=').ok_or_else(|| format!("{text:?} is not URL=LEVEL"))?;
-    let trust = Trust::parse(level)
-        .ok_or_else(|| format!("{level:?} is not trusted, spot-check or untrusted"))?;
+pub fn parse_assignment(text: &str) -> Result<(String, Trust), AssignmentError> {
+    let (url, level) =
+        text.rsplit_once('=').ok_or_else(|| AssignmentError::NotAnAssignment(text.to_owned()))?;
+    let trust =
+        Trust::parse(level).ok_or_else(|| AssignmentError::UnknownLevel(level.to_owned()))?;
     Ok((url.trim_end_matches('/').to_owned(), trust))
 }
 
