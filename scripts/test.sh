@@ -27,5 +27,7 @@ if [[ ! -x $venv/bin/python ]]; then
     }
 fi
 "$venv/bin/pip" install --quiet --disable-pip-version-check -e 'python[test]'
-cargo build --locked --bin meshflow   # a no-op after cargo test; the tests run this binary
+# `cargo test` built the binary the tests run; building it alone would unify other
+# features and compile wasmtime once more.
+[[ -x target/debug/meshflow ]] || cargo build --locked --bin meshflow
 MESHFLOW_BIN="${MESHFLOW_BIN:-$PWD/target/debug/meshflow}" "$venv/bin/python" -m pytest -q python/tests
