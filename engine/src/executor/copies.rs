@@ -19,6 +19,17 @@ impl Executor {
         let full_bytes = self.current.last_full.estimate(self.current.vertices);
         let correction = self.current.correction.clone().filter(|log| log.bytes < full_bytes);
         let use_ = if correction.is_some() { Use::Correction } else { Use::Full };
+        // Cheapest first: a host that holds the result already, then one that holds the last
+        // step's input (its edit log applies there), then any other (the full mesh).
+        let last_input = self.run.record().steps.iter().rev().find_map(|step| {
+            (step.output_hash.as_deref() == Some(hash.as_str())).then(|| step.input_hash.clone())
+        });
+        let cost = |known: &str| match known {
+            _ if known == hash => 0,
+            _ if last_input.as_deref() == Some(known) => 1,
+            _ => 2,
+        };
+        self.replicas.sort_by_key(|replica| cost(&replica.hash));
         for replica in self.replicas.iter_mut().filter(|r| r.host.url != producer) {
             if !replica.settle(&hash).await {
                 let (correction, full) = (correction.clone(), full.clone());
