@@ -275,6 +275,10 @@ mod tests {
         MeshData::new(vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], vec![0, 1, 2])
     }
 
+    /// What stops a budgeted run: the edit whose charge the budget could not pay.
+    #[derive(Debug, PartialEq)]
+    struct Exhausted(&'static str);
+
     /// A recorder with a budget, as the runtime keeps one.
     struct Budgeted {
         recorder: Recorder,
@@ -282,7 +286,7 @@ mod tests {
     }
 
     impl MeshCalls for Budgeted {
-        type Stop = String;
+        type Stop = Exhausted;
         fn store(&self) -> &MeshStore {
             &self.recorder.store
         }
@@ -292,10 +296,10 @@ mod tests {
         fn read_only(&self) -> bool {
             self.recorder.read_only
         }
-        fn charge(&mut self, kind: OpKind, elements: usize) -> Result<(), String> {
+        fn charge(&mut self, kind: OpKind, elements: usize) -> Result<(), Exhausted> {
             let cost = elements as u64 + 1;
             if cost > self.budget {
-                return Err(format!("edit budget exhausted at {}", kind.name()));
+                return Err(Exhausted(kind.name()));
             }
             self.budget -= cost;
             Ok(())
@@ -334,6 +338,6 @@ mod tests {
         assert_eq!(run.move_vertex(0, 0.5, 0.0, 0.0), Ok(Ok(())));
         assert_eq!(run.budget, 0);
         let stop = run.clear().unwrap_err();
-        assert_eq!(stop, "edit budget exhausted at clear");
+        assert_eq!(stop, Exhausted("clear"));
     }
 }
