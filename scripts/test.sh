@@ -16,7 +16,9 @@ if ((${#missing[@]})); then
 fi
 cargo test --workspace --locked "$@"
 
-# The Python client (python/) against `meshflow up`, in a venv under target/.
+# The Python client (python/) against `meshflow up`, in a venv under target/; the Python
+# plugin template built with componentize-py (PyPI) into target/ by its Makefile, in a
+# venv of its own there (target/python-venv-plugin).
 command -v python3 >/dev/null || { apt-get update && apt-get install -y python3; }
 venv=target/python-venv
 if [[ ! -x $venv/bin/python ]]; then

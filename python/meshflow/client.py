@@ -122,6 +122,26 @@ class Engine:
                             timeout=max(self.timeout, 600))
         return answer["url"]
 
+    # ---- plugins ----------------------------------------------------------------------
+    def upload_plugin(self, plugin, host: str, upload_token: str | None = None,
+                      replace: bool = False, timeout: float = 900.0) -> dict:
+        """Publishes a plugin component (a ``.wasm`` path or its bytes) on the registered
+        host ``host`` through the engine (``POST /plugins?host=``, as ``meshflow plugin
+        upload --engine``), which offers its services at once. ``upload_token``: the host's
+        (default ``MESHFLOW_UPLOAD_TOKEN``). Returns the host's answer: ``digest``,
+        ``services``, ``new``, ``replaced``, ``present``. The host compiles the component
+        before answering (a Python one: tens of seconds the first time), hence ``timeout``."""
+        token = upload_token if upload_token is not None else os.environ.get("MESHFLOW_UPLOAD_TOKEN")
+        if not token:
+            raise MeshflowError("no-upload-token",
+                                "give the host's upload token: upload_token=… or MESHFLOW_UPLOAD_TOKEN")
+        data = bytes(plugin) if isinstance(plugin, (bytes, bytearray, memoryview)) \
+            else Path(plugin).read_bytes()
+        params = {"host": host.rstrip("/"), "replace": "true" if replace else "false"}
+        return self._json("POST", "/plugins", params=params, data=data, timeout=timeout,
+                          headers={"X-Upload-Token": token,
+                                   "Content-Type": "application/wasm"})
+
     # ---- runs -------------------------------------------------------------------------
     def run(self, workflow, mesh=None, name: str | None = None) -> "Run":
         """Submits ``workflow`` on ``mesh`` (a path, a URL, ``(vertices, faces)`` arrays or

@@ -1,5 +1,9 @@
 """Fixtures: a `meshflow up --hosts 2` cluster on loopback for the session, the bunny as
-numpy arrays (read by a tiny OBJ reader), the meshflow binary."""
+numpy arrays (read by a tiny OBJ reader), the meshflow binary.
+
+Compiled components are cached under target/ (MESHFLOW_CACHE_DIR, unless given, the folder
+tests/cpp_sdk.rs uses): every `meshflow` this session starts compiles a component once, and
+a fresh clone compiles again."""
 
 from __future__ import annotations
 
@@ -8,6 +12,7 @@ import re
 import subprocess
 import time
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import pytest
@@ -17,6 +22,15 @@ import meshflow
 ROOT = Path(__file__).resolve().parents[2]
 BUNNY = ROOT / "examples" / "data" / "bunny.obj"
 REPAIR = ROOT / "examples" / "workflows" / "repair.json"
+os.environ.setdefault("MESHFLOW_CACHE_DIR", str(ROOT / "target" / "tmp" / "components"))
+
+
+class Cluster(NamedTuple):
+    url: str
+    token: str
+    upload_token: str
+    # `up --data`: host i keeps its files in data/host-{i}.
+    data: Path
 
 
 def meshflow_bin() -> str:
@@ -55,7 +69,7 @@ def bunny() -> tuple[np.ndarray, np.ndarray]:
 
 @pytest.fixture(scope="session")
 def cluster(binary, tmp_path_factory):
-    """`meshflow up --hosts 2 --listen 127.0.0.1:0`: yields (engine URL, API token)."""
+    """`meshflow up --hosts 2 --listen 127.0.0.1:0`: yields a `Cluster`."""
     data = tmp_path_factory.mktemp("up")
     err = open(data / "up.stderr", "wb")
     env = dict(os.environ)
@@ -64,10 +78,10 @@ def cluster(binary, tmp_path_factory):
     proc = subprocess.Popen(
         [binary, "up", "--hosts", "2", "--listen", "127.0.0.1:0", "--data", str(data / "data")],
         stdout=subprocess.PIPE, stderr=err, text=True, env=env)
-    url = token = None
+    url = token = upload = None
     deadline = time.monotonic() + 60
     lines = []
-    while (url is None or token is None) and time.monotonic() < deadline:
+    while None in (url, token, upload) and time.monotonic() < deadline:
         line = proc.stdout.readline()
         if not line:
             break
@@ -76,7 +90,9 @@ def cluster(binary, tmp_path_factory):
             url = m.group(1)
         if m := re.search(r"MESHFLOW_API_TOKEN=(\S+)", line):
             token = m.group(1)
-    if url is None or token is None:
+        if m := re.search(r"MESHFLOW_UPLOAD_TOKEN=(\S+)", line):
+            upload = m.group(1)
+    if None in (url, token, upload):
         proc.kill()
         raise RuntimeError(f"meshflow up printed no engine URL and token: {''.join(lines)}"
                            f"{(data / 'up.stderr').read_text()[-2000:]}")
@@ -88,7 +104,7 @@ def cluster(binary, tmp_path_factory):
         except meshflow.MeshflowError:
             pass
         time.sleep(0.1)
-    yield url, token
+    yield Cluster(url, token, upload, data / "data")
     proc.terminate()
     try:
         proc.wait(10)
@@ -99,5 +115,4 @@ def cluster(binary, tmp_path_factory):
 
 @pytest.fixture()
 def engine(cluster) -> meshflow.Engine:
-    url, token = cluster
-    return meshflow.Engine(url, token=token)
+    return meshflow.Engine(cluster.url, token=cluster.token)
