@@ -126,6 +126,9 @@ def test_uploaded_to_one_host_its_step_is_replayed_on_the_other_to_the_same_hash
     assert taken[0]["asked"] == "replay" and taken[0]["via"] == "replay", taken[0]
     assert taken[0]["error"] is None and taken[0]["fallback"] is None, taken[0]
     assert "claims" not in py and "verdict" not in py
+    print(f"\nthe Python step: {py['compute_ms']:.0f} ms on {producer}, replayed on {replayer} "
+          f"in {taken[0]['download_ms'] + taken[0]['apply_ms']:.0f} ms ({taken[0]['bytes']} bytes "
+          f"of replay; the component fetched by digest and loaded)")
     replay_plugins = cluster.data / f"host-{hosts.index(replayer)}" / "replay-plugins"
     assert (replay_plugins / f"{digest}.wasm").is_file(), list(replay_plugins.iterdir())
 
