@@ -123,6 +123,7 @@ pub async fn start(spec: Spec) -> anyhow::Result<Embedded> {
             .with_context(|| format!("starting host {index}"))?;
         handles.push(handle);
     }
+    warn_shadowed(&handles);
     let urls: Vec<String> = handles.iter().map(|h| h.url.clone()).collect();
     let listener =
         TcpListener::bind(&listen).await.with_context(|| format!("listening on {listen}"))?;
@@ -151,6 +152,19 @@ fn install_plugins(dir: &std::path::Path, plugins: &[Vec<u8>]) -> anyhow::Result
         meshflow_meshio::write_private_file(&path, |out| out.write_all(bytes))?;
     }
     Ok(())
+}
+
+/// One line on stderr per built-in service a `--plugin` component hides on some host: the
+/// plugin's service of that name runs instead, there and in every workflow naming it.
+fn warn_shadowed(hosts: &[HostHandle]) {
+    let mut names: Vec<String> = hosts.iter().flat_map(HostHandle::shadowed_builtins).collect();
+    names.sort();
+    names.dedup();
+    for name in names {
+        eprintln!(
+            "warning: a --plugin component's `{name}` shadows the built-in service of that name"
+        );
+    }
 }
 
 /// The built-in components host `index` of `hosts` offers under `layout`.

@@ -634,7 +634,7 @@ fn up_prints_an_upload_token_and_its_hosts_on_fixed_ports_take_plugins() {
 }
 
 /// `run --plugin` puts a plugin on the embedded hosts: its service serves its name first,
-/// and the record names its digest.
+/// the user hears that it hides the built-in, and the record names its digest.
 #[test]
 fn run_takes_a_plugin_for_its_embedded_hosts() {
     let dir = tempfile::tempdir().unwrap();
@@ -647,8 +647,47 @@ fn run_takes_a_plugin_for_its_embedded_hosts() {
     let report = dir.path().join("run.json").display().to_string();
     let out = dir.path().join("out.ply").display().to_string();
     let wasm = wasm.display().to_string();
-    ok(&["run", &workflow, &bunny(), "-o", &out, "--report", &report, "--plugin", &wasm]);
+    let ran =
+        meshflow(&["run", &workflow, &bunny(), "-o", &out, "--report", &report, "--plugin", &wasm]);
+    let stderr = String::from_utf8_lossy(&ran.stderr);
+    assert!(ran.status.success(), "{stderr}");
+    let warning = "a --plugin component's `laplacian-smoothing` shadows the built-in service";
+    assert_eq!(stderr.matches(warning).count(), 1, "{stderr}");
     let record = json(&std::fs::read_to_string(&report).unwrap());
     let digest = meshflow_runtime::digest(v2);
     assert_eq!(record["steps"][0]["plugin"], digest.as_str(), "{record:#}");
+}
+
+/// A coloured scan: `info` names what meshflow does not keep, `apply` warns before it
+/// drops it, and `hash` says why two such files may hash the same (issue 35).
+#[test]
+fn what_a_file_holds_beyond_the_mesh_is_named_not_dropped_silently() {
+    let dir = tempfile::tempdir().unwrap();
+    let scan = dir.path().join("coloured.ply");
+    std::fs::write(
+        &scan,
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n\
+         property double z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n\
+         property float quality\nelement face 1\nproperty list uchar int vertex_indices\n\
+         end_header\n0.1 0 0 255 0 0 1\n1 0 0 0 255 0 1\n0 1 0 0 0 255 1\n3 0 1 2\n",
+    )
+    .unwrap();
+    let scan = scan.display().to_string();
+    let info = json(&ok(&["info", &scan, "--json"]));
+    let not_kept: Vec<&str> =
+        info["not_kept"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
+    assert_eq!(not_kept[..2], ["vertex colour (red, green, blue)", "vertex property 'quality'"]);
+    assert!(not_kept[2].starts_with("double coordinates, rounded to float"), "{not_kept:?}");
+
+    let out = dir.path().join("out.ply").display().to_string();
+    let applied = meshflow(&["apply", "remove-degenerate-triangles", &scan, "-o", &out]);
+    let stderr = String::from_utf8_lossy(&applied.stderr);
+    assert!(applied.status.success(), "{stderr}");
+    assert!(stderr.contains("not kept: vertex colour (red, green, blue)"), "{stderr}");
+    let plain = json(&ok(&["info", &out, "--json"]));
+    assert_eq!(plain["not_kept"], serde_json::json!([]), "the output holds only the mesh");
+    let hashed = meshflow(&["hash", &scan]);
+    assert!(
+        String::from_utf8_lossy(&hashed.stderr).contains("not kept: vertex property 'quality'")
+    );
 }

@@ -66,6 +66,18 @@ impl HostHandle {
         self.host.edit_logs.finish_all().await;
         Ok(())
     }
+
+    /// The built-in services an uploaded plugin serves in their place, by name (sorted):
+    /// what a user who installed plugins should hear about.
+    pub fn shadowed_builtins(&self) -> Vec<String> {
+        let mut names: Vec<String> = (self.host.plugins.services().into_iter())
+            .filter(|entry| entry.builtin && entry.pinned_only)
+            .map(|entry| entry.info.name)
+            .collect();
+        names.sort();
+        names.dedup();
+        names
+    }
 }
 
 /// Starts a host on `listener`: loads the plugins (built-in and stored), rebuilds stored

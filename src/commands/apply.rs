@@ -65,7 +65,7 @@ pub fn run(args: &ApplyArgs) -> anyhow::Result<()> {
     }
 
     let started = Instant::now();
-    let mut mesh = io::load(&args.input)?;
+    let mut mesh = super::pack::load_mesh(&args.input)?;
     let grid = args.quantize.map(|bits| quantize::quantize(&mut mesh, bits)).transpose()?;
     let load_time = started.elapsed();
 

@@ -6,7 +6,6 @@ use std::time::Instant;
 
 use anyhow::bail;
 use clap::Args;
-use meshflow_meshio as io;
 use meshflow_runtime::{ServiceKind, value_text};
 
 use super::{millis, parse_params, value_json};
@@ -36,7 +35,7 @@ pub fn run(args: &CheckArgs) -> anyhow::Result<()> {
         bail!("`{}` is a filter, not a check: use `meshflow apply`", args.service);
     }
     let started = Instant::now();
-    let mesh = io::load(&args.input)?;
+    let mesh = super::pack::load_mesh(&args.input)?;
     let load_time = started.elapsed();
     let output = runtime.run(plugin, &args.service, mesh, &params)?;
     crate::plugins::show_output(&args.plugins, &output);

@@ -5,21 +5,25 @@ use std::path::Path;
 
 use meshflow_meshio as io;
 
+/// The hash covers positions and triangles only: what the file held beyond them is named
+/// on stderr, since two files differing there hash the same.
 pub fn hash(input: &Path) -> anyhow::Result<()> {
-    let mesh = io::load(input)?;
+    let mesh = super::pack::load_mesh(input)?;
     out!("{}", mesh.content_hash());
     Ok(())
 }
 
 pub fn info(input: &Path, json: bool) -> anyhow::Result<()> {
-    let mesh = io::load(input)?;
+    let io::Loaded { mesh, dropped } = io::load_reporting(input)?;
     let bbox = mesh.bounding_box();
+    let not_kept = dropped.lines();
     if json {
         let bbox = bbox.map(|(lo, hi)| serde_json::json!({ "min": lo, "max": hi }));
         let info = serde_json::json!({
             "vertices": mesh.vertex_count(),
             "triangles": mesh.triangle_count(),
             "bbox": bbox,
+            "not_kept": not_kept,
         });
         out!("{info}");
     } else {
@@ -28,6 +32,10 @@ pub fn info(input: &Path, json: bool) -> anyhow::Result<()> {
         match bbox {
             Some((lo, hi)) => out!("bbox:      {lo:?} .. {hi:?}"),
             None => out!("bbox:      (empty)"),
+        }
+        // What meshflow reads of the file is positions and triangles; the rest is named.
+        for line in &not_kept {
+            out!("not kept:  {line}");
         }
     }
     Ok(())

@@ -71,13 +71,18 @@ pub fn is_packed(path: &Path) -> bool {
     path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case(PACKED))
 }
 
-/// Loads a mesh file, packed (`.mfm`) or any format `io::load` reads.
+/// Loads a mesh file, packed (`.mfm`) or any format `io::load` reads, and says on stderr
+/// what the file held that the mesh does not keep (colours, normals, …).
 pub fn load_mesh(path: &Path) -> anyhow::Result<MeshData> {
     if is_packed(path) {
         let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
         return pack::decode(&bytes).with_context(|| format!("unpacking {}", path.display()));
     }
-    Ok(io::load(path)?)
+    let loaded = io::load_reporting(path)?;
+    for line in loaded.dropped.lines() {
+        eprintln!("warning: {}: not kept: {line}", path.display());
+    }
+    Ok(loaded.mesh)
 }
 
 /// Saves a mesh atomically, packed (`.mfm`) or in the format its extension names.

@@ -11,6 +11,7 @@
 
 mod atomic;
 mod build;
+mod dropped;
 mod error;
 mod obj;
 mod off;
@@ -25,6 +26,7 @@ use std::path::Path;
 use meshflow_mesh::MeshData;
 
 pub use atomic::{write_file, write_private_file};
+pub use dropped::{Dropped, Loaded};
 pub use error::{LoadError, MeshDefect, Position, SaveError};
 
 /// A mesh file format.
@@ -86,22 +88,38 @@ pub enum PlyEncoding {
 
 /// Loads a mesh, choosing the format by the file extension.
 pub fn load(path: &Path) -> Result<MeshData, LoadError> {
+    load_reporting(path).map(|loaded| loaded.mesh)
+}
+
+/// Loads a mesh, choosing the format by the file extension, with what the file held that
+/// the mesh does not keep (for a warning).
+pub fn load_reporting(path: &Path) -> Result<Loaded, LoadError> {
     let name = path.display().to_string();
     let format = Format::from_path(path).ok_or(LoadError::UnknownFormat { name })?;
-    load_as(path, format)
+    load_as_reporting(path, format)
 }
 
 /// Loads a mesh in the given format, whatever the file is called.
 pub fn load_as(path: &Path, format: Format) -> Result<MeshData, LoadError> {
+    load_as_reporting(path, format).map(|loaded| loaded.mesh)
+}
+
+/// [`load_as`], with what the file held that the mesh does not keep.
+pub fn load_as_reporting(path: &Path, format: Format) -> Result<Loaded, LoadError> {
     let name = path.display().to_string();
     // One read of the whole file: every reader works on a byte slice, which is the fastest
     // way to parse and lets binary readers check counts against the remaining size.
     let bytes = std::fs::read(path).map_err(|cause| LoadError::Io { name: name.clone(), cause })?;
-    load_bytes(&bytes, format, &name)
+    load_bytes_reporting(&bytes, format, &name)
 }
 
 /// Decodes a mesh held in memory; `name` is what error messages call it.
 pub fn load_bytes(bytes: &[u8], format: Format, name: &str) -> Result<MeshData, LoadError> {
+    load_bytes_reporting(bytes, format, name).map(|loaded| loaded.mesh)
+}
+
+/// [`load_bytes`], with what the bytes held that the mesh does not keep.
+pub fn load_bytes_reporting(bytes: &[u8], format: Format, name: &str) -> Result<Loaded, LoadError> {
     let read = match format {
         Format::Obj => obj::read,
         Format::Ply => ply::read,

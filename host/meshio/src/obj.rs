@@ -1,5 +1,6 @@
 //! Wavefront OBJ: `v` and `f` statements; everything else (normals, texture coordinates,
-//! groups, materials, lines, points) carries no triangle-mesh geometry and is skipped.
+//! groups, materials, lines, points) carries no triangle-mesh geometry and is skipped —
+//! normals, texture coordinates, materials and vertex colours named in the [`Dropped`] report.
 //!
 //! Parsed here rather than with `tobj`: tobj renumbers vertices per object in the order faces
 //! first use them and drops unreferenced ones, which would change raw scans and break
@@ -9,12 +10,13 @@ use std::io::{self, Write};
 
 use super::build::{check_arity, check_finite, out_of_range, push_fan};
 use super::error::{Invalid, Position, ReadResult};
-use super::text::{self, parse_f32, parse_i64};
+use super::text::{self, parse_f32, parse_i64, shown};
+use crate::dropped::{Dropped, Loaded};
 use meshflow_mesh::MeshData;
 
 /// Decodes an OBJ file. All objects and groups share the file's one vertex list, so they
 /// merge into one mesh with the file's own numbering.
-pub(crate) fn read(bytes: &[u8]) -> ReadResult<MeshData> {
+pub(crate) fn read(bytes: &[u8]) -> ReadResult<Loaded> {
     let mut reader = Reader::default();
     // A statement ending in a backslash continues on the next line (OBJ spec); errors name
     // the line the statement starts on.
@@ -50,6 +52,12 @@ struct Reader {
     /// Corners naming a vertex defined later in the file: `(line, face, 1-based index)`.
     /// Checked at the end, when the vertex count is known.
     forward: Vec<(usize, usize, i64)>,
+    /// What the mesh does not keep: `vt` and `vn` counts, material statements, and
+    /// whether `v` lines carry colours.
+    texture_coordinates: usize,
+    normals: usize,
+    materials: Vec<String>,
+    coloured: bool,
 }
 
 impl Reader {
@@ -58,6 +66,22 @@ impl Reader {
         match tokens.next() {
             Some(b"v") => self.vertex(Position::Line(number), tokens),
             Some(b"f") | Some(b"fo") => self.face(number, tokens),
+            Some(b"vt") => {
+                self.texture_coordinates += 1;
+                Ok(())
+            }
+            Some(b"vn") => {
+                self.normals += 1;
+                Ok(())
+            }
+            Some(keyword @ (b"mtllib" | b"usemtl")) => {
+                let names: Vec<String> = tokens.map(shown).collect();
+                let statement = format!("{} {}", shown(keyword), names.join(" "));
+                if !self.materials.contains(&statement) {
+                    self.materials.push(statement);
+                }
+                Ok(())
+            }
             _ => Ok(()),
         }
     }
@@ -77,7 +101,9 @@ impl Reader {
                 .map_err(|reason| Invalid::at(at, format!("vertex {vertex}: {reason}")))?;
         }
         check_finite(vertex, p, at)?;
-        // Further values (w, or r g b vertex colours) are not geometry.
+        // Further values (w, or r g b vertex colours) are not geometry; three or more
+        // are colours (one is the homogeneous w).
+        self.coloured |= tokens.count() >= 3;
         self.positions.extend_from_slice(&p);
         Ok(())
     }
@@ -129,14 +155,33 @@ impl Reader {
         Ok(())
     }
 
-    fn finish(self) -> ReadResult<MeshData> {
+    fn finish(self) -> ReadResult<Loaded> {
         let vertices = (self.positions.len() / 3) as u64;
         if let Some(&(line, face, index)) =
             self.forward.iter().find(|&&(_, _, index)| index as u64 > vertices)
         {
             return Err(Invalid::line(line, out_of_range(face, index, vertices)));
         }
-        Ok(MeshData::new(self.positions, self.triangles))
+        let mut dropped = Dropped::default();
+        if self.coloured {
+            dropped.add("vertex colour (r g b after x y z on 'v' lines)".into());
+        }
+        if self.texture_coordinates > 0 {
+            let count = self.texture_coordinates;
+            dropped.add(format!("corner texture coordinates ({count} 'vt')"));
+        }
+        if self.normals > 0 {
+            dropped.add(format!("normals ({} 'vn')", self.normals));
+        }
+        if !self.materials.is_empty() {
+            const SHOWN: usize = 3;
+            let mut named = self.materials[..self.materials.len().min(SHOWN)].join("; ");
+            if self.materials.len() > SHOWN {
+                named += &format!("; and {} more", self.materials.len() - SHOWN);
+            }
+            dropped.add(format!("materials and textures ({named})"));
+        }
+        Ok(Loaded { mesh: MeshData::new(self.positions, self.triangles), dropped })
     }
 }
 

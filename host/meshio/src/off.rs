@@ -13,17 +13,20 @@ use super::build::{
 };
 use super::error::{Invalid, Position, ReadResult};
 use super::text::{self, parse_f32, parse_i64, shown};
+use crate::dropped::{Dropped, Loaded};
 use meshflow_mesh::MeshData;
 
 /// Decodes an OFF file.
-pub(crate) fn read(bytes: &[u8]) -> ReadResult<MeshData> {
+pub(crate) fn read(bytes: &[u8]) -> ReadResult<Loaded> {
     let mut lines = Lines::new(bytes);
     let mut counts = Vec::new();
+    let mut dropped = Dropped::default();
     let at = lines.next_or_eof(&mut counts, || "the OFF header".into())?;
     let mut dimension = 3;
     if counts[0].ends_with(b"OFF") {
         let keyword = counts.remove(0);
         dimension = keyword_dimension(keyword, at)?;
+        vertex_extras(keyword, &mut dropped);
         if counts.first() == Some(&&b"BINARY"[..]) {
             return Err(Invalid::at(at, "binary OFF is not supported"));
         }
@@ -91,10 +94,28 @@ pub(crate) fn read(bytes: &[u8]) -> ReadResult<MeshData> {
             corners.push(check_corner(face, index, vertex_count, at)?);
         }
         // Values after the indices are a face colour.
+        if values.len() > arity as usize + 1 {
+            dropped.add("face colour (values after a face's indices)".into());
+        }
         push_fan(&mut triangles, &corners);
     }
     // Anything after the faces (edges, trailing data) is not part of the mesh.
-    Ok(MeshData::new(positions, triangles))
+    Ok(Loaded { mesh: MeshData::new(positions, triangles), dropped })
+}
+
+/// The per-vertex values an OFF keyword announces (`STCNOFF`: texture coordinates,
+/// colours, normals), which the mesh does not keep.
+fn vertex_extras(keyword: &[u8], dropped: &mut Dropped) {
+    let prefix = &keyword[..keyword.len() - 3];
+    for (letters, what) in [
+        (&b"ST"[..], "vertex texture coordinate (ST)"),
+        (b"C", "vertex colour (C)"),
+        (b"N", "vertex normal (N)"),
+    ] {
+        if prefix.windows(letters.len()).any(|w| w == letters) {
+            dropped.add(what.into());
+        }
+    }
 }
 
 /// Vertex dimension of an OFF keyword: 3, 4 for `4OFF`, 0 for `nOFF` (given in the file).

@@ -10,6 +10,7 @@ use std::io::{self, Write};
 use super::build::{capacity, check_arity, push_fan};
 use super::error::{Invalid, Position, ReadResult};
 use super::text::{self, parse_f32, shown};
+use crate::dropped::{Dropped, Loaded};
 use meshflow_mesh::MeshData;
 
 const HEADER: usize = 80;
@@ -19,7 +20,7 @@ const RECORD: usize = 50;
 /// Decodes an STL file. Binary when the size is exactly what the triangle count in the
 /// binary header needs (binary files may also start with `solid`), ascii when the file starts
 /// with `solid`.
-pub(crate) fn read(bytes: &[u8]) -> ReadResult<MeshData> {
+pub(crate) fn read(bytes: &[u8]) -> ReadResult<Loaded> {
     let declared = binary_count(bytes);
     if let Some(count) =
         declared.filter(|&n| BODY as u64 + RECORD as u64 * u64::from(n) == bytes.len() as u64)
@@ -27,7 +28,8 @@ pub(crate) fn read(bytes: &[u8]) -> ReadResult<MeshData> {
         return read_binary(bytes, count as usize);
     }
     if bytes.trim_ascii_start().starts_with(b"solid") {
-        return read_ascii(bytes);
+        let mesh = read_ascii(bytes)?;
+        return Ok(Loaded { mesh, dropped: Dropped::default() });
     }
     Err(Invalid::whole(match declared {
         Some(n) => format!(
@@ -49,12 +51,17 @@ fn binary_count(bytes: &[u8]) -> Option<u32> {
     Some(u32::from_le_bytes(field.try_into().ok()?))
 }
 
-fn read_binary(bytes: &[u8], count: usize) -> ReadResult<MeshData> {
+fn read_binary(bytes: &[u8], count: usize) -> ReadResult<Loaded> {
     // A closed mesh has about half as many vertices as triangles.
     let mut welder = Welder::with_capacity(count / 2 + 1);
     let mut triangles = Vec::with_capacity(count * 3);
+    let mut dropped = Dropped::default();
     for (triangle, record) in bytes[BODY..].chunks_exact(RECORD).enumerate() {
-        // The stored normal (first 12 bytes) is derived data; the attribute word is unused.
+        // The stored normal (first 12 bytes) is derived data. The attribute word is zero
+        // unless a writer put a colour there (VisCAM, Materialise), which is not kept.
+        if record[RECORD - 2..] != [0, 0] {
+            dropped.add("triangle colour (STL attribute words)".into());
+        }
         for corner in 0..3 {
             let offset = 12 + 12 * corner;
             let value = |k: usize| {
@@ -65,7 +72,7 @@ fn read_binary(bytes: &[u8], count: usize) -> ReadResult<MeshData> {
             triangles.push(welder.id([value(0), value(1), value(2)], triangle, corner, at)?);
         }
     }
-    Ok(welder.finish(triangles))
+    Ok(Loaded { mesh: welder.finish(triangles), dropped })
 }
 
 fn read_ascii(bytes: &[u8]) -> ReadResult<MeshData> {

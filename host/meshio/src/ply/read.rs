@@ -1,5 +1,5 @@
 //! Reading a PLY body into a mesh: the `vertex` element's x/y/z, the `face` element's index
-//! lists; every other property and element is skipped.
+//! lists; every other property and element is skipped, and named in the [`Dropped`] report.
 
 use super::super::build::{
     capacity, check_arity, check_corner, check_finite, check_vertex_count, push_fan,
@@ -7,23 +7,54 @@ use super::super::build::{
 use super::super::error::{Invalid, Position, ReadResult};
 use super::header::{self, Element, Encoding, Header, Kind, Scalar};
 use super::source::{Ascii, BigEndian, Binary, LittleEndian, Source, truncated};
+use crate::dropped::{Dropped, Loaded};
 use meshflow_mesh::MeshData;
 
 /// Decodes a PLY file of any encoding.
-pub(crate) fn read(bytes: &[u8]) -> ReadResult<MeshData> {
+pub(crate) fn read(bytes: &[u8]) -> ReadResult<Loaded> {
     let header = header::parse(bytes)?;
     let body = &bytes[header.body_offset..];
     check_sizes(&header, body.len())?;
     let layout = Layout::new(&header)?;
-    match header.encoding {
-        Encoding::Ascii => read_body(&header, &layout, Ascii::new(body, header.body_line)),
-        Encoding::BinaryLittleEndian => {
-            read_body(&header, &layout, Binary::<LittleEndian>::new(body, header.body_offset))
+    let mut dropped = left_behind(&header, &layout);
+    let mesh = match header.encoding {
+        Encoding::Ascii => {
+            read_body(&header, &layout, Ascii::new(body, header.body_line), &mut dropped)
         }
-        Encoding::BinaryBigEndian => {
-            read_body(&header, &layout, Binary::<BigEndian>::new(body, header.body_offset))
+        Encoding::BinaryLittleEndian => read_body(
+            &header,
+            &layout,
+            Binary::<LittleEndian>::new(body, header.body_offset),
+            &mut dropped,
+        ),
+        Encoding::BinaryBigEndian => read_body(
+            &header,
+            &layout,
+            Binary::<BigEndian>::new(body, header.body_offset),
+            &mut dropped,
+        ),
+    }?;
+    Ok(Loaded { mesh, dropped })
+}
+
+/// The properties and elements of the header the mesh does not take.
+fn left_behind(header: &Header, layout: &Layout) -> Dropped {
+    let mut dropped = Dropped::default();
+    for element in header.elements.iter().filter(|e| e.count > 0) {
+        let taken = |p: usize| match element.name.as_str() {
+            "vertex" => layout.axes.contains(&p),
+            "face" => layout.corners == Some(p),
+            _ => false,
+        };
+        let others = (element.properties.iter().enumerate())
+            .filter(|&(p, _)| !taken(p))
+            .map(|(_, property)| property.name.as_str());
+        match element.name.as_str() {
+            "vertex" | "face" => dropped.ply_properties(&element.name, others),
+            name => dropped.add(format!("element '{name}' ({} records)", element.count)),
         }
     }
+    dropped
 }
 
 /// Rejects headers whose counts the body cannot hold, before anything is allocated from
@@ -91,12 +122,19 @@ impl Layout {
     }
 }
 
-fn read_body<S: Source>(header: &Header, layout: &Layout, mut source: S) -> ReadResult<MeshData> {
+fn read_body<S: Source>(
+    header: &Header,
+    layout: &Layout,
+    mut source: S,
+    dropped: &mut Dropped,
+) -> ReadResult<MeshData> {
     let mut positions = Vec::new();
     let mut triangles = Vec::new();
     for element in &header.elements {
         match (element.name.as_str(), layout.corners) {
-            ("vertex", _) => read_vertices(&mut source, element, layout.axes, &mut positions)?,
+            ("vertex", _) => {
+                read_vertices(&mut source, element, layout.axes, &mut positions, dropped)?
+            }
             ("face", Some(list)) => {
                 read_faces(&mut source, element, list, layout.vertex_count, &mut triangles)?
             }
@@ -112,6 +150,7 @@ fn read_vertices<S: Source>(
     element: &Element,
     axes: [usize; 3],
     positions: &mut Vec<f32>,
+    dropped: &mut Dropped,
 ) -> ReadResult<()> {
     // `check_sizes` bounded the count by the file size, so this reservation is safe.
     positions.reserve(element.count as usize * 3);
@@ -119,7 +158,7 @@ fn read_vertices<S: Source>(
         && let Some((data, offset)) = source.unread()
     {
         let block = fixed_block(data, offset, element.count, size)?;
-        decode_fixed_vertices::<S>(element, axes, size, block, offset, positions)?;
+        decode_fixed_vertices::<S>(element, axes, size, block, offset, positions, dropped)?;
         source.consume(block.len());
         return Ok(());
     }
@@ -129,6 +168,12 @@ fn read_vertices<S: Source>(
         let mut p = [0.0f32; 3];
         for (property, role) in element.properties.iter().zip(&roles) {
             let value = match (role, property.kind) {
+                (Some(axis), Kind::Scalar(Scalar::F64)) => {
+                    source.double_coordinate().map(|(exact, rounded)| {
+                        dropped.rounded(exact, rounded);
+                        p[*axis] = rounded;
+                    })
+                }
                 (Some(axis), Kind::Scalar(ty)) => source.coordinate(ty).map(|c| p[*axis] = c),
                 _ => source.skip(property.kind),
             };
@@ -154,6 +199,7 @@ fn decode_fixed_vertices<S: Source>(
     block: &[u8],
     offset: usize,
     positions: &mut Vec<f32>,
+    dropped: &mut Dropped,
 ) -> ReadResult<()> {
     let field = |axis: usize| {
         let start = element.properties[..axis].iter().map(|p| scalar_size(p.kind)).sum::<usize>();
@@ -163,6 +209,7 @@ fn decode_fixed_vertices<S: Source>(
         }
     };
     let [(ox, tx), (oy, ty), (oz, tz)] = axes.map(field);
+    let first = positions.len();
     for (vertex, record) in block.chunks_exact(size).enumerate() {
         let p = [
             S::decode_f32(tx, &record[ox..]),
@@ -171,6 +218,16 @@ fn decode_fixed_vertices<S: Source>(
         ];
         check_finite(vertex, p, Position::Byte((offset + vertex * size) as u64))?;
         positions.extend_from_slice(&p);
+    }
+    // Doubles: a second pass for the largest rounding, so the common float files pay nothing.
+    for (k, (ty, start)) in [(tx, ox), (ty, oy), (tz, oz)].into_iter().enumerate() {
+        if ty != Scalar::F64 {
+            continue;
+        }
+        let rounded = positions[first..].iter().skip(k).step_by(3);
+        for (record, &rounded) in block.chunks_exact(size).zip(rounded) {
+            dropped.rounded(S::decode_f64(&record[start..]), rounded);
+        }
     }
     Ok(())
 }

@@ -17,6 +17,9 @@ pub(super) trait Source {
     fn remaining(&self) -> usize;
     /// Reads a scalar of type `ty` as an `f32` (nearest value).
     fn coordinate(&mut self, ty: Scalar) -> ReadResult<f32>;
+    /// Reads a `double` coordinate: its exact value and the `f32` [`Source::coordinate`]
+    /// gives for it.
+    fn double_coordinate(&mut self) -> ReadResult<(f64, f32)>;
     /// Reads a scalar of integer type `ty`.
     fn integer(&mut self, ty: Scalar) -> ReadResult<i64>;
     /// Skips one property value (a scalar or a whole list).
@@ -28,6 +31,8 @@ pub(super) trait Source {
     fn consume(&mut self, len: usize);
     /// Binary only: decodes a scalar at the start of `bytes` as an `f32`.
     fn decode_f32(ty: Scalar, bytes: &[u8]) -> f32;
+    /// Binary only: decodes a `double` at the start of `bytes`.
+    fn decode_f64(bytes: &[u8]) -> f64;
     /// Binary only: decodes an integer scalar at the start of `bytes`.
     fn decode_int(ty: Scalar, bytes: &[u8]) -> i64;
 }
@@ -117,6 +122,11 @@ impl<O: Order> Source for Binary<'_, O> {
         Ok(Self::decode_f32(ty, self.take(ty.size())?))
     }
 
+    fn double_coordinate(&mut self) -> ReadResult<(f64, f32)> {
+        let exact = Self::decode_f64(self.take(8)?);
+        Ok((exact, exact as f32))
+    }
+
     #[inline]
     fn integer(&mut self, ty: Scalar) -> ReadResult<i64> {
         Ok(Self::decode_int(ty, self.take(ty.size())?))
@@ -151,6 +161,10 @@ impl<O: Order> Source for Binary<'_, O> {
             Scalar::F64 => f64::from_bits(O::u64(array(b))) as f32,
             _ => Self::decode_int(ty, b) as f32,
         }
+    }
+
+    fn decode_f64(b: &[u8]) -> f64 {
+        f64::from_bits(O::u64(array(b)))
     }
 
     #[inline]
@@ -217,6 +231,15 @@ impl Source for Ascii<'_> {
         parse_f32(token).map_err(|reason| Invalid::line(self.last_line, reason.to_string()))
     }
 
+    fn double_coordinate(&mut self) -> ReadResult<(f64, f32)> {
+        let token = self.token()?;
+        let invalid = |reason: String| Invalid::line(self.last_line, reason);
+        // The f32 straight from the text, as `coordinate` reads it (not via the double).
+        let rounded = parse_f32(token).map_err(|reason| invalid(reason.to_string()))?;
+        let exact = std::str::from_utf8(token).ok().and_then(|t| t.parse::<f64>().ok());
+        Ok((exact.unwrap_or(f64::from(rounded)), rounded))
+    }
+
     fn integer(&mut self, _ty: Scalar) -> ReadResult<i64> {
         let token = self.token()?;
         parse_i64(token).map_err(|reason| Invalid::line(self.last_line, reason.to_string()))
@@ -244,6 +267,10 @@ impl Source for Ascii<'_> {
     }
 
     fn decode_f32(_ty: Scalar, _bytes: &[u8]) -> f32 {
+        unreachable!("ascii bodies are read token by token")
+    }
+
+    fn decode_f64(_bytes: &[u8]) -> f64 {
         unreachable!("ascii bodies are read token by token")
     }
 
