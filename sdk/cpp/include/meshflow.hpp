@@ -14,11 +14,19 @@
 // enclosing service and otherwise gives its value; `meshflow::fail("{} holes", n)` formats. Link ../generated/plugin.c and
 // ../generated/plugin_component_type.o, build for wasm32-wasi (preview 1) as a reactor, then
 // `meshflow plugin componentize CORE.wasm -o PLUGIN.wasm`.
+//
+// Tests: built for the host's CPU with -DMESHFLOW_NATIVE and linked against
+// libmeshflow_native.so instead of plugin.c, the same services run in process on the host's
+// own recording store (every edit checked as a host checks it), through
+// `meshflow::native::load(path)` and `meshflow::native::run(service, mesh, params)`.
 #pragma once
 
 extern "C" {
 #include "plugin.h"
 }
+#ifdef MESHFLOW_NATIVE
+#include "meshflow_native.h"
+#endif
 
 #include <array>
 #include <cstdint>
@@ -41,9 +49,43 @@ namespace meshflow {
 
 // ---- errors ---------------------------------------------------------------------------------
 
-// Why a service failed: a message the host shows to the user.
+// What kind of failure an Error is: an edit the host refused (the WIT's edit-error-kind,
+// in its order), a service's own failure, or (native runs only) what a host refuses around
+// a run.
+enum class ErrorKind : uint8_t {
+    InvalidVertex,
+    InvalidTriangle,
+    InvalidEdge,
+    RepeatedVertex,
+    InvalidArgument,
+    NotApplicable,
+    ReadOnly,
+    Failed,          // meshflow::fail(), or a service's failure
+    File,            // native: a mesh file could not be read or written
+    InvalidMesh,     // native: arrays that are no mesh
+    UnknownService,  // native: the plugin describes no such service
+    Params,          // native: parameters the host refuses
+    BadResult,       // native: a check's value unlike its declared type
+    Crashed,         // native: what a host would trap on
+    Argument,        // native: a wrong argument to the native API
+    Internal,        // native: a bug of the native library
+};
+
+// How the host names a kind: "repeated vertex", "read-only mesh", ….
+constexpr std::string_view to_string(ErrorKind kind) {
+    constexpr std::string_view names[] = {
+        "invalid vertex", "invalid triangle", "invalid edge",    "repeated vertex",
+        "invalid argument", "not applicable", "read-only mesh",  "failed",
+        "file",           "invalid mesh",     "unknown service", "parameters",
+        "bad result",     "crashed",          "argument",        "internal"};
+    return size_t(kind) < std::size(names) ? names[size_t(kind)] : "refused";
+}
+
+// Why a service failed: a message the host shows to the user, and its kind. A refused edit
+// keeps the host's kind, also through MESHFLOW_TRY.
 struct Error {
     std::string message;
+    ErrorKind kind = ErrorKind::Failed;
 };
 
 template <class T = void>
@@ -80,15 +122,22 @@ inline plugin_string_t owned(std::string_view s) {
 }
 
 inline Error edit_error(meshflow_geometry_mesh_edit_error_t& e) {
-    static const char* const kinds[] = {"invalid vertex",   "invalid triangle",
-                                        "invalid edge",     "repeated vertex",
-                                        "invalid argument", "not applicable",
-                                        "read-only mesh"};
-    const char* kind = e.kind < std::size(kinds) ? kinds[e.kind] : "refused";
-    Error error{std::string("edit refused (") + kind + "): " + to_string(e.message)};
+    ErrorKind kind = e.kind <= uint8_t(ErrorKind::ReadOnly) ? ErrorKind(e.kind) : ErrorKind::Failed;
+    Error error{"edit refused (" + std::string(meshflow::to_string(kind)) +
+                    "): " + to_string(e.message),
+                kind};
     meshflow_geometry_mesh_edit_error_free(&e);
     return error;
 }
+
+#ifdef MESHFLOW_NATIVE
+// The kind of the last failure of a service run natively on this thread: the C ABI carries
+// only its message, as the WIT does.
+inline ErrorKind& native_failure_kind() {
+    thread_local ErrorKind kind = ErrorKind::Failed;
+    return kind;
+}
+#endif
 
 // MESHFLOW_TRY's value: the result's, or nothing for Result<>.
 template <class T>
@@ -490,9 +539,11 @@ inline Value from_c(const types_value_t& v) {
     }
 }
 
+// n zeroed values for the bindings to free; none for n = 0, since their free helpers free
+// only a non-empty list.
 template <class T>
 T* allocate(size_t n) {
-    return static_cast<T*>(std::calloc(n ? n : 1, sizeof(T)));
+    return n ? static_cast<T*>(std::calloc(n, sizeof(T))) : nullptr;
 }
 
 // describe(): the services as the bindings' records, allocated for the bindings to free.
@@ -567,6 +618,9 @@ inline bool run(const std::vector<Service>& services, plugin_string_t* name,
     }();
     meshflow_geometry_mesh_mesh_drop_borrow(target);
     if (!outcome) {
+#ifdef MESHFLOW_NATIVE
+        native_failure_kind() = outcome.error().kind;
+#endif
         *err = owned(outcome.error().message);
         return false;
     }
@@ -575,15 +629,167 @@ inline bool run(const std::vector<Service>& services, plugin_string_t* name,
 }
 
 }  // namespace detail
+
+#ifdef MESHFLOW_NATIVE
+// ---- native runs, for tests -------------------------------------------------------------------
+
+// Services run in process on the host's recording store: built for the host's CPU with
+// -DMESHFLOW_NATIVE and linked against libmeshflow_native.so (`make test`).
+namespace native {
+
+// A mesh held by the native library: loaded, made from arrays, or a run's result.
+class MeshData {
+public:
+    MeshData(const MeshData& other) : raw_(meshflow_native_mesh_clone(other.raw_.get())) {}
+    MeshData(MeshData&&) noexcept = default;
+    MeshData& operator=(const MeshData& other) {
+        if (this != &other) raw_.reset(meshflow_native_mesh_clone(other.raw_.get()));
+        return *this;
+    }
+    MeshData& operator=(MeshData&&) noexcept = default;
+
+    uint32_t vertex_count() const { return meshflow_native_mesh_vertex_count(raw_.get()); }
+    uint32_t triangle_count() const { return meshflow_native_mesh_triangle_count(raw_.get()); }
+    // x y z per vertex, a b c per triangle: views into the mesh, no copy.
+    std::span<const float> positions() const {
+        size_t len = 0;
+        const float* data = meshflow_native_mesh_positions(raw_.get(), &len);
+        return {data, len};
+    }
+    std::span<const uint32_t> triangles() const {
+        size_t len = 0;
+        const uint32_t* data = meshflow_native_mesh_triangles(raw_.get(), &len);
+        return {data, len};
+    }
+    // The canonical content hash, as `meshflow hash` and `meshflow apply --json` give it.
+    std::string hash() const {
+        char hex[65];
+        meshflow_native_mesh_hash(raw_.get(), hex);
+        return hex;
+    }
+    // Writes binary PLY, OBJ or OFF (from the extension) as a host writes it.
+    Result<> save(std::string_view path) const;
+
+    const meshflow_native_mesh_t* raw() const { return raw_.get(); }
+    explicit MeshData(meshflow_native_mesh_t* raw) : raw_(raw) {}
+
+private:
+    struct Free {
+        void operator()(meshflow_native_mesh_t* m) const { meshflow_native_mesh_free(m); }
+    };
+    std::unique_ptr<meshflow_native_mesh_t, Free> raw_;
+};
+
+// What a native run gave.
+struct Outcome {
+    MeshData mesh;                 // compacted as a host compacts it (a check's: its input)
+    std::string report;            // a filter's report
+    std::optional<Value> value;    // a check's value
+    uint64_t edits = 0;            // edited elements, as `meshflow apply` counts them
+    std::vector<std::string> ops;  // the recorded operations' kinds ("set-positions", …)
+};
+
+namespace detail {
+
+inline Error error(meshflow_native_error_t& e) {
+    static constexpr ErrorKind kinds[] = {
+        ErrorKind::Internal,       ErrorKind::File,      ErrorKind::InvalidMesh,
+        ErrorKind::UnknownService, ErrorKind::Params,    ErrorKind::Failed,
+        ErrorKind::BadResult,      ErrorKind::Crashed,   ErrorKind::Argument,
+        ErrorKind::Internal};
+    ErrorKind kind = e.kind < std::size(kinds) ? kinds[e.kind] : ErrorKind::Internal;
+    // A service's failure keeps the kind it had inside the service (a refused edit's).
+    if (kind == ErrorKind::Failed) kind = ::meshflow::detail::native_failure_kind();
+    Error out{::meshflow::detail::to_string(e.message), kind};
+    meshflow_native_error_free(&e);
+    return out;
+}
+
+}  // namespace detail
+
+inline Result<> MeshData::save(std::string_view path) const {
+    meshflow_native_error_t e{};
+    if (!meshflow_native_save(raw_.get(), path.data(), path.size(), &e)) return std::unexpected(detail::error(e));
+    return {};
+}
+
+// Loads OBJ, PLY, OFF or STL (the format from the extension) with the host's readers.
+inline Result<MeshData> load(std::string_view path) {
+    meshflow_native_mesh_t* raw = nullptr;
+    meshflow_native_error_t e{};
+    if (!meshflow_native_load(path.data(), path.size(), &raw, &e)) return std::unexpected(detail::error(e));
+    return MeshData(raw);
+}
+
+// A mesh from x y z per vertex (finite) and a b c per triangle (in range).
+inline Result<MeshData> mesh(std::span<const float> xyz, std::span<const uint32_t> abc) {
+    meshflow_native_mesh_t* raw = nullptr;
+    meshflow_native_error_t e{};
+    if (!meshflow_native_mesh_new(xyz.data(), xyz.size(), abc.data(), abc.size(), &raw, &e))
+        return std::unexpected(detail::error(e));
+    return MeshData(raw);
+}
+
+// Runs `service` of this program's plugin (MESHFLOW_EXPORT_PLUGIN) on a copy of `mesh`, as
+// a host runs it: parameters not given take their defaults and every one is checked against
+// the description (ErrorKind::Params), a check gets a read-only mesh, every edit is checked
+// and recorded by the host's store, a service's failure keeps its kind (a refused edit's,
+// through MESHFLOW_TRY) and the host's message. Integers are int64_t: {"iterations", int64_t{5}}.
+inline Result<Outcome> run(std::string_view service, const MeshData& mesh,
+                           const std::vector<std::pair<std::string, Value>>& params = {}) {
+    std::vector<meshflow_geometry_types_param_t> given(params.size());
+    for (size_t i = 0; i < params.size(); ++i) {
+        // Borrowed by the library: strings point into `params`.
+        auto borrow = [](const std::string& s) {
+            return plugin_string_t{reinterpret_cast<uint8_t*>(const_cast<char*>(s.data())), s.size()};
+        };
+        given[i].name = borrow(params[i].first);
+        const Value& v = params[i].second;
+        given[i].value.tag = uint8_t(v.index());
+        switch (v.index()) {
+            case 0: given[i].value.val.boolean = std::get<bool>(v); break;
+            case 1: given[i].value.val.integer = std::get<int64_t>(v); break;
+            case 2: given[i].value.val.real = std::get<double>(v); break;
+            default: given[i].value.val.text = borrow(std::get<std::string>(v)); break;
+        }
+    }
+    ::meshflow::detail::native_failure_kind() = ErrorKind::Failed;
+    meshflow_native_outcome_t out{};
+    meshflow_native_error_t e{};
+    if (!meshflow_native_run(&exports_meshflow_geometry_service_describe,
+                             &exports_meshflow_geometry_service_run, service.data(),
+                             service.size(), mesh.raw(), given.data(), given.size(), &out, &e))
+        return std::unexpected(detail::error(e));
+    Outcome outcome{MeshData(out.mesh), ::meshflow::detail::to_string(out.report), std::nullopt,
+                    out.edits, {}};
+    out.mesh = nullptr;  // now the outcome's
+    if (out.value.is_some) outcome.value = ::meshflow::detail::from_c(out.value.val);
+    for (size_t i = 0; i < out.ops.len; ++i)
+        outcome.ops.push_back(::meshflow::detail::to_string(out.ops.ptr[i]));
+    meshflow_native_outcome_free(&out);
+    return outcome;
+}
+
+}  // namespace native
+#endif
+
 }  // namespace meshflow
+
+#if defined(__wasm__)
+#define MESHFLOW_DETAIL_STACK_CHECK_SYMBOLS                                                    \
+    extern "C" __attribute__((weak)) uintptr_t __stack_chk_guard = 0x6d657368u;                \
+    extern "C" __attribute__((weak, noreturn)) void __stack_chk_fail(void) { __builtin_trap(); }
+#else
+// Natively the C library has them.
+#define MESHFLOW_DETAIL_STACK_CHECK_SYMBOLS
+#endif
 
 // Exports the services returned by `std::vector<meshflow::Service> services()` as this
 // component's meshflow:geometry/service interface.
 // It also gives weak definitions of the stack-protector symbols that Debian's wasm32
 // compiler-rt (128-bit division, which std::format uses) refers to and wasi-libc lacks.
 #define MESHFLOW_EXPORT_PLUGIN(services_fn)                                                    \
-    extern "C" __attribute__((weak)) uintptr_t __stack_chk_guard = 0x6d657368u;                \
-    extern "C" __attribute__((weak, noreturn)) void __stack_chk_fail(void) { __builtin_trap(); } \
+    MESHFLOW_DETAIL_STACK_CHECK_SYMBOLS                                                        \
     extern "C" void exports_meshflow_geometry_service_describe(                               \
         exports_meshflow_geometry_service_list_service_info_t* ret) {                          \
         ::meshflow::detail::describe(services_fn(), ret);                                      \
