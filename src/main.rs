@@ -13,8 +13,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
-use meshflow_runtime::Limits;
-use meshflow_runtime::{DEFAULT_DEADLINE, MAX_DEADLINE};
+pub use commands::options::SandboxArgs;
 
 #[derive(Parser)]
 #[command(
@@ -115,28 +114,6 @@ pub struct PluginArgs {
     pub plugin_output: bool,
     #[command(flatten)]
     pub sandbox: SandboxArgs,
-}
-
-/// The sandbox's limits an operator may change.
-#[derive(Args, Clone, Copy, Debug)]
-pub struct SandboxArgs {
-    /// Seconds one plugin run may take before the sandbox stops it. Slow filters on large
-    /// meshes need more (isotropic remeshing of 1M vertices, 10 rounds: about 50 s).
-    #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_DEADLINE.as_secs(),
-          value_parser = clap::value_parser!(u64).range(1..=MAX_DEADLINE.as_secs()))]
-    pub run_deadline: u64,
-}
-
-impl Default for SandboxArgs {
-    fn default() -> Self {
-        Self { run_deadline: DEFAULT_DEADLINE.as_secs() }
-    }
-}
-
-impl SandboxArgs {
-    pub fn limits(&self) -> Limits {
-        Limits { deadline: std::time::Duration::from_secs(self.run_deadline), ..Limits::default() }
-    }
 }
 
 fn main() -> ExitCode {

@@ -126,6 +126,7 @@ pub fn run(args: &ApplyArgs) -> anyhow::Result<()> {
             },
             "correction_bytes": correction_bytes,
             "quantize_bits": args.quantize,
+            "guest_peak_bytes": output.guest_peak_bytes,
         });
         out!("{summary}");
     } else {

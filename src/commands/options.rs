@@ -10,6 +10,62 @@ use super::host::LogArgs;
 use super::tokens::{ApiTokenArgs, ClusterArgs, MetricsTokenArgs, UploadTokenArgs};
 use crate::embedded::{self, Embedded, Layout, Spec, Tokens};
 use meshflow_engine::Access;
+use meshflow_runtime::{
+    DEFAULT_DEADLINE, DEFAULT_MEMORY_BYTES, Limits, MAX_DEADLINE, MIB, MemoryCapError,
+    memory_cap_bytes,
+};
+
+/// The sandbox's limits an operator may change (every command that builds a runtime:
+/// `apply`, `check`, `run`, `rerun`, `batch`, `host`, `up`, …).
+#[derive(Args, Clone, Copy, Debug)]
+pub struct SandboxArgs {
+    /// Seconds one plugin run may take before the sandbox stops it. Slow filters on large
+    /// meshes need more (isotropic remeshing of 1M vertices, 10 rounds: about 50 s).
+    #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_DEADLINE.as_secs(),
+          value_parser = clap::value_parser!(u64).range(1..=MAX_DEADLINE.as_secs()))]
+    pub run_deadline: u64,
+    /// MiB of linear memory one plugin run may grow to, 1-4096 (a 32-bit guest addresses
+    /// 4 GiB). The built-ins need roughly 100-200 bytes per triangle; each of the host's
+    /// concurrent runs may take this much.
+    #[arg(long, value_name = "MIB", default_value_t = (DEFAULT_MEMORY_BYTES / MIB) as u64,
+          value_parser = parse_memory_cap)]
+    pub memory_cap: u64,
+}
+
+/// `--memory-cap`, refused with the sandbox's own reason when it cannot be given.
+fn parse_memory_cap(text: &str) -> Result<u64, MemoryCapParseError> {
+    let mib: u64 = text.trim().parse().map_err(|_| MemoryCapParseError::NotANumber)?;
+    memory_cap_bytes(mib)?;
+    Ok(mib)
+}
+
+#[derive(Debug, thiserror::Error)]
+enum MemoryCapParseError {
+    #[error("expected a whole number of MiB")]
+    NotANumber,
+    #[error(transparent)]
+    Cap(#[from] MemoryCapError),
+}
+
+impl Default for SandboxArgs {
+    fn default() -> Self {
+        Self {
+            run_deadline: DEFAULT_DEADLINE.as_secs(),
+            memory_cap: (DEFAULT_MEMORY_BYTES / MIB) as u64,
+        }
+    }
+}
+
+impl SandboxArgs {
+    pub fn limits(&self) -> Limits {
+        Limits {
+            deadline: std::time::Duration::from_secs(self.run_deadline),
+            // Checked when parsed, and again by `Runtime::new`.
+            memory_bytes: self.memory_cap as usize * MIB,
+            ..Limits::default()
+        }
+    }
+}
 
 /// Where a run's result and record go (`run`, `rerun`, `submit`).
 #[derive(Args, Clone, Debug, Default)]
@@ -37,7 +93,7 @@ pub struct EmbeddedArgs {
     #[command(flatten)]
     pub cluster: ClusterArgs,
     #[command(flatten)]
-    pub sandbox: crate::SandboxArgs,
+    pub sandbox: SandboxArgs,
     #[command(flatten)]
     pub upload_token: UploadTokenArgs,
     /// Plugin components (.wasm) every host offers besides the built-ins; their services

@@ -5,6 +5,8 @@ use std::time::Duration;
 pub use meshflow_params::ParamError;
 use meshflow_params::Value;
 
+use crate::limits::{MAX_MEMORY_BYTES, MIB, MemoryCapError};
+
 #[derive(Debug, thiserror::Error)]
 pub enum PluginError {
     #[error("not a WebAssembly file (it does not start with `\\0asm`)")]
@@ -26,6 +28,9 @@ pub enum PluginError {
     Description(String),
     #[error("artefact cache {path}: {source}")]
     Cache { path: String, source: std::io::Error },
+    /// The runtime was asked for a memory limit it cannot give.
+    #[error(transparent)]
+    MemoryCap(#[from] MemoryCapError),
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -36,7 +41,7 @@ pub enum RunError {
     Params(#[from] ParamError),
     #[error("{service}: stopped at the deadline of {deadline:?} (infinite loop or too slow?)")]
     Deadline { service: String, deadline: Duration },
-    #[error("{service}: stopped at the memory limit of {limit_mib} MiB")]
+    #[error("{service}: stopped at the memory limit of {limit_mib} MiB{}", raise_hint(*limit_mib))]
     Memory { service: String, limit_mib: usize },
     #[error("{service}: ran out of fuel ({fuel} units)")]
     Fuel { service: String, fuel: u64 },
@@ -59,6 +64,16 @@ pub enum RunError {
     /// Every run slot is taken and the queue is full: try again later or elsewhere.
     #[error("{service}: all {slots} run slots are taken and {queued} runs wait already")]
     Busy { service: String, slots: usize, queued: usize },
+}
+
+/// What an operator can do about the memory limit: raise it, up to what a 32-bit guest can
+/// address.
+fn raise_hint(limit_mib: usize) -> String {
+    let max_mib = MAX_MEMORY_BYTES / MIB;
+    match limit_mib < max_mib {
+        true => format!(" (raise it with --memory-cap, at most {max_mib})"),
+        false => " (the most a 32-bit guest can address)".to_owned(),
+    }
 }
 
 /// How a service's result disagrees with its description.

@@ -14,6 +14,7 @@ mod array_reads;
 mod bindings;
 mod cache;
 mod catalog;
+mod connectivity_cache;
 mod crash;
 mod error;
 mod host_mesh;
@@ -21,9 +22,11 @@ mod invocation;
 mod limits;
 mod permits;
 mod plugin;
+mod several;
 mod state;
 
 pub use catalog::Catalog;
+pub use connectivity_cache::CACHED_MESH_VERSIONS;
 pub use error::{PluginError, ResultError, RunError};
 pub use invocation::Invocation;
 pub use limits::*;
@@ -32,6 +35,7 @@ pub use meshflow_params::{
     resolve as resolve_params, type_name, value_text,
 };
 pub use plugin::{Plugin, digest};
+pub use several::{CheckRun, ChecksError};
 
 use std::path::Path;
 use std::sync::Arc;
@@ -64,6 +68,8 @@ pub struct RunOutput {
     pub duration: Duration,
     /// The time it waited for a run slot before that.
     pub queued: Duration,
+    /// The largest the guest's linear memory grew (its initial size at least).
+    pub guest_peak_bytes: usize,
 }
 
 pub struct Runtime {
@@ -72,12 +78,15 @@ pub struct Runtime {
     limits: Limits,
     cache: Option<ArtifactCache>,
     permits: permits::Permits,
+    /// Derived once per mesh version, shared by the read-only runs that follow on it.
+    connectivity: Arc<connectivity_cache::ConnectivityCache>,
 }
 
 impl Runtime {
     /// A runtime with the given limits; compiled components are cached in `cache_dir`
     /// when one is given.
     pub fn new(limits: Limits, cache_dir: Option<&Path>) -> Result<Self, PluginError> {
+        limits.check()?;
         let engine = Engine::new(&engine_config(&limits))
             .map_err(|e| PluginError::Compile(e.to_string()))?;
         let mut linker = Linker::new(&engine);
@@ -88,7 +97,8 @@ impl Runtime {
         start_epoch_ticker(&engine);
         let cache = cache_dir.map(|dir| ArtifactCache::new(dir, &engine)).transpose()?;
         let permits = permits::Permits::new(limits.concurrent_runs);
-        Ok(Self { engine, linker, limits, cache, permits })
+        let connectivity = Arc::default();
+        Ok(Self { engine, linker, limits, cache, permits, connectivity })
     }
 
     pub fn limits(&self) -> &Limits {
@@ -202,6 +212,7 @@ impl Runtime {
             stderr: captured(&state.stderr),
             duration: started.elapsed(),
             queued,
+            guest_peak_bytes: state.memory.peak_bytes,
         })
     }
 
@@ -223,8 +234,13 @@ impl Runtime {
     ) -> Result<(R, RunState), RunError> {
         let input_elements = (mesh.positions.len() + mesh.triangles.len()) as u64;
         let budget = BASE_EDIT_BUDGET + EDIT_BUDGET_PER_INPUT_ELEMENT * input_elements;
-        let state =
-            RunState::new(MeshStore::new(mesh), read_only, budget, self.limits.memory_bytes);
+        let state = RunState::new(
+            MeshStore::new(mesh),
+            Arc::clone(&self.connectivity),
+            read_only,
+            budget,
+            self.limits.memory_bytes,
+        );
         let mut store = Store::new(&self.engine, state);
         store.limiter(|s| &mut s.memory);
         store.set_hostcall_fuel(BASE_HOSTCALL_BYTES + 8 * input_elements as usize);
@@ -233,10 +249,15 @@ impl Runtime {
         if let Some(fuel) = self.limits.fuel {
             store.set_fuel(fuel).expect("fuel is enabled in the engine config when set");
         }
-        let instance = pre.instantiate(&mut store).map_err(|e| RunError::Instantiate {
-            service: service.to_owned(),
-            message: format!("{e:#}"),
-        })?;
+        let instance = match pre.instantiate(&mut store) {
+            Ok(instance) => instance,
+            // The cap is below the plugin's initial memory.
+            Err(_) if store.data().memory.exceeded => return Err(self.memory_error(service)),
+            Err(e) => {
+                let message = format!("{e:#}");
+                return Err(RunError::Instantiate { service: service.to_owned(), message });
+            }
+        };
         let handle = store.data_mut().table().push(MeshHandle).map_err(|e| {
             RunError::Instantiate { service: service.to_owned(), message: e.to_string() }
         })?;
@@ -246,10 +267,14 @@ impl Runtime {
         }
     }
 
+    fn memory_error(&self, service: &str) -> RunError {
+        RunError::Memory { service: service.to_owned(), limit_mib: self.limits.memory_bytes / MIB }
+    }
+
     fn classify(&self, service: &str, error: wasmtime::Error, state: &RunState) -> RunError {
         let service = service.to_owned();
         if state.memory.exceeded {
-            return RunError::Memory { service, limit_mib: self.limits.memory_bytes >> 20 };
+            return self.memory_error(&service);
         }
         if state.edit_budget_exceeded {
             return RunError::EditBudget { service };
@@ -307,8 +332,9 @@ fn pool(limits: &Limits) -> PoolingAllocationConfig {
         .max_tables_per_component(TABLES_PER_RUN)
         .max_tables_per_module(TABLES_PER_RUN)
         .table_elements(TABLE_ELEMENTS)
-        // The `MemoryCap` limiter refuses growth beyond this first, with a clear error.
-        .max_memory_size(limits.memory_bytes)
+        // The pool allows what any cap may; the `MemoryCap` limiter holds each run to the
+        // operator's cap with a clear error, even a cap below a plugin's initial memory.
+        .max_memory_size(MAX_MEMORY_BYTES)
         .linear_memory_keep_resident(LINEAR_MEMORY_KEEP_RESIDENT)
         .table_keep_resident(TABLE_KEEP_RESIDENT)
         // Where the kernel can tell (Linux >= 6.7), zero only the pages a run dirtied.

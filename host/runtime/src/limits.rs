@@ -9,6 +9,11 @@ pub const DEFAULT_DEADLINE: Duration = Duration::from_secs(60);
 pub const MAX_DEADLINE: Duration = Duration::from_secs(3600);
 /// Linear memory a plugin may grow to. A 1M-vertex mesh with adjacency needs ~200 MB.
 pub const DEFAULT_MEMORY_BYTES: usize = 2 << 30;
+/// The most an operator may allow (`--memory-cap`): everything a 32-bit guest can address,
+/// which is also [`MEMORY_RESERVATION`], so a memory at the cap still needs no bounds checks.
+pub const MAX_MEMORY_BYTES: usize = 4 << 30;
+/// `--memory-cap` counts in MiB.
+pub const MIB: usize = 1 << 20;
 /// Captured stdout and stderr, each. Writing more traps the plugin.
 pub const OUTPUT_CAPTURE_BYTES: usize = 64 << 10;
 /// Granularity of the deadline: the epoch ticker's period.
@@ -79,15 +84,52 @@ impl Default for Limits {
     }
 }
 
-/// Caps linear memory and remembers that it did, so the error can say which limit hit.
+/// A memory cap an operator gave that the sandbox cannot honour.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum MemoryCapError {
+    #[error("the memory cap must be at least 1 MiB")]
+    Zero,
+    #[error(
+        "a memory cap of {mib} MiB is more than a 32-bit guest can address: at most {} MiB",
+        MAX_MEMORY_BYTES / MIB
+    )]
+    TooLarge { mib: u64 },
+}
+
+/// The linear-memory limit in bytes for a cap of `mib` MiB, if the sandbox can give it.
+pub fn memory_cap_bytes(mib: u64) -> Result<usize, MemoryCapError> {
+    match mib {
+        0 => Err(MemoryCapError::Zero),
+        mib if mib > (MAX_MEMORY_BYTES / MIB) as u64 => Err(MemoryCapError::TooLarge { mib }),
+        mib => Ok(mib as usize * MIB),
+    }
+}
+
+impl Limits {
+    /// Refuses a memory limit the sandbox cannot honour (none, or beyond 32-bit addresses).
+    pub fn check(&self) -> Result<(), MemoryCapError> {
+        match self.memory_bytes {
+            0 => Err(MemoryCapError::Zero),
+            bytes if bytes > MAX_MEMORY_BYTES => {
+                Err(MemoryCapError::TooLarge { mib: bytes.div_ceil(MIB) as u64 })
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Caps linear memory and remembers that it did, so the error can say which limit hit,
+/// and how large the guest's memory grew, so a run can report what it needed.
 pub(crate) struct MemoryCap {
     max_bytes: usize,
     pub(crate) exceeded: bool,
+    /// The largest size any of the run's memories was granted (its initial size included).
+    pub(crate) peak_bytes: usize,
 }
 
 impl MemoryCap {
     pub(crate) fn new(max_bytes: usize) -> Self {
-        Self { max_bytes, exceeded: false }
+        Self { max_bytes, exceeded: false, peak_bytes: 0 }
     }
 }
 
@@ -102,6 +144,7 @@ impl ResourceLimiter for MemoryCap {
             self.exceeded = true;
             wasmtime::bail!("memory limit of {} bytes exceeded", self.max_bytes);
         }
+        self.peak_bytes = self.peak_bytes.max(desired);
         Ok(true)
     }
 

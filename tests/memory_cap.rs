@@ -1,0 +1,142 @@
+//! The guest's memory cap is the operator's choice (`--memory-cap MIB`, issue 33): a run
+//! past it is refused naming the cap and the flag, the same run passes under a cap just
+//! large enough, and caps the sandbox cannot give are refused before anything starts.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use meshflow_builtin_plugins::fixture;
+use meshflow_mesh::MeshData;
+use meshflow_runtime::{Limits, MAX_MEMORY_BYTES, MIB, MemoryCapError, PluginError, RunError};
+use meshflow_runtime::{Runtime, memory_cap_bytes};
+
+fn meshflow(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_meshflow"))
+        .args(args)
+        .env("MESHFLOW_CACHE_DIR", Path::new(env!("CARGO_TARGET_TMPDIR")).join("components"))
+        .output()
+        .expect("running meshflow")
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = meshflow(args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "meshflow {args:?} failed: {stderr}");
+    String::from_utf8(out.stdout).expect("utf-8 output")
+}
+
+fn failure(args: &[&str]) -> String {
+    let out = meshflow(args);
+    assert!(!out.status.success(), "meshflow {args:?} should fail");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// The in-house plugins start with 128 MiB of linear memory (`.cargo/config.toml`).
+const INITIAL_GUEST_BYTES: u64 = 128 << 20;
+
+#[test]
+fn a_smoothing_run_past_the_cap_is_refused_naming_the_cap_and_the_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).display().to_string();
+    let (scan, out) = (path("scan.ply"), path("out.ply"));
+    // Large enough that smoothing grows the guest past its initial memory.
+    ok(&["generate", "scan", "--vertices", "1000000", "-o", &scan]);
+    let apply = |cap: Option<u64>| {
+        let mut args = vec!["apply", "laplacian-smoothing", &scan, "-o", &out, "--json"];
+        let cap = cap.map(|mib| mib.to_string());
+        if let Some(cap) = &cap {
+            args.extend(["--memory-cap", cap]);
+        }
+        meshflow(&args)
+    };
+
+    let passed = apply(None);
+    assert!(passed.status.success(), "{}", String::from_utf8_lossy(&passed.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&passed.stdout).unwrap();
+    let peak = summary["guest_peak_bytes"].as_u64().expect("the guest's peak memory");
+    assert!(peak > INITIAL_GUEST_BYTES, "the run never grew its memory: {peak}");
+    assert!(peak < (2048 << 20), "{peak}");
+
+    // A MiB less than the run needed: refused, saying which cap and how to raise it.
+    let below = (peak - 1) / MIB as u64;
+    let refused = apply(Some(below));
+    assert!(!refused.status.success());
+    let error = String::from_utf8_lossy(&refused.stderr);
+    let expected = format!(
+        "laplacian-smoothing: stopped at the memory limit of {below} MiB \
+         (raise it with --memory-cap, at most 4096)"
+    );
+    assert!(error.contains(&expected), "{error}");
+
+    // Just what it needed: the same result as under the default cap.
+    let enough = apply(Some(peak.div_ceil(MIB as u64)));
+    assert!(enough.status.success(), "{}", String::from_utf8_lossy(&enough.stderr));
+    let again: serde_json::Value = serde_json::from_slice(&enough.stdout).unwrap();
+    assert_eq!(again["output_hash"], summary["output_hash"]);
+    assert_eq!(again["guest_peak_bytes"], peak);
+}
+
+#[test]
+fn a_cap_below_a_plugins_initial_memory_is_named_too() {
+    let bunny = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data/bunny.obj");
+    let bunny = bunny.to_str().unwrap();
+    let error = failure(&["check", "vertex-count", bunny, "--memory-cap", "64"]);
+    assert!(error.contains("memory limit of 64 MiB (raise it with --memory-cap"), "{error}");
+}
+
+#[test]
+fn caps_the_sandbox_cannot_give_are_refused_by_every_command() {
+    let commands: [&[&str]; 5] = [
+        &["apply", "laplacian-smoothing", "in.ply", "-o", "out.ply"],
+        &["check", "vertex-count", "in.ply"],
+        &["run", "workflow.json", "in.ply"],
+        &["host", "--data", "nowhere"],
+        &["up", "--data", "nowhere"],
+    ];
+    for command in commands {
+        for (cap, reason) in [
+            ("0", "at least 1 MiB"),
+            ("5000", "more than a 32-bit guest can address: at most 4096 MiB"),
+            ("two", "a whole number of MiB"),
+        ] {
+            let error = failure(&[command, &["--memory-cap", cap]].concat());
+            assert!(error.contains("--memory-cap") && error.contains(reason), "{cap}: {error}");
+        }
+    }
+}
+
+/// A small closed mesh: an octahedron.
+fn octahedron() -> MeshData {
+    MeshData::new(
+        vec![
+            1.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0,
+            -1.0,
+        ],
+        vec![0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4, 2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5],
+    )
+}
+
+#[test]
+fn the_largest_cap_lets_a_guest_grow_to_4_gib() {
+    let limits = Limits { memory_bytes: MAX_MEMORY_BYTES, concurrent_runs: 1, ..Limits::default() };
+    let runtime = Runtime::new(limits, None).expect("a runtime at the largest cap");
+    let hostile = runtime.load(fixture("hostile")).expect("the hostile fixture loads");
+    // It allocates 16 MiB at a time until refused: the limiter only refuses growth beyond
+    // the cap, so it was granted everything up to 4 GiB first.
+    let error = runtime.run(&hostile, "allocate-forever", octahedron(), &[]).unwrap_err();
+    assert!(matches!(error, RunError::Memory { limit_mib: 4096, .. }), "{error}");
+    assert!(error.to_string().ends_with("(the most a 32-bit guest can address)"), "{error}");
+}
+
+#[test]
+fn a_runtime_refuses_a_cap_it_cannot_give() {
+    assert_eq!(memory_cap_bytes(4096), Ok(MAX_MEMORY_BYTES));
+    assert_eq!(memory_cap_bytes(1), Ok(MIB));
+    assert_eq!(memory_cap_bytes(0), Err(MemoryCapError::Zero));
+    assert_eq!(memory_cap_bytes(4097), Err(MemoryCapError::TooLarge { mib: 4097 }));
+    for memory_bytes in [0, MAX_MEMORY_BYTES + 1] {
+        let limits = Limits { memory_bytes, ..Limits::default() };
+        let error = Runtime::new(limits, None).err().expect("refused");
+        assert!(matches!(error, PluginError::MemoryCap(_)), "{error}");
+    }
+}
