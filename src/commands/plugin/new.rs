@@ -50,15 +50,26 @@ const RUST_CONFIG: &str = checkout_file!("examples/plugin-template/.cargo/config
 const RUST_LIB: &str = checkout_file!("examples/plugin-template/src/lib.rs");
 
 const CPP_MAKEFILE: &str = checkout_file!("examples/plugin-template-cpp/Makefile");
-const CPP_SOURCES: [(&str, &str); 3] = [
+const CPP_SOURCES: [(&str, &str); 5] = [
     ("src/services.cpp", checkout_file!("examples/plugin-template-cpp/src/services.cpp")),
     ("src/taubin.cpp", checkout_file!("examples/plugin-template-cpp/src/taubin.cpp")),
     ("src/taubin.hpp", checkout_file!("examples/plugin-template-cpp/src/taubin.hpp")),
+    ("test/taubin_test.cpp", checkout_file!("examples/plugin-template-cpp/test/taubin_test.cpp")),
+    ("test/patch.obj", checkout_file!("examples/plugin-template-cpp/test/patch.obj")),
 ];
-const CPP_SDK: [(&str, &[u8]); 4] = [
+const CPP_SDK: [(&str, &[u8]); 6] = [
     (
         "meshflow-sdk/include/meshflow.hpp",
         checkout_file!("sdk/cpp/include/meshflow.hpp").as_bytes(),
+    ),
+    (
+        "meshflow-sdk/include/meshflow_native.h",
+        checkout_file!("sdk/cpp/include/meshflow_native.h").as_bytes(),
+    ),
+    // The native test library (sdk/cpp/native), built for this machine by build.rs.
+    (
+        concat!("meshflow-sdk/lib/", env!("MESHFLOW_CPP_NATIVE_FILE")),
+        include_bytes!(env!("MESHFLOW_CPP_NATIVE_LIB")),
     ),
     ("meshflow-sdk/generated/plugin.h", checkout_file!("sdk/cpp/generated/plugin.h").as_bytes()),
     ("meshflow-sdk/generated/plugin.c", checkout_file!("sdk/cpp/generated/plugin.c").as_bytes()),
@@ -131,6 +142,7 @@ pub fn run(args: NewArgs) -> anyhow::Result<()> {
         Lang::Cpp => {
             out!("wrote {shown}: a C++ plugin; build it with clang-19 and wasi-libc:");
             out!("  cd {shown} && make        # MESHFLOW=/path/to/meshflow if not on PATH");
+            out!("  make test                 # test/*.cpp natively, with the host's edit checks");
             out!("  meshflow services --plugin build/{}.wasm", args.name);
         }
         Lang::Python => {
@@ -335,6 +347,9 @@ you publish your own.
 ```sh
 apt-get install clang-19 lld-19 wasi-libc libc++-19-dev-wasm32 libclang-rt-19-dev-wasm32 make
 make                                     # -> build/{name}.wasm (MESHFLOW=/path/to/meshflow)
+apt-get install libc++-19-dev libc++abi-19-dev libclang-rt-19-dev   # for make test
+make test                                # test/*.cpp natively, on test/patch.obj
+make test TEST_MESH=bunny.obj            # ... on another mesh file
 meshflow services --plugin build/{name}.wasm
 meshflow apply taubin-smoothing-cpp bunny.obj -o smooth.ply --param iterations=20 \\
     --plugin build/{name}.wasm
@@ -344,6 +359,15 @@ meshflow plugin upload --host http://server:7070 build/{name}.wasm
 `make` compiles for wasm32-wasi as a reactor, links the bindings and the world's type
 object, and runs `meshflow plugin componentize`, which adds the WASI adapter and loads the
 result as a host loads an upload.
+
+`make test` builds the same services and each `test/*.cpp` for this machine with
+`-DMESHFLOW_NATIVE` (clang++-19 with libc++, address and undefined-behaviour sanitizers),
+linked against `meshflow-sdk/lib/libmeshflow_native.so`: the host's own recording store,
+parameter rules and mesh readers. `meshflow::native::run(\"taubin-smoothing-cpp\", mesh,
+{{{{\"iterations\", int64_t{{5}}}}}})` runs a service as a host does (defaults filled in,
+parameters checked, every edit checked and recorded, a check read-only) and gives the
+result mesh with its content hash, the report, a check's value and the edits;
+`test/taubin_test.cpp` is the example.
 
 {LIMITS}
 meshflow's `examples/plugin-template-cpp/README.md` describes the SDK.
