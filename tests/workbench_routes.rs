@@ -155,7 +155,7 @@ async fn validation_answers_as_submitting_would() {
 async fn plugins_are_forwarded_to_a_registered_host_with_the_users_token() {
     let cluster = Cluster::start(&[&["checks"]]).await;
     let host = cluster.hosts[0].url.clone();
-    let upload = |host: String, token: &'static str| {
+    let upload_bytes = |host: String, token: &'static str, wasm: Vec<u8>| {
         let cluster = &cluster;
         async move {
             let answer = cluster
@@ -163,15 +163,21 @@ async fn plugins_are_forwarded_to_a_registered_host_with_the_users_token() {
                 .post(cluster.url("/plugins"))
                 .query(&[("host", host)])
                 .header("X-Upload-Token", token)
-                .body(builtin("smoothing").to_vec())
+                .body(wasm)
                 .send()
                 .await
                 .unwrap();
             (answer.status().as_u16(), answer.json::<Json>().await.unwrap())
         }
     };
+    let upload = |host, token| upload_bytes(host, token, builtin("smoothing").to_vec());
     // The host's 401 arrives as 403: a 401 would mean the engine's own token.
     let (status, refused) = upload(host.clone(), "wrong").await;
+    assert_eq!((status, text(&refused["error"]["code"])), (403, "host-unauthorized"), "{refused}");
+    // So it does for a component as large as a Python one (18 MB), which the host refuses
+    // before reading it all: the engine must not report the broken pipe as a host failure.
+    let large = vec![0u8; 20 << 20];
+    let (status, refused) = upload_bytes(host.clone(), "wrong", large).await;
     assert_eq!((status, text(&refused["error"]["code"])), (403, "host-unauthorized"), "{refused}");
     let (status, refused) = upload("http://127.0.0.1:9".into(), TOKEN).await;
     assert_eq!((status, text(&refused["error"]["code"])), (400, "unknown-host"));

@@ -100,7 +100,22 @@ impl HostClient {
     ) -> Result<UploadedPlugin, ClientError> {
         let uploads = self.upload_endpoint(token);
         let path = if replace { "/plugins?replace=true" } else { "/plugins" };
-        uploads.json(Method::POST, path, |r| r.timeout(WORK_TIMEOUT).body(wasm)).await
+        let sent = uploads.json(Method::POST, path, |r| r.timeout(WORK_TIMEOUT).body(wasm)).await;
+        match sent {
+            // A host that refuses the token answers before reading a large body and closes
+            // the connection, so the sender sees a broken pipe, not the refusal: ask again
+            // without the body (the upload token may list plugins) to learn the real reason.
+            Err(ClientError::Unreachable { .. } | ClientError::Protocol { .. }) => {
+                let listed = uploads.json::<Vec<PluginEntry>>(Method::GET, "/plugins", |r| {
+                    r.timeout(QUERY_TIMEOUT)
+                });
+                match listed.await {
+                    Err(refused @ ClientError::Refused { .. }) => Err(refused),
+                    _ => sent,
+                }
+            }
+            sent => sent,
+        }
     }
 
     pub async fn delete_plugin(
