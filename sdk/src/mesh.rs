@@ -83,6 +83,30 @@ impl<'a> Mesh<'a> {
         dispatch!(self, removed_vertices())
     }
 
+    // ---- derived connectivity: the host derives it once per mesh version ------------------
+
+    /// Per half-edge: its twin on a manifold interior edge (exactly two half-edges of proper
+    /// triangles, either orientation), else [`REMOVED`] (`u32::MAX`). Read once per mesh
+    /// version by the host, not derived here (see [`topology::HalfEdgeView`]).
+    ///
+    /// [`topology::HalfEdgeView`]: crate::topology::HalfEdgeView
+    pub fn half_edge_opposites(&self) -> Vec<u32> {
+        dispatch!(self, half_edge_opposites())
+    }
+
+    /// Per half-edge: the kind of edge it lies on; an unknown kind from the host is an
+    /// error.
+    pub fn half_edge_kinds(&self) -> Result<Vec<crate::topology::EdgeKind>> {
+        crate::topology::kinds_from_codes(dispatch!(self, half_edge_kinds()))
+            .map_err(|e| crate::Error(format!("the host's edge kinds: {e}")))
+    }
+
+    /// Every edge of the proper triangles once, ascending by its (smaller, larger) vertex
+    /// ids, as its smallest half-edge id; its length is the edge count.
+    pub fn edges(&self) -> Vec<u32> {
+        dispatch!(self, edges())
+    }
+
     // ---- per-element reads: one host call each ------------------------------------------
 
     pub fn position(&self, vertex: u32) -> Result<[f32; 3]> {

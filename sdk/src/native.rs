@@ -155,6 +155,22 @@ impl NativeMesh {
     pub fn removed_vertices(&self) -> Vec<u32> {
         self.read(|m| m.removed_vertices())
     }
+    /// Derived from the current state at each call, as the host does in a run that edits.
+    fn connectivity(&self) -> meshflow_topology::Connectivity {
+        self.read(|m| {
+            let store = m.store();
+            meshflow_topology::Connectivity::new(store.positions().len() / 3, store.triangles())
+        })
+    }
+    pub fn half_edge_opposites(&self) -> Vec<u32> {
+        self.connectivity().opposites().to_vec()
+    }
+    pub fn half_edge_kinds(&self) -> Vec<u8> {
+        self.connectivity().kind_codes().to_vec()
+    }
+    pub fn edges(&self) -> Vec<u32> {
+        self.connectivity().edges().to_vec()
+    }
     pub fn position(&self, v: u32) -> Edit<(f32, f32, f32)> {
         self.read(|m| m.position(v)).map_err(to_wit)
     }

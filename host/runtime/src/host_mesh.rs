@@ -69,14 +69,27 @@ impl HostMesh for RunState {
         Ok(MeshCalls::triangle_count(self))
     }
 
-    // The bulk reads are redefined in the linker to lower without a copy (see
-    // `array_reads`); the generated trait still asks for these, which a run never reaches.
+    // The bulk reads (these two and the derived connectivity below) are redefined in the
+    // linker to lower without a copy (see `array_reads`); the generated trait still asks for
+    // these, which a run never reaches.
     fn positions(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<Vec<f32>> {
         wasmtime::bail!("mesh.positions is served by `array_reads`")
     }
 
     fn triangles(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<Vec<u32>> {
         wasmtime::bail!("mesh.triangles is served by `array_reads`")
+    }
+
+    fn half_edge_opposites(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<Vec<u32>> {
+        wasmtime::bail!("mesh.half-edge-opposites is served by `array_reads`")
+    }
+
+    fn half_edge_kinds(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<Vec<u8>> {
+        wasmtime::bail!("mesh.half-edge-kinds is served by `array_reads`")
+    }
+
+    fn edges(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<Vec<u32>> {
+        wasmtime::bail!("mesh.edges is served by `array_reads`")
     }
 
     fn removed_vertices(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<Vec<u32>> {

@@ -14,6 +14,7 @@ mod array_reads;
 mod bindings;
 mod cache;
 mod catalog;
+mod connectivity_cache;
 mod crash;
 mod error;
 mod host_mesh;
@@ -21,9 +22,11 @@ mod invocation;
 mod limits;
 mod permits;
 mod plugin;
+mod several;
 mod state;
 
 pub use catalog::Catalog;
+pub use connectivity_cache::CACHED_MESH_VERSIONS;
 pub use error::{PluginError, ResultError, RunError};
 pub use invocation::Invocation;
 pub use limits::*;
@@ -32,6 +35,7 @@ pub use meshflow_params::{
     resolve as resolve_params, type_name, value_text,
 };
 pub use plugin::{Plugin, digest};
+pub use several::{CheckRun, ChecksError};
 
 use std::path::Path;
 use std::sync::Arc;
@@ -74,6 +78,8 @@ pub struct Runtime {
     limits: Limits,
     cache: Option<ArtifactCache>,
     permits: permits::Permits,
+    /// Derived once per mesh version, shared by the read-only runs that follow on it.
+    connectivity: Arc<connectivity_cache::ConnectivityCache>,
 }
 
 impl Runtime {
@@ -91,7 +97,8 @@ impl Runtime {
         start_epoch_ticker(&engine);
         let cache = cache_dir.map(|dir| ArtifactCache::new(dir, &engine)).transpose()?;
         let permits = permits::Permits::new(limits.concurrent_runs);
-        Ok(Self { engine, linker, limits, cache, permits })
+        let connectivity = Arc::default();
+        Ok(Self { engine, linker, limits, cache, permits, connectivity })
     }
 
     pub fn limits(&self) -> &Limits {
@@ -227,8 +234,13 @@ impl Runtime {
     ) -> Result<(R, RunState), RunError> {
         let input_elements = (mesh.positions.len() + mesh.triangles.len()) as u64;
         let budget = BASE_EDIT_BUDGET + EDIT_BUDGET_PER_INPUT_ELEMENT * input_elements;
-        let state =
-            RunState::new(MeshStore::new(mesh), read_only, budget, self.limits.memory_bytes);
+        let state = RunState::new(
+            MeshStore::new(mesh),
+            Arc::clone(&self.connectivity),
+            read_only,
+            budget,
+            self.limits.memory_bytes,
+        );
         let mut store = Store::new(&self.engine, state);
         store.limiter(|s| &mut s.memory);
         store.set_hostcall_fuel(BASE_HOSTCALL_BYTES + 8 * input_elements as usize);

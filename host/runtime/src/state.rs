@@ -1,11 +1,13 @@
 //! What a single run's `Store` holds: the mesh being edited and the empty sandbox around it.
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use wasmtime::component::ResourceTable;
 use wasmtime_wasi::p2::pipe::MemoryOutputPipe;
 use wasmtime_wasi::{HostMonotonicClock, HostWallClock, WasiCtx, WasiCtxView, WasiView};
 
+use super::connectivity_cache::ConnectivityCache;
 use super::limits::{MemoryCap, OUTPUT_CAPTURE_BYTES};
 use meshflow_mesh::store::MeshStore;
 
@@ -14,6 +16,8 @@ pub struct MeshHandle;
 
 pub(crate) struct RunState {
     pub(crate) mesh: MeshStore,
+    /// The runtime's derived connectivity of recent mesh versions.
+    pub(crate) connectivity: Arc<ConnectivityCache>,
     /// Checks may read but not edit.
     pub(crate) read_only: bool,
     /// Elements the guest may still pass to edit calls before the run is stopped.
@@ -29,6 +33,7 @@ pub(crate) struct RunState {
 impl RunState {
     pub(crate) fn new(
         mesh: MeshStore,
+        connectivity: Arc<ConnectivityCache>,
         read_only: bool,
         edit_budget: u64,
         memory_bytes: usize,
@@ -37,6 +42,7 @@ impl RunState {
         let stderr = MemoryOutputPipe::new(OUTPUT_CAPTURE_BYTES);
         Self {
             mesh,
+            connectivity,
             read_only,
             edit_budget,
             edit_budget_exceeded: false,

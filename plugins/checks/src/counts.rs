@@ -1,33 +1,62 @@
 //! Counts that need the connectivity: edges, components, holes.
 //!
-//! Vertex and triangle counts come straight from the host (see `lib.rs`); these need the
-//! triangle array. Triangles with a repeated or out-of-range vertex id are raw-scan defects:
-//! they are counted as the SDK's [`topology`](meshflow_plugin_sdk::topology) module documents,
-//! never rejected.
+//! Vertex and triangle counts come straight from the host (see `lib.rs`); these read the
+//! host's derived connectivity ([`MeshArrays`]). Triangles with a repeated or out-of-range
+//! vertex id are raw-scan defects: they are counted as the SDK's
+//! [`topology`](meshflow_plugin_sdk::topology) module documents, never rejected.
 
-use meshflow_plugin_sdk::topology::{EdgeBuckets, UnionFind, boundary_loops};
+use meshflow_plugin_sdk::Result;
+use meshflow_plugin_sdk::topology::halfedge::edge_key;
+use meshflow_plugin_sdk::topology::{EdgeKind, NONE, UnionFind, boundary_loops};
+
+use crate::arrays::MeshArrays;
 
 /// The number of distinct undirected edges `{a, b}` of the proper triangles (three distinct
-/// in-range vertex ids); an edge shared by any number of triangles counts once. O(V + T).
-pub fn edge_count(vertex_count: usize, triangles: &[u32]) -> usize {
-    let mut edges = 0;
-    EdgeBuckets::new(vertex_count, triangles).for_each_edge(|_, _| edges += 1);
-    edges
+/// in-range vertex ids); an edge shared by any number of triangles counts once: the length
+/// of the host's edge list.
+pub fn edge_count(mesh: &MeshArrays) -> usize {
+    mesh.edges().len()
 }
 
 /// The number of edge-connected components of triangles: triangles sharing an edge (manifold
 /// or not, whatever their orientations) are connected; triangles touching only at a vertex
-/// are not. Unreferenced vertices form no component. O(V + T).
-pub fn component_count(vertex_count: usize, triangles: &[u32]) -> usize {
-    UnionFind::edge_connected(vertex_count, triangles).sets()
+/// are not. Unreferenced vertices form no component. O(T) over the twins.
+pub fn component_count(mesh: &MeshArrays) -> Result<usize> {
+    let kinds = mesh.kinds()?;
+    // An improper triangle still joins its neighbours through its edges with two distinct
+    // in-range ids, which the derived connectivity leaves out: such a mesh is grouped over
+    // every edge from the triangles, as before the host derived anything.
+    if kinds.contains(&EdgeKind::Degenerate) {
+        return Ok(UnionFind::edge_connected(mesh.vertex_slots(), mesh.triangles()).sets());
+    }
+    let mut forest = UnionFind::new(kinds.len() / 3);
+    for (h, &twin) in mesh.opposites().iter().enumerate() {
+        if twin != NONE && twin as usize > h {
+            forest.union(h as u32 / 3, twin / 3);
+        }
+    }
+    // The triangles of a non-manifold edge have no twins: group its half-edges by edge.
+    if kinds.contains(&EdgeKind::NonManifold) {
+        let triangles = mesh.triangles();
+        let mut sheets: Vec<((u32, u32), u32)> = (0..kinds.len() as u32)
+            .filter(|&h| kinds[h as usize] == EdgeKind::NonManifold)
+            .map(|h| (edge_key(triangles, h), h))
+            .collect();
+        sheets.sort_unstable();
+        for pair in sheets.windows(2) {
+            if pair[0].0 == pair[1].0 {
+                forest.union(pair[0].1 / 3, pair[1].1 / 3);
+            }
+        }
+    }
+    Ok(forest.sets())
 }
 
 /// The number of boundary loops (holes, the outer border of an open surface included); a
 /// closed surface has none. Loops are separated at bow-tie vertices, so two holes touching
-/// at a vertex count twice. O(V + T); the loop walk looks twins up in the edge buckets, as
-/// it visits only the boundary, rather than building every half-edge's twin.
-pub fn hole_count(vertex_count: usize, triangles: &[u32]) -> usize {
-    boundary_loops(triangles, &EdgeBuckets::new(vertex_count, triangles)).len()
+/// at a vertex count twice. O(boundary) walking, after one pass over the kinds.
+pub fn hole_count(mesh: &MeshArrays) -> Result<usize> {
+    Ok(boundary_loops(mesh.triangles(), &mesh.view()?).len())
 }
 
 #[cfg(test)]
@@ -37,8 +66,8 @@ mod tests {
 
     /// `(edges, components, holes)` of a fixture.
     fn counts(mesh: &Fixture) -> (usize, usize, usize) {
-        let (v, t) = (mesh.vertex_count(), &mesh.triangles);
-        (edge_count(v, t), component_count(v, t), hole_count(v, t))
+        let arrays = MeshArrays::native(&mesh.positions, &mesh.triangles);
+        (edge_count(&arrays), component_count(&arrays).unwrap(), hole_count(&arrays).unwrap())
     }
 
     #[test]

@@ -1,10 +1,12 @@
 //! Checks: services that measure a mesh and return a value. They run read-only.
 //!
-//! Each family of checks is a set of pure functions over the flat arrays in its own module;
-//! the service functions here only pull the arrays they need from the host and call them.
-//! Topology checks pull only the triangles, with the vertex count from the host.
+//! Each family of checks is a set of functions in its own module over [`MeshArrays`], which
+//! fetches from the host only what a check reads: the topology checks read the host's
+//! derived connectivity (twins, edge kinds, the edge list), derived once per mesh version
+//! and shared by every check on it, rather than each building its own from the triangles.
 
 pub mod angles;
+pub mod arrays;
 pub mod counts;
 pub mod forest;
 pub mod measures;
@@ -13,6 +15,12 @@ pub mod topology;
 
 #[cfg(test)]
 mod fixtures;
+#[cfg(test)]
+mod reference;
+#[cfg(test)]
+mod same_as_before;
+
+pub use arrays::MeshArrays;
 
 use meshflow_plugin_sdk::{Mesh, Params, Result, Service, Value, ValueType};
 
@@ -29,27 +37,27 @@ fn triangle_count(mesh: &Mesh, _: &Params) -> Result<Value> {
 }
 
 fn edge_count(mesh: &Mesh, _: &Params) -> Result<Value> {
-    integer(counts::edge_count(mesh.vertex_slots(), &mesh.triangles()))
+    integer(counts::edge_count(&MeshArrays::of(*mesh)))
 }
 
 fn component_count(mesh: &Mesh, _: &Params) -> Result<Value> {
-    integer(counts::component_count(mesh.vertex_slots(), &mesh.triangles()))
+    integer(counts::component_count(&MeshArrays::of(*mesh))?)
 }
 
 fn hole_count(mesh: &Mesh, _: &Params) -> Result<Value> {
-    integer(counts::hole_count(mesh.vertex_slots(), &mesh.triangles()))
+    integer(counts::hole_count(&MeshArrays::of(*mesh))?)
 }
 
 fn is_manifold(mesh: &Mesh, _: &Params) -> Result<Value> {
-    Ok(Value::Boolean(topology::is_manifold(mesh.vertex_slots(), &mesh.triangles())))
+    Ok(Value::Boolean(topology::is_manifold(&MeshArrays::of(*mesh))?))
 }
 
 fn is_oriented(mesh: &Mesh, _: &Params) -> Result<Value> {
-    Ok(Value::Boolean(topology::is_oriented(mesh.vertex_slots(), &mesh.triangles())))
+    Ok(Value::Boolean(topology::is_oriented(&MeshArrays::of(*mesh))?))
 }
 
 fn is_orientable(mesh: &Mesh, _: &Params) -> Result<Value> {
-    Ok(Value::Boolean(topology::is_orientable(mesh.vertex_slots(), &mesh.triangles())))
+    Ok(Value::Boolean(topology::is_orientable(&MeshArrays::of(*mesh))?))
 }
 
 fn min_angle(mesh: &Mesh, _: &Params) -> Result<Value> {
@@ -61,7 +69,7 @@ fn max_angle(mesh: &Mesh, _: &Params) -> Result<Value> {
 }
 
 fn normal_instability(mesh: &Mesh, _: &Params) -> Result<Value> {
-    Ok(Value::Real(normals::normal_instability(&mesh.positions(), &mesh.triangles())))
+    Ok(Value::Real(normals::normal_instability(&MeshArrays::of(*mesh))))
 }
 
 fn surface_area(mesh: &Mesh, _: &Params) -> Result<Value> {

@@ -1,7 +1,9 @@
 //! Normal instability: how much the surface turns from triangle to triangle.
 
 use meshflow_plugin_sdk::geometry::{Vec3, angle_between, dot, normalize, sub, triangle_normal};
-use meshflow_plugin_sdk::topology::{EdgeBuckets, is_proper_triangle};
+use meshflow_plugin_sdk::topology::{NONE, is_proper_triangle};
+
+use crate::arrays::MeshArrays;
 
 /// The mean angle in degrees between the normals of the two triangles of each interior
 /// manifold edge (an edge with exactly two triangles), or 0 if there is no such edge.
@@ -12,32 +14,36 @@ use meshflow_plugin_sdk::topology::{EdgeBuckets, is_proper_triangle};
 /// skipped (it has no normal). Each triangle's unit normal is computed once in `f64` (rather
 /// than for each of its three edges: the 24 bytes per triangle cost less), and each angle
 /// without `atan2` where possible, to about 1e-15 relative (see [`small_angles_sum`]). The
-/// sum is `f64` in a fixed order (ascending edges, small angles in batches), so the result is
-/// deterministic. O(V + T).
-pub fn normal_instability(positions: &[f32], triangles: &[u32]) -> f64 {
-    let normals = unit_normals(positions, triangles);
+/// sum is `f64` in a fixed order (the host's edge list, ascending by vertex ids; small
+/// angles in batches), so the result is deterministic. O(V + T).
+pub fn normal_instability(mesh: &MeshArrays) -> f64 {
+    let normals = unit_normals(mesh.positions(), mesh.triangles());
+    let opposites = mesh.opposites();
     let (mut sum, mut edges) = (0.0f64, 0u64);
     // Small angles wait in a batch and are summed by a loop the compiler vectorises.
     let mut small = Vec::with_capacity(BATCH);
-    EdgeBuckets::new(positions.len() / 3, triangles).for_each_edge(|_, sides| {
-        if let [x, y] = sides {
-            let (u, v) = (normals[x.triangle() as usize], normals[y.triangle() as usize]);
-            if !u[0].is_nan() && !v[0].is_nan() {
-                let d = sub(u, v);
-                let half_chord_squared = 0.25 * dot(d, d);
-                if half_chord_squared <= SERIES_LIMIT {
-                    small.push(half_chord_squared);
-                    if small.len() == BATCH {
-                        sum += small_angles_sum(&small);
-                        small.clear();
-                    }
-                } else {
-                    sum += angle_between(u, v);
-                }
-                edges += 1;
-            }
+    // An edge's smallest half-edge comes first, so `(x, y)` is in ascending id order.
+    for &x in mesh.edges() {
+        let y = opposites[x as usize];
+        if y == NONE {
+            continue;
         }
-    });
+        let (u, v) = (normals[x as usize / 3], normals[y as usize / 3]);
+        if !u[0].is_nan() && !v[0].is_nan() {
+            let d = sub(u, v);
+            let half_chord_squared = 0.25 * dot(d, d);
+            if half_chord_squared <= SERIES_LIMIT {
+                small.push(half_chord_squared);
+                if small.len() == BATCH {
+                    sum += small_angles_sum(&small);
+                    small.clear();
+                }
+            } else {
+                sum += angle_between(u, v);
+            }
+            edges += 1;
+        }
+    }
     sum += small_angles_sum(&small);
     if edges == 0 { 0.0 } else { (sum / edges as f64).to_degrees() }
 }
@@ -46,7 +52,7 @@ pub fn normal_instability(positions: &[f32], triangles: &[u32]) -> f64 {
 const BATCH: usize = 1024;
 
 /// The unit normal of every triangle, or NaNs where it has none: an improper triangle (never
-/// on an edge of [`EdgeBuckets::new`]), zero area, or a non-finite corner.
+/// on an edge of the connectivity), zero area, or a non-finite corner.
 fn unit_normals(positions: &[f32], triangles: &[u32]) -> Vec<Vec3> {
     let vertex_count = positions.len() / 3;
     (0..triangles.len() as u32 / 3)
@@ -108,7 +114,7 @@ mod tests {
     use crate::fixtures::*;
 
     fn instability(mesh: &Fixture) -> f64 {
-        normal_instability(&mesh.positions, &mesh.triangles)
+        normal_instability(&MeshArrays::native(&mesh.positions, &mesh.triangles))
     }
 
     fn assert_close(actual: f64, expected: f64) {
@@ -184,7 +190,8 @@ mod tests {
         assert_eq!(instability(&degenerate_only()), 0.0);
         // A flat square whose second half is collapsed onto the diagonal: no normal there.
         let positions = vec![0., 0., 0., 1., 0., 0., 0., 1., 0., 0.5, 0.5, 0.];
-        assert_eq!(normal_instability(&positions, &[0, 1, 2, 2, 1, 3]), 0.0);
+        let collapsed = MeshArrays::native(&positions, &[0, 1, 2, 2, 1, 3]);
+        assert_eq!(normal_instability(&collapsed), 0.0);
         assert_eq!(instability(&Fixture { positions: vec![], triangles: vec![] }), 0.0);
     }
 }

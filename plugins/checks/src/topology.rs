@@ -1,66 +1,58 @@
-//! Manifoldness and orientation, as yes/no answers.
+//! Manifoldness and orientation, as yes/no answers, from the host's derived connectivity.
 //!
 //! Orientation looks only at proper triangles (three distinct in-range vertex ids): a
 //! triangle with a repeated or out-of-range id neither breaks nor establishes it. Such a
 //! triangle, or a duplicated one, does make the mesh non-manifold. Zero-area triangles with
 //! distinct ids are proper and count like any other.
 
-use meshflow_plugin_sdk::topology::{EdgeBuckets, HalfEdges, manifold};
+use meshflow_plugin_sdk::Result;
+use meshflow_plugin_sdk::topology::{EdgeKind, NONE, manifold};
 
+use crate::arrays::MeshArrays;
 use crate::forest::ParityForest;
 
 /// Whether every triangle is proper and none duplicated, the mesh is edge-manifold (no edge
 /// has three or more triangles) and vertex-manifold (the triangles around every vertex form
-/// a single fan, so no bow-tie). O(V + T); twins are built only when every edge is manifold.
-pub fn is_manifold(vertex_count: usize, triangles: &[u32]) -> bool {
+/// a single fan, so no bow-tie). One pass over the kinds settles a non-manifold edge; the
+/// rest is O(V + T).
+pub fn is_manifold(mesh: &MeshArrays) -> Result<bool> {
+    if mesh.kinds()?.contains(&EdgeKind::NonManifold) {
+        return Ok(false);
+    }
+    let (vertex_count, triangles) = (mesh.vertex_slots(), mesh.triangles());
     if manifold::has_improper_triangles(vertex_count, triangles) {
-        return false;
+        return Ok(false);
     }
-    let edges = EdgeBuckets::new(vertex_count, triangles);
-    let mut edge_manifold = true;
-    edges.for_each_edge(|_, sides| edge_manifold &= sides.len() <= 2);
-    if !edge_manifold {
-        return false;
-    }
-    let half_edges = HalfEdges::from_buckets(&edges);
-    !manifold::has_duplicate_triangles(triangles, &half_edges)
-        && manifold::is_vertex_manifold(vertex_count, triangles, &half_edges)
+    let half_edges = mesh.view()?;
+    Ok(!manifold::has_duplicate_triangles(triangles, &half_edges)
+        && manifold::is_vertex_manifold(vertex_count, triangles, &half_edges))
 }
 
 /// Whether every interior (two-triangle) edge is traversed in opposite directions by its two
-/// triangles. Boundary and non-manifold edges impose nothing. O(V + T).
-pub fn is_oriented(vertex_count: usize, triangles: &[u32]) -> bool {
-    oriented(&EdgeBuckets::new(vertex_count, triangles))
-}
-
-fn oriented(edges: &EdgeBuckets) -> bool {
-    let mut oriented = true;
-    edges.for_each_edge(|a, sides| {
-        if let [x, y] = sides {
-            oriented &= edges.runs_up(a, *x) != edges.runs_up(a, *y);
-        }
-    });
-    oriented
+/// triangles. Boundary and non-manifold edges impose nothing. One pass over the kinds.
+pub fn is_oriented(mesh: &MeshArrays) -> Result<bool> {
+    Ok(!mesh.kinds()?.contains(&EdgeKind::InteriorInconsistent))
 }
 
 /// Whether flipping some triangles would make the mesh oriented (false for a Möbius strip).
-/// O(V + T); an oriented mesh is its own witness, so the union-find runs only on others.
-pub fn is_orientable(vertex_count: usize, triangles: &[u32]) -> bool {
-    let edges = EdgeBuckets::new(vertex_count, triangles);
-    if oriented(&edges) {
-        return true;
+/// O(T); an oriented mesh is its own witness, so the union-find runs only on others.
+pub fn is_orientable(mesh: &MeshArrays) -> Result<bool> {
+    if is_oriented(mesh)? {
+        return Ok(true);
     }
+    let kinds = mesh.kinds()?;
     // Two triangles running along their edge the same way must end up flipped relative to
     // each other (parity 1); a cycle of constraints with odd parity cannot be met.
-    let mut forest = ParityForest::new(triangles.len() / 3);
-    let mut orientable = true;
-    edges.for_each_edge(|a, sides| {
-        if orientable && let [x, y] = sides {
-            let relation = (edges.runs_up(a, *x) == edges.runs_up(a, *y)) as u8;
-            orientable = forest.union(x.triangle(), y.triangle(), relation);
+    let mut forest = ParityForest::new(kinds.len() / 3);
+    for (h, &twin) in mesh.opposites().iter().enumerate() {
+        if twin != NONE && twin as usize > h {
+            let relation = (kinds[h] == EdgeKind::InteriorInconsistent) as u8;
+            if !forest.union(h as u32 / 3, twin / 3, relation) {
+                return Ok(false);
+            }
         }
-    });
-    orientable
+    }
+    Ok(true)
 }
 
 #[cfg(test)]
@@ -70,8 +62,16 @@ mod tests {
 
     /// `(manifold, oriented, orientable)` of a fixture.
     fn answers(mesh: &Fixture) -> (bool, bool, bool) {
-        let (v, t) = (mesh.vertex_count(), &mesh.triangles);
-        (is_manifold(v, t), is_oriented(v, t), is_orientable(v, t))
+        let arrays = MeshArrays::native(&mesh.positions, &mesh.triangles);
+        (
+            is_manifold(&arrays).unwrap(),
+            is_oriented(&arrays).unwrap(),
+            is_orientable(&arrays).unwrap(),
+        )
+    }
+
+    fn manifold(positions: &[f32], triangles: &[u32]) -> bool {
+        is_manifold(&MeshArrays::native(positions, triangles)).unwrap()
     }
 
     #[test]
@@ -110,7 +110,7 @@ mod tests {
         mesh.triangles.extend([0, 0, 1, 2, 3, 2]);
         assert_eq!(answers(&mesh), (false, true, true));
         // The case: one triangle `1 1 1`, many times.
-        assert!(!is_manifold(3, &[1, 1, 1].repeat(10_000)));
+        assert!(!manifold(&[0.0; 9], &[1, 1, 1].repeat(10_000)));
     }
 
     #[test]
@@ -119,16 +119,16 @@ mod tests {
         for copy in [[0, 1, 2], [0, 2, 1]] {
             let mut mesh = vec![0, 1, 2];
             mesh.extend(copy);
-            assert!(!is_manifold(3, &mesh), "{copy:?}");
+            assert!(!manifold(&[0.0; 9], &mesh), "{copy:?}");
         }
         // A duplicate inside a closed surface.
         let mut mesh = tetrahedron();
         let first: Vec<u32> = mesh.triangles[..3].to_vec();
         mesh.triangles.extend(first);
-        assert!(!is_manifold(mesh.vertex_count(), &mesh.triangles));
+        assert!(!manifold(&mesh.positions, &mesh.triangles));
         // Removed triangles (as a plugin sees them mid-run) are absent.
         let mut mesh = tetrahedron();
         mesh.triangles.extend([u32::MAX; 3]);
-        assert!(is_manifold(mesh.vertex_count(), &mesh.triangles));
+        assert!(manifold(&mesh.positions, &mesh.triangles));
     }
 }

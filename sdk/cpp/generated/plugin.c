@@ -26,6 +26,15 @@ extern void __wasm_import_meshflow_geometry_mesh_method_mesh_triangles(int32_t, 
 __attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.removed-vertices")))
 extern void __wasm_import_meshflow_geometry_mesh_method_mesh_removed_vertices(int32_t, uint8_t *);
 
+__attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.half-edge-opposites")))
+extern void __wasm_import_meshflow_geometry_mesh_method_mesh_half_edge_opposites(int32_t, uint8_t *);
+
+__attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.half-edge-kinds")))
+extern void __wasm_import_meshflow_geometry_mesh_method_mesh_half_edge_kinds(int32_t, uint8_t *);
+
+__attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.edges")))
+extern void __wasm_import_meshflow_geometry_mesh_method_mesh_edges(int32_t, uint8_t *);
+
 __attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.position")))
 extern void __wasm_import_meshflow_geometry_mesh_method_mesh_position(int32_t, int32_t, uint8_t *);
 
@@ -359,6 +368,16 @@ void plugin_list_u32_free(plugin_list_u32_t *ptr) {
   }
 }
 
+void plugin_list_u8_free(plugin_list_u8_t *ptr) {
+  size_t list_len = ptr->len;
+  if (list_len > 0) {
+    uint8_t *list_ptr = ptr->ptr;
+    for (size_t i = 0; i < list_len; i++) {
+    }
+    free(list_ptr);
+  }
+}
+
 void meshflow_geometry_mesh_result_tuple3_f32_f32_f32_edit_error_free(meshflow_geometry_mesh_result_tuple3_f32_f32_f32_edit_error_t *ptr) {
   if (!ptr->is_err) {
   } else {
@@ -497,6 +516,30 @@ void meshflow_geometry_mesh_method_mesh_removed_vertices(meshflow_geometry_mesh_
   uint8_t ret_area[(2*sizeof(void*))];
   uint8_t *ptr = (uint8_t *) &ret_area;
   __wasm_import_meshflow_geometry_mesh_method_mesh_removed_vertices((self).__handle, ptr);
+  *ret = (plugin_list_u32_t) { (uint32_t*)(*((uint8_t **) (ptr + 0))), (*((size_t*) (ptr + sizeof(void*)))) };
+}
+
+void meshflow_geometry_mesh_method_mesh_half_edge_opposites(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_u32_t *ret) {
+  __attribute__((__aligned__(sizeof(void*))))
+  uint8_t ret_area[(2*sizeof(void*))];
+  uint8_t *ptr = (uint8_t *) &ret_area;
+  __wasm_import_meshflow_geometry_mesh_method_mesh_half_edge_opposites((self).__handle, ptr);
+  *ret = (plugin_list_u32_t) { (uint32_t*)(*((uint8_t **) (ptr + 0))), (*((size_t*) (ptr + sizeof(void*)))) };
+}
+
+void meshflow_geometry_mesh_method_mesh_half_edge_kinds(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_u8_t *ret) {
+  __attribute__((__aligned__(sizeof(void*))))
+  uint8_t ret_area[(2*sizeof(void*))];
+  uint8_t *ptr = (uint8_t *) &ret_area;
+  __wasm_import_meshflow_geometry_mesh_method_mesh_half_edge_kinds((self).__handle, ptr);
+  *ret = (plugin_list_u8_t) { (uint8_t*)(*((uint8_t **) (ptr + 0))), (*((size_t*) (ptr + sizeof(void*)))) };
+}
+
+void meshflow_geometry_mesh_method_mesh_edges(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_u32_t *ret) {
+  __attribute__((__aligned__(sizeof(void*))))
+  uint8_t ret_area[(2*sizeof(void*))];
+  uint8_t *ptr = (uint8_t *) &ret_area;
+  __wasm_import_meshflow_geometry_mesh_method_mesh_edges((self).__handle, ptr);
   *ret = (plugin_list_u32_t) { (uint32_t*)(*((uint8_t **) (ptr + 0))), (*((size_t*) (ptr + sizeof(void*)))) };
 }
 

@@ -151,6 +151,11 @@ typedef struct {
 } plugin_list_u32_t;
 
 typedef struct {
+  uint8_t *ptr;
+  size_t len;
+} plugin_list_u8_t;
+
+typedef struct {
   float f0;
   float f1;
   float f2;
@@ -237,6 +242,23 @@ extern void meshflow_geometry_mesh_method_mesh_positions(meshflow_geometry_mesh_
 extern void meshflow_geometry_mesh_method_mesh_triangles(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_u32_t *ret);
 // Ids of the vertices removed during this run, ascending.
 extern void meshflow_geometry_mesh_method_mesh_removed_vertices(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_u32_t *ret);
+// ---- derived connectivity: bulk reads the host derives once per mesh version and
+// keeps with it, so the services that follow on the same mesh (checks, mostly) read
+// it rather than each deriving it again. In a run that edits, each call derives it
+// from the mesh as it is at that moment. Only proper triangles (three distinct
+// vertex ids below `vertex-slots`; not removed) have half-edges on edges. -----------
+// Per half-edge (`3 * triangle-slots` values): the other half-edge on its edge when
+// the edge has exactly two (a manifold interior edge, either orientation), else
+// 4294967295.
+extern void meshflow_geometry_mesh_method_mesh_half_edge_opposites(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_u32_t *ret);
+// Per half-edge: the kind of edge it lies on. 0: its triangle is not proper;
+// 1: boundary (the edge's only half-edge); 2: interior (two half-edges running
+// opposite ways); 3: interior, both running the same way; 4: non-manifold (three or
+// more half-edges).
+extern void meshflow_geometry_mesh_method_mesh_half_edge_kinds(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_u8_t *ret);
+// Every edge once, in ascending order of its (smaller, larger) vertex ids, as its
+// smallest half-edge id; as many values as the mesh has edges.
+extern void meshflow_geometry_mesh_method_mesh_edges(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_u32_t *ret);
 // ---- per-element reads (slow: one host call each) ----------------------------
 extern bool meshflow_geometry_mesh_method_mesh_position(meshflow_geometry_mesh_borrow_mesh_t self, uint32_t vertex, plugin_tuple3_f32_f32_f32_t *ret, meshflow_geometry_mesh_edit_error_t *err);
 extern bool meshflow_geometry_mesh_method_mesh_triangle(meshflow_geometry_mesh_borrow_mesh_t self, uint32_t triangle, plugin_tuple3_u32_u32_u32_t *ret, meshflow_geometry_mesh_edit_error_t *err);
@@ -338,6 +360,8 @@ extern meshflow_geometry_mesh_borrow_mesh_t meshflow_geometry_mesh_borrow_mesh(m
 void plugin_list_f32_free(plugin_list_f32_t *ptr);
 
 void plugin_list_u32_free(plugin_list_u32_t *ptr);
+
+void plugin_list_u8_free(plugin_list_u8_t *ptr);
 
 void meshflow_geometry_mesh_result_tuple3_f32_f32_f32_edit_error_free(meshflow_geometry_mesh_result_tuple3_f32_f32_f32_edit_error_t *ptr);
 

@@ -76,6 +76,19 @@ pub enum EdgeKind {
 }
 
 impl EdgeKind {
+    /// The kind whose `repr(u8)` value is `code`, if any.
+    #[inline]
+    pub fn from_code(code: u8) -> Option<Self> {
+        Some(match code {
+            0 => Self::Degenerate,
+            1 => Self::Boundary,
+            2 => Self::Interior,
+            3 => Self::InteriorInconsistent,
+            4 => Self::NonManifold,
+            _ => return None,
+        })
+    }
+
     /// `Interior` or `InteriorInconsistent`: a manifold edge with a twin.
     #[inline]
     pub fn is_interior(self) -> bool {

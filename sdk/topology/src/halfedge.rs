@@ -65,6 +65,18 @@ impl HalfEdges {
     /// The same from edge buckets already built with [`EdgeBuckets::new`] (a check that
     /// looked at the edges first need not group them again).
     pub fn from_buckets(buckets: &EdgeBuckets) -> Self {
+        Self::build(buckets, None)
+    }
+
+    /// The same, with every edge's smallest half-edge in the order the buckets visit the
+    /// edges (what [`Connectivity`](crate::Connectivity) hands out).
+    pub(crate) fn with_edge_list(buckets: &EdgeBuckets) -> (Self, Vec<u32>) {
+        let mut edges = Vec::new();
+        let half_edges = Self::build(buckets, Some(&mut edges));
+        (half_edges, edges)
+    }
+
+    fn build(buckets: &EdgeBuckets, mut edge_list: Option<&mut Vec<u32>>) -> Self {
         assert!(buckets.members() == Members::ProperTriangles, "twins need proper triangles");
         let n = buckets.half_edge_count();
         let mut opposite = vec![NONE; n];
@@ -74,6 +86,9 @@ impl HalfEdges {
         let (mut edges, mut boundary, mut interior, mut inconsistent) = (0, 0, 0, 0);
         buckets.for_each_edge(|a, group| {
             edges += 1;
+            if let Some(list) = edge_list.as_mut() {
+                list.push(group[0].half_edge());
+            }
             match *group {
                 [e] => {
                     kinds[e.half_edge() as usize] = EdgeKind::Boundary;
@@ -147,6 +162,15 @@ impl HalfEdges {
     #[inline]
     pub fn kinds(&self) -> &[EdgeKind] {
         &self.kinds
+    }
+
+    /// All kinds as bytes (each its `repr(u8)` value), without a copy: what a host lowers
+    /// into a plugin as `list<u8>`.
+    #[inline]
+    pub fn kind_codes(&self) -> &[u8] {
+        // SAFETY: `EdgeKind` is `repr(u8)` without fields, so every value is a valid byte
+        // and the slice has the same length, size and alignment as bytes.
+        unsafe { std::slice::from_raw_parts(self.kinds.as_ptr().cast::<u8>(), self.kinds.len()) }
     }
 
     /// Whether `h` is the only half-edge on its edge. O(1).

@@ -29,6 +29,8 @@
 //! | neighbour vertices (e.g. Laplacian)    | [`VertexNeighbours::new`]          | O(V + T·log d)  |
 //! | one pass over the edges, few lookups   | [`EdgeBuckets::new`]               | O(V + T·log d)  |
 //! | twins, edge kinds, edge count          | [`HalfEdges::new`]                 | O(V + T·log d)  |
+//! | twins, kinds and edge list, in bulk    | [`Connectivity::new`] (host-side)  | O(V + T·log d)  |
+//! | twins and kinds from the host's arrays | [`HalfEdgeView::new`]              | O(1)            |
 //! | holes                                  | [`boundary_loops`]                 | O(boundary)     |
 //! | connected components                   | [`TriangleComponents::new`]        | O(V + T·log d)  |
 //! | manifold / oriented / orientable       | [`manifold`] on a `HalfEdges`      | O(V + T)        |
@@ -40,6 +42,7 @@
 pub mod adjacency;
 pub mod boundary;
 pub mod components;
+pub mod connectivity;
 mod csr;
 pub mod edges;
 pub mod edits;
@@ -55,6 +58,7 @@ pub mod transform;
 pub use adjacency::{VertexNeighbours, VertexTriangles, unreferenced_vertices};
 pub use boundary::{BoundaryLoop, boundary_loops, boundary_vertices};
 pub use components::{TriangleComponents, UnionFind};
+pub use connectivity::{Connectivity, ConnectivityError, HalfEdgeView, kinds_from_codes};
 pub use csr::{Csr, for_each_by_four};
 pub use edges::{EdgeBuckets, Members};
 pub use halfedge::{EdgeKind, EdgeLookup, HalfEdges};

@@ -5,7 +5,7 @@
 //! triangle `1 1 1` repeated ten million times is no surface.
 
 use super::NONE;
-use super::halfedge::{EdgeKind, HalfEdges, next, origin, prev};
+use super::halfedge::{EdgeKind, EdgeLookup, HalfEdges, next, origin, prev};
 
 /// Whether no edge has three or more triangles. O(1).
 #[inline]
@@ -31,14 +31,18 @@ pub fn is_oriented(half_edges: &HalfEdges) -> bool {
 pub fn non_manifold_vertices(
     vertex_count: usize,
     triangles: &[u32],
-    half_edges: &HalfEdges,
+    half_edges: &impl EdgeLookup,
 ) -> Vec<u32> {
     scan_vertices(vertex_count, triangles, half_edges, false)
 }
 
 /// Whether every vertex is manifold (see [`non_manifold_vertices`]); stops at the first
-/// failure. O(V + T).
-pub fn is_vertex_manifold(vertex_count: usize, triangles: &[u32], half_edges: &HalfEdges) -> bool {
+/// failure. O(V + T) with a [`HalfEdges`] or a [`HalfEdgeView`](crate::HalfEdgeView).
+pub fn is_vertex_manifold(
+    vertex_count: usize,
+    triangles: &[u32],
+    half_edges: &impl EdgeLookup,
+) -> bool {
     scan_vertices(vertex_count, triangles, half_edges, true).is_empty()
 }
 
@@ -65,9 +69,9 @@ pub fn has_improper_triangles(vertex_count: usize, triangles: &[u32]) -> bool {
 /// Whether two proper triangles have the same three corners, in any order. Only meaningful
 /// when no edge is non-manifold (three or more copies make one): then two copies share each
 /// edge as its only two triangles, and the corners opposite that edge are the same. O(T).
-pub fn has_duplicate_triangles(triangles: &[u32], half_edges: &HalfEdges) -> bool {
+pub fn has_duplicate_triangles(triangles: &[u32], half_edges: &impl EdgeLookup) -> bool {
     let opposite_corner = |h: u32| origin(triangles, prev(h));
-    (0..half_edges.len() as u32).any(|h| {
+    (0..half_edges.half_edge_count() as u32).any(|h| {
         half_edges.kind(h).is_interior()
             && opposite_corner(h) == opposite_corner(half_edges.opposite(h))
     })
@@ -76,15 +80,16 @@ pub fn has_duplicate_triangles(triangles: &[u32], half_edges: &HalfEdges) -> boo
 fn scan_vertices(
     vertex_count: usize,
     triangles: &[u32],
-    half_edges: &HalfEdges,
+    half_edges: &impl EdgeLookup,
     first_only: bool,
 ) -> Vec<u32> {
     // Per vertex: how many proper triangles surround it. Each vertex's fan walk starts at its
     // first half-edge (marked in `starts`), and walks run in half-edge order, so they touch
     // neighbouring triangles even when vertex ids have no locality.
     let mut around = vec![0u32; vertex_count];
-    let mut starts = vec![0u64; half_edges.len().div_ceil(64)];
-    for h in 0..half_edges.len() as u32 {
+    let half_edge_count = half_edges.half_edge_count();
+    let mut starts = vec![0u64; half_edge_count.div_ceil(64)];
+    for h in 0..half_edge_count as u32 {
         if half_edges.kind(h) != EdgeKind::Degenerate {
             let n = &mut around[origin(triangles, h) as usize];
             if *n == 0 {
@@ -115,7 +120,7 @@ fn scan_vertices(
 
 /// The number of triangles in the fan around `origin(h)` that contains `h`'s triangle,
 /// walking both ways over interior edges; stops early beyond `limit`.
-fn fan_size(triangles: &[u32], half_edges: &HalfEdges, h: u32, limit: u32) -> u32 {
+fn fan_size(triangles: &[u32], half_edges: &impl EdgeLookup, h: u32, limit: u32) -> u32 {
     let v = origin(triangles, h);
     let start = h / 3;
     let other_at = |g: u32| {

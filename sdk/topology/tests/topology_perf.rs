@@ -1,12 +1,12 @@
 //! Timings on a 1M-vertex / 2M-triangle grid. Ignored by default; run with
-//! `cargo test -p meshflow-plugin-sdk --release --test topology_perf -- --ignored --nocapture`.
+//! `cargo test -p meshflow-topology --release --test topology_perf -- --ignored --nocapture`.
 
 use std::time::Instant;
 
 use meshflow_topology::geometry;
 use meshflow_topology::{
-    HalfEdges, TriangleComponents, VertexNeighbours, VertexTriangles, boundary_loops,
-    is_orientable, is_vertex_manifold,
+    Connectivity, EdgeBuckets, HalfEdges, TriangleComponents, VertexNeighbours, VertexTriangles,
+    boundary_loops, is_orientable, is_vertex_manifold,
 };
 
 /// `n × n` quads, two triangles each, a hole every 50 quads; vertex ids optionally scrambled
@@ -71,7 +71,9 @@ fn run(scramble: bool) {
     let vn =
         time("VertexNeighbours (from vt)", || VertexNeighbours::from_vertex_triangles(&vt, &t));
     time("cotangent_weights", || geometry::cotangent_weights(&p, &t, &vn));
+    time("EdgeBuckets::new", || EdgeBuckets::new(v, &t));
     let he = time("HalfEdges::new", || HalfEdges::new(v, &t));
+    time("Connectivity::new", || Connectivity::new(v, &t));
     let loops = time("boundary_loops", || boundary_loops(&t, &he));
     let c = time("TriangleComponents::new", || TriangleComponents::new(v, &t));
     time("TriangleComponents::vertex_c", || TriangleComponents::vertex_connected(v, &t));
