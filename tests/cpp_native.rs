@@ -48,6 +48,25 @@ fn the_template_tests_natively_and_agrees_with_a_host_bit_for_bit() {
     let scratch = tempfile::tempdir().unwrap();
     let project = new_project(scratch.path(), "smooth");
 
+    // The library implements every function plugin.h declares but the plugin's two exports.
+    let header = std::fs::read_to_string(project.join("meshflow-sdk/generated/plugin.h")).unwrap();
+    let library = std::fs::read(project.join("meshflow-sdk/lib/libmeshflow_native.so")).unwrap();
+    let declared: Vec<&str> = header
+        .lines()
+        .filter(|l| !l.starts_with(' ') && !l.starts_with('#') && l.ends_with(");"))
+        .filter_map(|l| l.split('(').next()?.rsplit([' ', '*']).next())
+        .filter(|name| !name.starts_with("exports_meshflow_geometry_service_describe"))
+        .filter(|name| *name != "exports_meshflow_geometry_service_run")
+        .collect();
+    assert!(declared.len() > 60, "{declared:?}");
+    let missing: Vec<&&str> = declared
+        .iter()
+        .filter(|name| {
+            !library.windows(name.len() + 2).any(|w| w == format!("\0{name}\0").as_bytes())
+        })
+        .collect();
+    assert!(missing.is_empty(), "libmeshflow_native.so lacks {missing:?}");
+
     let log = make(&project, &["test"]);
     assert!(
         log.contains("on test/patch.obj: 144 vertices") && log.contains("ok: 0 failed"),

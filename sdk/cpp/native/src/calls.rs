@@ -206,6 +206,54 @@ pub unsafe extern "C" fn meshflow_geometry_mesh_method_mesh_removed_vertices(
     unsafe { put("removed-vertices", ret, list) }
 }
 
+/// The connectivity of the mesh as it is now: derived at each call, as a host does in a
+/// run that edits (and as the Rust SDK's native runs do).
+fn connectivity(call: &str, mesh: Handle) -> meshflow_topology::Connectivity {
+    read(call, mesh, |m| {
+        let store = m.store();
+        meshflow_topology::Connectivity::new(store.positions().len() / 3, store.triangles())
+    })
+}
+
+/// # Safety
+/// `ret` is writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn meshflow_geometry_mesh_method_mesh_half_edge_opposites(
+    mesh: Handle,
+    ret: *mut List<u32>,
+) {
+    let call = "half-edge-opposites";
+    let list = shielded(call, || c_copy(connectivity(call, mesh).opposites()));
+    // SAFETY: the caller's promise.
+    unsafe { put(call, ret, list) }
+}
+
+/// # Safety
+/// `ret` is writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn meshflow_geometry_mesh_method_mesh_half_edge_kinds(
+    mesh: Handle,
+    ret: *mut List<u8>,
+) {
+    let call = "half-edge-kinds";
+    let list = shielded(call, || c_copy(connectivity(call, mesh).kind_codes()));
+    // SAFETY: the caller's promise.
+    unsafe { put(call, ret, list) }
+}
+
+/// # Safety
+/// `ret` is writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn meshflow_geometry_mesh_method_mesh_edges(
+    mesh: Handle,
+    ret: *mut List<u32>,
+) {
+    let call = "edges";
+    let list = shielded(call, || c_copy(connectivity(call, mesh).edges()));
+    // SAFETY: the caller's promise.
+    unsafe { put(call, ret, list) }
+}
+
 /// # Safety
 /// `ret` and `err` are writable.
 #[unsafe(no_mangle)]

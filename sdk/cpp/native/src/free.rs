@@ -227,6 +227,14 @@ pub unsafe extern "C" fn plugin_list_u32_free(ptr: *mut List<u32>) {
     unsafe { free_list(ptr, |_| ()) }
 }
 
+/// # Safety
+/// `ptr` is null or a valid list.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn plugin_list_u8_free(ptr: *mut List<u8>) {
+    // SAFETY: the caller's promise; numbers own nothing.
+    unsafe { free_list(ptr, |_| ()) }
+}
+
 /// The error of a result, when it is one.
 ///
 /// # Safety
