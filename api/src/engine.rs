@@ -232,6 +232,10 @@ pub struct RunRecord {
     pub input: Option<InputRecord>,
     /// The input broadcast: the time until every host of the plan held the input.
     pub broadcast: Option<BroadcastRecord>,
+    /// Plugins the hosts that may replay steps fetched and compiled while the input was
+    /// broadcast, per host and plugin (older records have none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub prefetches: Vec<PrefetchRecord>,
     pub steps: Vec<StepRecord>,
     pub result: Option<ResultRecord>,
     pub total_ms: Option<f64>,
@@ -262,6 +266,27 @@ pub struct InputRecord {
 pub struct BroadcastRecord {
     pub ms: f64,
     pub hosts: Vec<HostLoad>,
+}
+
+/// One host making ready a plugin it may replay steps of, before the run needs it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PrefetchRecord {
+    pub host: String,
+    pub plugin: String,
+    /// The host it was to come from.
+    pub from: String,
+    /// `present` (already there), `loaded` (kept from an earlier replay), `fetched`
+    /// (downloaded and compiled now) or `failed` (a replay fetches it when it needs it).
+    pub outcome: String,
+    /// The time the host took, as it says.
+    pub ms: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bytes: Option<u64>,
+    /// Since the run started: when the engine asked, and when the host answered.
+    pub started_ms: f64,
+    pub finished_ms: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
 }
 
 /// One host's download and decoding of the input.
@@ -392,6 +417,10 @@ pub struct TransferRecord {
     /// Why a correction was not used although asked for, or why the update failed.
     pub fallback: Option<String>,
     pub error: Option<String>,
+    /// A replay that had to wait for its plugin on the receiver (fetched and compiled
+    /// inside the transfer, or a prefetch not yet done): how long, within `apply_ms`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plugin_wait_ms: Option<f64>,
 }
 
 /// Expected milliseconds for one receiver to take one step's result each way: transfer over
@@ -427,6 +456,7 @@ impl RunRecord {
             transfer,
             input: None,
             broadcast: None,
+            prefetches: Vec::new(),
             steps: Vec::new(),
             result: None,
             total_ms: None,

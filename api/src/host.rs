@@ -25,6 +25,10 @@ pub struct ServiceEntry {
     /// runs only when a request names its digest.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub pinned_only: bool,
+    /// The size of the plugin's component in bytes: what a host that lacks it downloads
+    /// to replay a step of it (older hosts do not say).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plugin_bytes: Option<u64>,
 }
 
 /// `POST /plugins`.
@@ -50,6 +54,70 @@ pub struct PluginEntry {
     pub digest: String,
     pub builtin: bool,
     pub services: Vec<String>,
+    /// The component's size in bytes (older hosts do not say).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bytes: Option<u64>,
+}
+
+/// At most this many plugins in one `POST /replay-plugins`.
+pub const MAX_PREFETCH_PLUGINS: usize = 64;
+
+/// `POST /replay-plugins` (with the cluster's `peers`, as [`Vouched`]): plugins a run may
+/// ask this host to replay steps of, to fetch and compile before it does.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct PrefetchPlugins {
+    pub plugins: Vec<WantedPlugin>,
+}
+
+/// A plugin by digest, and the origin of a host of the cluster that has it.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, Eq)]
+pub struct WantedPlugin {
+    pub digest: String,
+    pub from: String,
+}
+
+/// `POST /replay-plugins` answer: one outcome per plugin asked for, in order.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct PrefetchedPlugins {
+    pub plugins: Vec<PluginPrefetch>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct PluginPrefetch {
+    pub digest: String,
+    pub outcome: PrefetchOutcome,
+    /// From the request to the plugin being ready (or the failure).
+    pub ms: f64,
+    /// The component's size, when the host holds it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bytes: Option<u64>,
+    /// Why it failed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+}
+
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum PrefetchOutcome {
+    /// Offered here, or already compiled for an earlier replay: nothing to do.
+    Present,
+    /// Kept on disk from an earlier replay; loaded now (from the compiled-artefact cache).
+    Loaded,
+    /// Downloaded from `from`, its digest checked, and compiled.
+    Fetched,
+    /// Not available: a replay will try to fetch it again when it needs it.
+    Failed,
+}
+
+impl PrefetchOutcome {
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Present => "present",
+            Self::Loaded => "loaded",
+            Self::Fetched => "fetched",
+            Self::Failed => "failed",
+        }
+    }
 }
 
 /// A request that names URLs to fetch (`POST /sessions`, `POST /sessions/{id}/update`),
@@ -237,6 +305,10 @@ pub struct Updated {
     /// the step announced (the host then took the full mesh): a disagreement between hosts.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub disagreed: Option<String>,
+    /// A replay that first had to wait for its plugin here (fetch and compile, or a
+    /// prefetch still under way): how long that took, within `apply_ms`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plugin_wait_ms: Option<f64>,
 }
 
 /// `POST /sessions/{id}/run`.

@@ -5,8 +5,9 @@ use std::sync::{Arc, RwLock};
 use reqwest::Method;
 
 use crate::host::{
-    ConvertMesh, CreateSession, Health, InputRef, PluginEntry, RunRequest, RunResult, ServiceEntry,
-    SessionCreated, SessionStatus, Update, Updated, UploadedPlugin, Vouched,
+    ConvertMesh, CreateSession, Health, InputRef, PluginEntry, PrefetchPlugins, PrefetchedPlugins,
+    RunRequest, RunResult, ServiceEntry, SessionCreated, SessionStatus, Update, Updated,
+    UploadedPlugin, Vouched, WantedPlugin,
 };
 use crate::transport::{
     ClientError, Endpoint, LONG_POLL_TIMEOUT, QUERY_TIMEOUT, WORK_TIMEOUT, read_capped, send,
@@ -185,6 +186,17 @@ impl HostClient {
         let body = Vouched { body: update, peers: self.access.peers() };
         let path = format!("/sessions/{id}/update");
         self.endpoint.json(Method::POST, &path, |r| r.timeout(WORK_TIMEOUT).json(&body)).await
+    }
+
+    /// `POST /replay-plugins`: the host fetches and compiles the plugins it lacks (each
+    /// from the cluster host named beside it) and answers once all are ready or failed.
+    pub async fn prefetch_plugins(
+        &self,
+        plugins: Vec<WantedPlugin>,
+    ) -> Result<PrefetchedPlugins, ClientError> {
+        let body = Vouched { body: PrefetchPlugins { plugins }, peers: self.access.peers() };
+        let path = "/replay-plugins";
+        self.endpoint.json(Method::POST, path, |r| r.timeout(WORK_TIMEOUT).json(&body)).await
     }
 
     pub async fn run(&self, id: &str, request: &RunRequest) -> Result<RunResult, ClientError> {

@@ -201,6 +201,14 @@ impl Measured {
         self.tables().fetched.contains(&(receiver.to_owned(), digest.to_owned()))
     }
 
+    /// `receiver` made the plugin `digest` ready before a replay asked for it (a prefetch).
+    pub fn prefetched(&self, receiver: &str, digest: &str) {
+        let mut tables = self.tables();
+        if tables.fetched.len() < MAX_REMEMBERED_FETCHES {
+            tables.changed |= tables.fetched.insert((receiver.to_owned(), digest.to_owned()));
+        }
+    }
+
     /// A download of `bytes` in `ms` by `receiver`, from `producer` (a host) or from
     /// wherever the input lies (`None`).
     pub fn downloaded(&self, producer: Option<&str>, receiver: &str, bytes: u64, ms: f64) {

@@ -5,6 +5,6 @@
 
 pub use meshflow_api::engine::{
     BatchEntry, BatchStatus, BroadcastRecord, Comparison, Divergence, HashClaim, HostLoad,
-    InputRecord, ResultRecord, RunRecord, Status, StepRecord, SubmitBatch, SummaryRow, Transfer,
-    TransferRecord, Verdict, Verification,
+    InputRecord, PrefetchRecord, ResultRecord, RunRecord, Status, StepRecord, SubmitBatch,
+    SummaryRow, Transfer, TransferRecord, Verdict, Verification,
 };

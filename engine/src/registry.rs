@@ -128,6 +128,12 @@ impl HostEntry {
         self.state.lock().unwrap().services.iter().any(|s| s.plugin == digest)
     }
 
+    /// The component size of the plugin `digest`, if the host offers it and said.
+    pub fn plugin_bytes(&self, digest: &str) -> Option<u64> {
+        let state = self.state.lock().unwrap();
+        state.services.iter().find(|s| s.plugin == digest).and_then(|s| s.plugin_bytes)
+    }
+
     pub fn offers(&self, service: &str) -> bool {
         let state = self.state.lock().unwrap();
         state.up && state.services.iter().any(|s| s.info.name == service) && !self.is_suspect()
@@ -405,6 +411,12 @@ impl Registry {
         self.hosts.lock().unwrap().clone()
     }
 
+    /// The size of the plugin `digest`'s component as a host offering it last said: what
+    /// a host lacking it downloads to replay a step of it.
+    pub fn plugin_bytes(&self, digest: &str) -> Option<u64> {
+        self.hosts().iter().find_map(|h| h.plugin_bytes(digest))
+    }
+
     /// Polls every host, concurrently.
     pub async fn refresh_all(&self) {
         let hosts = self.hosts();
@@ -533,6 +545,7 @@ impl HostEntry {
                 result_type: None,
             },
             pinned_only: false,
+            plugin_bytes: None,
         };
         let mut state = self.state.lock().unwrap();
         state.up = true;

@@ -221,6 +221,7 @@ impl Run {
             transfer: record.transfer,
             input: record.input.clone(),
             broadcast: record.broadcast.clone(),
+            prefetches: record.prefetches.clone(),
             steps: Vec::new(),
             result: record.result.clone(),
             total_ms: record.total_ms,

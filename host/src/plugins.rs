@@ -1,6 +1,7 @@
 //! The plugins a host offers: built-in ones and uploaded ones (stored under
 //! `DATA/plugins/<digest>.wasm`, reloaded at restart). The routes are `routes/plugins.rs`.
 
+use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::{Arc, RwLock};
 
@@ -59,6 +60,9 @@ pub struct PluginSet {
     inner: RwLock<Loaded>,
     /// The built-ins' bytes, for hosts that replay their steps and lack them.
     builtin_bytes: Vec<(String, &'static [u8])>,
+    /// Each plugin's component size by digest, which `GET /services` and `GET /plugins`
+    /// report: what a host lacking it would download to replay its steps.
+    sizes: RwLock<HashMap<String, u64>>,
 }
 
 struct Loaded {
@@ -94,7 +98,7 @@ impl PluginSet {
             .map(|bytes| runtime.load(bytes))
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| anyhow::anyhow!("loading a built-in plugin: {e}"))?;
-        let builtin_bytes =
+        let builtin_bytes: Vec<(String, &'static [u8])> =
             builtins.iter().map(|p| p.digest.clone()).zip(builtin_bytes.iter().copied()).collect();
         let mut stored: Vec<_> = std::fs::read_dir(&dir)?
             .flatten()
@@ -103,21 +107,32 @@ impl PluginSet {
             .collect();
         stored.sort();
         let mut uploaded = Vec::new();
+        let mut sizes: HashMap<String, u64> =
+            builtin_bytes.iter().map(|(d, b)| (d.clone(), b.len() as u64)).collect();
         // Oldest first, each put in front: the newest serves a name, as before the restart.
         for (_, path) in stored {
-            match std::fs::read(&path)
-                .map_err(|e| e.to_string())
-                .and_then(|bytes| runtime.load(&bytes).map_err(|e| e.to_string()))
-            {
-                Ok(plugin) => uploaded.insert(0, plugin),
+            match std::fs::read(&path).map_err(|e| e.to_string()).and_then(|bytes| {
+                let plugin = runtime.load(&bytes).map_err(|e| e.to_string())?;
+                Ok((plugin, bytes.len() as u64))
+            }) {
+                Ok((plugin, size)) => {
+                    sizes.insert(plugin.digest.clone(), size);
+                    uploaded.insert(0, plugin);
+                }
                 Err(e) => tracing::warn!("skipping stored plugin {}: {e}", path.display()),
             }
         }
-        Ok(Self { dir, inner: RwLock::new(Loaded::new(uploaded, builtins)), builtin_bytes })
+        let inner = RwLock::new(Loaded::new(uploaded, builtins));
+        Ok(Self { dir, inner, builtin_bytes, sizes: RwLock::new(sizes) })
     }
 
     fn read(&self) -> std::sync::RwLockReadGuard<'_, Loaded> {
         self.inner.read().expect("plugin set lock")
+    }
+
+    /// The component size of the plugin with this digest, if it is here.
+    pub fn size(&self, digest: &str) -> Option<u64> {
+        self.sizes.read().expect("plugin sizes lock").get(digest).copied()
     }
 
     /// The plugin to run `service` with: the given one, or the catalogue's choice.
@@ -160,6 +175,7 @@ impl PluginSet {
                 builtin: loaded.is_builtin(&plugin.digest),
                 info: info.clone(),
                 pinned_only: !serves_unpinned,
+                plugin_bytes: self.size(&plugin.digest),
             })
             .collect()
     }
@@ -174,6 +190,7 @@ impl PluginSet {
                 digest: p.digest.clone(),
                 builtin: loaded.is_builtin(&p.digest),
                 services: p.services.iter().map(|s| s.name.clone()).collect(),
+                bytes: self.size(&p.digest),
             })
             .collect()
     }
@@ -260,6 +277,10 @@ impl PluginSet {
         let path = self.dir.join(format!("{}.wasm", plugin.digest));
         io::write_private_file(&path, |out| out.write_all(bytes))
             .map_err(|e| PluginSetError::Storage(format!("storing the plugin: {e}")))?;
+        self.sizes
+            .write()
+            .expect("plugin sizes lock")
+            .insert(plugin.digest.clone(), bytes.len() as u64);
         let mut uploaded = std::mem::take(&mut loaded.uploaded);
         uploaded.insert(0, plugin);
         *loaded = Loaded::new(uploaded, std::mem::take(&mut loaded.builtins));
@@ -279,6 +300,7 @@ impl PluginSet {
         if !found {
             return Err(PluginSetError::NotFound(digest.to_owned()));
         }
+        self.sizes.write().expect("plugin sizes lock").remove(digest);
         std::fs::remove_file(self.dir.join(format!("{digest}.wasm")))
             .map_err(|e| PluginSetError::Storage(format!("deleting the stored plugin: {e}")))
     }

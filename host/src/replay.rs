@@ -6,13 +6,18 @@
 //! artefact cache), or else one fetched now from the host that produced the step
 //! (`GET /plugins/{digest}/wasm`, cluster token), its SHA-256 checked before it is loaded.
 //! Fetched plugins only replay; they are not offered as services.
+//!
+//! A run's engine may name the plugins this host will replay before it needs them
+//! (`POST /replay-plugins`, [`ReplayPlugins::prefetch`]): they are fetched and compiled
+//! the same way while the input is still broadcasting, so the replay finds them ready.
 
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
-use meshflow_api::fetch_rules::FetchScope;
+use meshflow_api::fetch_rules::{FetchScope, origin};
+use meshflow_api::host::{PluginPrefetch, PrefetchOutcome, WantedPlugin, millis};
 use meshflow_codec::quantize::{self, Grid};
 use meshflow_codec::replay::{self, Replay};
 use meshflow_mesh::{ContentHash, MeshData};
@@ -72,11 +77,38 @@ pub(crate) struct ReplayPlugins {
     /// One fetch and compilation per digest at a time: updates that need the same plugin
     /// at once wait for the first one's instead of each compiling it.
     pending: Mutex<HashMap<String, Arc<tokio::sync::OnceCell<Plugin>>>>,
+    /// Prefetches compiling at once; a replay that needs a plugin never waits for this.
+    prefetching: tokio::sync::Semaphore,
+}
+
+/// What a replay's update did: the mesh, and how long it waited for its plugin when the
+/// plugin was not ready here (fetched and compiled now, or a prefetch still under way).
+pub struct Replayed {
+    pub mesh: CurrentMesh,
+    pub plugin_wait: Option<Duration>,
+}
+
+/// Why a plugin named for a prefetch is refused before anything is fetched.
+#[derive(Debug, thiserror::Error)]
+pub enum PrefetchRefusal {
+    #[error("the digest is not 64 lowercase hex digits")]
+    Digest,
+    #[error("{0:?} is not the origin of a host of the cluster")]
+    NotACluster(String),
+    #[error("not ready after {0:?}")]
+    TimedOut(Duration),
 }
 
 impl ReplayPlugins {
     pub fn new(dir: PathBuf, runtime: Arc<Runtime>, http: reqwest::Client) -> Self {
-        Self { dir, runtime, http, loaded: Mutex::default(), pending: Mutex::default() }
+        Self {
+            dir,
+            runtime,
+            http,
+            loaded: Mutex::default(),
+            pending: Mutex::default(),
+            prefetching: tokio::sync::Semaphore::new(MAX_CONCURRENT_PREFETCHES),
+        }
     }
 
     fn pending(&self, digest: &str) -> Arc<tokio::sync::OnceCell<Plugin>> {
@@ -203,7 +235,7 @@ impl ReplayPlugins {
         grid: Option<Grid>,
         bytes: &[u8],
         expected: &str,
-    ) -> Result<CurrentMesh, ReplayFailure> {
+    ) -> Result<Replayed, ReplayFailure> {
         let step = replay::decode(bytes)?;
         if !step.base.to_hex().eq_ignore_ascii_case(&base.hash) {
             let (expected, found) = (step.base.to_hex(), base.hash.clone());
@@ -213,10 +245,10 @@ impl ReplayPlugins {
             let (expected, found) = (expected.to_owned(), step.result.to_hex());
             return Err(ReplayFailure::OtherResult { expected, found });
         }
-        let plugin = self.plugin_for(offered, source, &step.plugin_hex()).await?;
+        let (plugin, plugin_wait) = self.plugin_waited(offered, source, &step.plugin_hex()).await?;
         let hash = step.result.to_hex();
         let mesh = self.rerun_off_thread(plugin, step, base.mesh.clone(), grid).await?;
-        Ok(CurrentMesh { mesh: Arc::new(mesh), hash })
+        Ok(Replayed { mesh: CurrentMesh { mesh: Arc::new(mesh), hash }, plugin_wait })
     }
 
     /// [`rerun`] on a blocking thread.
@@ -242,13 +274,113 @@ impl ReplayPlugins {
         source: PluginSource<'_>,
         digest: &str,
     ) -> Result<Plugin, ReplayFailure> {
-        if let Some(plugin) = offered.by_digest(digest).or_else(|| self.get(digest)) {
-            return Ok(plugin);
+        Ok(self.plugin_waited(offered, source, digest).await?.0)
+    }
+
+    /// [`plugin_for`](Self::plugin_for), and how long it waited when the plugin was not
+    /// ready at once.
+    async fn plugin_waited(
+        &self,
+        offered: &PluginSet,
+        source: PluginSource<'_>,
+        digest: &str,
+    ) -> Result<(Plugin, Option<Duration>), ReplayFailure> {
+        if let Some(plugin) = self.ready(offered, digest) {
+            return Ok((plugin, None));
         }
+        let started = Instant::now();
         let pending = self.pending(digest);
         let plugin = pending.get_or_try_init(|| self.obtain(source, digest)).await.cloned();
         self.done(digest);
-        plugin
+        Ok((plugin?, Some(started.elapsed())))
+    }
+
+    /// The plugin with `digest` if it is compiled here: offered, or loaded for a replay.
+    fn ready(&self, offered: &PluginSet, digest: &str) -> Option<Plugin> {
+        offered.by_digest(digest).or_else(|| self.get(digest))
+    }
+
+    /// Makes the plugin `wanted` names ready for a replay to come: nothing if it is
+    /// compiled here, else loaded from an earlier replay's copy or fetched from
+    /// `wanted.from` (which must be a cluster origin of `scope`, the engine's peers) and
+    /// compiled, sharing the fetch with any replay that needs it meanwhile. At most
+    /// [`MAX_CONCURRENT_PREFETCHES`] compile at once, each within [`PREFETCH_TIMEOUT`]. A
+    /// failure is only reported: a replay fetches the plugin itself when it needs it.
+    pub async fn prefetch(
+        &self,
+        offered: &PluginSet,
+        scope: &FetchScope,
+        wanted: &WantedPlugin,
+    ) -> PluginPrefetch {
+        let started = Instant::now();
+        let digest = wanted.digest.as_str();
+        let outcome = self.prefetched(offered, scope, wanted).await;
+        let ms = millis(started.elapsed());
+        let bytes = offered.size(digest).or_else(|| self.kept_size(digest));
+        let answer = |outcome, error| PluginPrefetch {
+            digest: digest.to_owned(),
+            outcome,
+            ms,
+            bytes,
+            error,
+        };
+        match outcome {
+            Ok(outcome) => answer(outcome, None),
+            Err(error) => {
+                tracing::warn!(from = %wanted.from, "prefetching plugin {digest:.64}: {error}");
+                answer(PrefetchOutcome::Failed, Some(error))
+            }
+        }
+    }
+
+    /// [`prefetch`](Self::prefetch) of every plugin in `wanted`, at once (bounded by the
+    /// prefetch slots); the outcomes in order.
+    pub async fn prefetch_all(
+        &self,
+        offered: &PluginSet,
+        scope: &FetchScope,
+        wanted: &[WantedPlugin],
+    ) -> Vec<PluginPrefetch> {
+        let each = wanted.iter().map(|w| self.prefetch(offered, scope, w));
+        futures_util::future::join_all(each).await
+    }
+
+    async fn prefetched(
+        &self,
+        offered: &PluginSet,
+        scope: &FetchScope,
+        wanted: &WantedPlugin,
+    ) -> Result<PrefetchOutcome, String> {
+        let digest = wanted.digest.as_str();
+        if !is_digest(digest) {
+            return Err(PrefetchRefusal::Digest.to_string());
+        }
+        if self.ready(offered, digest).is_some() {
+            return Ok(PrefetchOutcome::Present);
+        }
+        let from = cluster_origin(scope, &wanted.from).map_err(|e| e.to_string())?;
+        let work = async {
+            let _slot = self.prefetching.acquire().await.map_err(|e| e.to_string())?;
+            // Another prefetch or a replay may have made it ready while this one waited.
+            if self.ready(offered, digest).is_some() {
+                return Ok(PrefetchOutcome::Present);
+            }
+            let kept = tokio::fs::try_exists(self.path(digest)).await.unwrap_or(false);
+            let source = PluginSource { scope, producer: Some(&from) };
+            self.plugin_for(offered, source, digest).await.map_err(|e| e.to_string())?;
+            Ok(match kept {
+                true => PrefetchOutcome::Loaded,
+                false => PrefetchOutcome::Fetched,
+            })
+        };
+        tokio::time::timeout(PREFETCH_TIMEOUT, work)
+            .await
+            .unwrap_or_else(|_| Err(PrefetchRefusal::TimedOut(PREFETCH_TIMEOUT).to_string()))
+    }
+
+    /// The size of the copy kept from an earlier replay or prefetch.
+    fn kept_size(&self, digest: &str) -> Option<u64> {
+        is_digest(digest).then(|| std::fs::metadata(self.path(digest)).ok().map(|m| m.len()))?
     }
 
     /// Reads the plugin kept from an earlier replay, or fetches it from `source`; checks
@@ -290,6 +422,31 @@ impl ReplayPlugins {
 
 /// A plugin is at most [`MAX_PLUGIN_BYTES`]; fetching it is held to the download deadline.
 const PLUGIN_FETCH_TIMEOUT: Duration = DOWNLOAD_TIMEOUT;
+
+/// Prefetches fetching or compiling at once on a host: each compile takes a core for up
+/// to tens of seconds (an 18 MB Python component), and the host has runs to serve.
+pub const MAX_CONCURRENT_PREFETCHES: usize = 2;
+
+/// A prefetch's whole time: waiting for a slot, the download, and the compile (a large
+/// component compiles in under a minute uncached here).
+pub const PREFETCH_TIMEOUT: Duration = Duration::from_secs(15 * 60);
+
+/// A plugin digest as this host names files after it: 64 lowercase hex digits.
+fn is_digest(digest: &str) -> bool {
+    digest.len() == 64 && digest.bytes().all(|b| matches!(b, b'0'..=b'9' | b'a'..=b'f'))
+}
+
+/// The origin of `from` if it is one of the cluster's (the engine vouched for it), else
+/// why not: a prefetch fetches only from hosts of the cluster.
+fn cluster_origin(scope: &FetchScope, from: &str) -> Result<String, PrefetchRefusal> {
+    let not_cluster = || PrefetchRefusal::NotACluster(from.chars().take(200).collect());
+    let url = reqwest::Url::parse(from).map_err(|_| not_cluster())?;
+    let found = origin(&url);
+    match scope.cluster.contains(&found) {
+        true => Ok(found),
+        false => Err(not_cluster()),
+    }
+}
 
 fn parse_digest(hex: &str) -> Option<[u8; 32]> {
     let bytes = hex::decode(hex).ok()?;

@@ -112,6 +112,7 @@ pub async fn update(
     let session = host.sessions.begin(id)?;
     let mut downloaded = 0;
     let mut download_ms = 0.0;
+    let mut plugin_wait_ms = None;
     let mut reasons = Vec::new();
     let mut disagreed = None;
     let order: &[Transfer] = match update.use_ {
@@ -133,6 +134,7 @@ pub async fn update(
         let attempt = apply_step(host, &scope, base, grid, target, cancel).await;
         downloaded += attempt.bytes;
         download_ms += attempt.download_ms;
+        plugin_wait_ms = plugin_wait_ms.or(attempt.plugin_wait_ms);
         match attempt.result {
             Ok((next, name, _stored)) => {
                 let updated = Updated {
@@ -143,6 +145,7 @@ pub async fn update(
                     apply_ms: attempt.apply_ms,
                     fallback: fallback(&reasons),
                     disagreed,
+                    plugin_wait_ms,
                 };
                 session.commit(next, name)?;
                 return Ok(updated);
@@ -186,6 +189,7 @@ pub async fn update(
         apply_ms: millis(started.elapsed()),
         fallback,
         disagreed,
+        plugin_wait_ms,
     };
     session.commit(next, name)?;
     drop(stored);
@@ -201,6 +205,8 @@ struct Attempt<'a> {
     bytes: u64,
     download_ms: f64,
     apply_ms: f64,
+    /// A replay's wait for its plugin, when it was not ready here.
+    plugin_wait_ms: Option<f64>,
     /// The new mesh, the stored blob's name and its hold against eviction, or why the
     /// blob was not used.
     result: Result<(CurrentMesh, String, Stored<'a>), TransferFailure>,
@@ -230,11 +236,12 @@ async fn apply_step<'a>(
         Ok((spooled, bytes)) => (spooled, Arc::new(bytes)),
         Err(error) => {
             let result = Err(error.into());
-            return Attempt { bytes: 0, download_ms, apply_ms: 0.0, result };
+            return Attempt { bytes: 0, download_ms, apply_ms: 0.0, plugin_wait_ms: None, result };
         }
     };
     let size = spooled.bytes;
     let started = Instant::now();
+    let mut plugin_wait_ms = None;
     let (applied, name) = match via {
         Transfer::Replay => {
             let producer = reqwest::Url::parse(&blob.url).ok().map(|url| origin(&url));
@@ -243,6 +250,10 @@ async fn apply_step<'a>(
                 .replay_plugins
                 .apply(&host.plugins, source, base, grid, &bytes, expected)
                 .await
+                .map(|replayed| {
+                    plugin_wait_ms = replayed.plugin_wait.map(millis);
+                    replayed.mesh
+                })
                 .map_err(TransferFailure::from);
             (next, meshes::replay_name(&bytes))
         }
@@ -260,7 +271,7 @@ async fn apply_step<'a>(
         },
         Err(reason) => Err(reason),
     };
-    Attempt { bytes: size, download_ms, apply_ms, result }
+    Attempt { bytes: size, download_ms, apply_ms, plugin_wait_ms, result }
 }
 
 /// Replays an edit log on a thread of its own. The session's hash is known: the base is

@@ -2,9 +2,10 @@
 //! way over the measured link and at the receiver's measured speed, and the choice.
 //!
 //! - edit log: its bytes over the link, then replaying its edits;
-//! - replay: its few hundred bytes over the link (plus the plugin's, if the receiver lacks
-//!   it), then the producer's compute time at the receiver's speed, once more for every
-//!   task the receiver is busy with (a re-run waits for a run slot there);
+//! - replay: its few hundred bytes over the link, then the producer's compute time at the
+//!   receiver's speed, once more for every task the receiver is busy with (a re-run waits
+//!   for a run slot there); plus, when the receiver does not hold the plugin compiled
+//!   (offered, replayed before or prefetched for this run), its download and compile;
 //! - full mesh: the last full size seen, scaled to the current vertex count, over the link,
 //!   then unpacking it.
 
@@ -14,10 +15,40 @@ use meshflow_api::host::Transfer as Use;
 use crate::measured::{HostSpeed, Link};
 use crate::workflow::Transfer;
 
-/// What a receiver that lacks the plugin downloads first (the built-in plugins are
-/// 0.1-0.2 MB), and what compiling it there costs.
+/// Fallbacks only, for a plugin no host has said the size of (a host older than the
+/// `plugin_bytes` of `GET /services`): what a receiver lacking it downloads (the built-in
+/// plugins are 0.1-0.2 MB), and what compiling it costs at least.
 pub const PLUGIN_BYTES_GUESS: u64 = 256 << 10;
 pub const PLUGIN_COMPILE_MS_GUESS: f64 = 100.0;
+/// Compiling scales with the component: an 18 MB Python component took 20-40 s uncached
+/// on this machine kind (2 cores), about 1.5 s per MiB. Still a guess: the engine does not
+/// learn compile speeds, but a prefetch takes the compile off the critical path.
+pub const PLUGIN_COMPILE_MS_PER_MIB_GUESS: f64 = 1_500.0;
+
+/// Whether the receiver can re-run the step's plugin at once.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PluginAt {
+    /// Compiled there: offered, fetched for an earlier replay, or prefetched for this run.
+    Ready,
+    /// To be fetched and compiled first; `bytes` as a host that has it said.
+    Missing { bytes: Option<u64> },
+}
+
+impl PluginAt {
+    /// Expected milliseconds before a replay can start over `link`.
+    fn ready_ms(self, link: &Link) -> f64 {
+        match self {
+            PluginAt::Ready => 0.0,
+            PluginAt::Missing { bytes } => {
+                let compile = bytes.map_or(PLUGIN_COMPILE_MS_GUESS, |b| {
+                    (b as f64 / f64::from(1 << 20) * PLUGIN_COMPILE_MS_PER_MIB_GUESS)
+                        .max(PLUGIN_COMPILE_MS_GUESS)
+                });
+                link.transfer_ms(bytes.unwrap_or(PLUGIN_BYTES_GUESS)) + compile
+            }
+        }
+    }
+}
 
 /// One filter step's result, as the producer reported it.
 #[derive(Clone, Copy, Debug)]
@@ -35,18 +66,15 @@ pub struct StepOutput {
 pub struct Receiver {
     pub link: Link,
     pub speed: HostSpeed,
-    pub has_plugin: bool,
+    pub plugin: PluginAt,
     /// Tasks running or assigned there.
     pub load: u32,
 }
 
 pub fn estimate(step: &StepOutput, receiver: &Receiver) -> TransferEstimates {
-    let Receiver { link, speed, has_plugin: receiver_has_plugin, load } = *receiver;
+    let Receiver { link, speed, plugin, load } = *receiver;
     let compute_ms = speed.replay_ratio * step.compute_ms;
-    let plugin_ms = match receiver_has_plugin {
-        true => 0.0,
-        false => link.transfer_ms(PLUGIN_BYTES_GUESS) + PLUGIN_COMPILE_MS_GUESS,
-    };
+    let plugin_ms = plugin.ready_ms(&link);
     TransferEstimates {
         correction_ms: link.transfer_ms(step.correction_bytes)
             + speed.apply_ms_per_element * (step.edits + step.vertices) as f64,
@@ -115,7 +143,28 @@ mod tests {
     };
 
     fn receiver(link: Link, has_plugin: bool, load: u32) -> Receiver {
-        Receiver { link, speed: SPEED, has_plugin, load }
+        let plugin = match has_plugin {
+            true => PluginAt::Ready,
+            false => PluginAt::Missing { bytes: None },
+        };
+        Receiver { link, speed: SPEED, plugin, load }
+    }
+
+    #[test]
+    fn a_large_plugin_the_receiver_lacks_is_not_replayed_but_a_prefetched_one_is() {
+        // An 18 MB Python component over 5 Mbit/s: half a minute to fetch, more to compile.
+        let python = PluginAt::Missing { bytes: Some(18 << 20) };
+        let lacking = Receiver { plugin: python, ..receiver(MBIT_5, false, 0) };
+        let lacking = estimate(&GLOBAL, &lacking);
+        assert!(lacking.replay_ms > 50_000.0, "{lacking:?}");
+        assert_ne!(choose(Transfer::Auto, &lacking), Use::Replay, "{lacking:?}");
+        // The size unknown: the fallback guess, which would still replay.
+        let guessed = estimate(&GLOBAL, &receiver(MBIT_5, false, 0));
+        assert_eq!(choose(Transfer::Auto, &guessed), Use::Replay, "{guessed:?}");
+        // Prefetched while the input broadcast: ready, and replayed.
+        let prefetched = estimate(&GLOBAL, &receiver(MBIT_5, true, 0));
+        assert_eq!(choose(Transfer::Auto, &prefetched), Use::Replay, "{prefetched:?}");
+        assert!(prefetched.replay_ms < lacking.replay_ms / 100.0);
     }
 
     #[test]

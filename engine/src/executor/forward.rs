@@ -55,13 +55,20 @@ impl Executor {
             }
             let receiver = &replica.host;
             let has_plugin = receiver.has_plugin(&filter.plugin)
-                || measured.has_fetched(&receiver.url, &filter.plugin);
+                || measured.has_fetched(&receiver.url, &filter.plugin)
+                || self.prefetches.ready(&receiver.url, &filter.plugin);
+            let plugin = match has_plugin {
+                true => cost::PluginAt::Ready,
+                false => {
+                    cost::PluginAt::Missing { bytes: self.registry.plugin_bytes(&filter.plugin) }
+                }
+            };
             let estimates = cost::estimate(
                 &output,
                 &cost::Receiver {
                     link: measured.link(&host.url, &receiver.url),
                     speed: measured.speed(&receiver.url),
-                    has_plugin,
+                    plugin,
                     load: receiver.load(),
                 },
             );

@@ -23,6 +23,7 @@ mod error;
 mod failure;
 mod finish;
 mod forward;
+mod prefetch;
 mod replica;
 mod resume;
 mod session;
@@ -76,11 +77,14 @@ async fn run_workflow(
     done: VecDeque<StepRecord>,
 ) -> Result<(), ExecError> {
     let mut plan = Plan::new(workflow, &registry)?;
+    // Beside the broadcast: the plugins the plan's hosts may replay, fetched and compiled.
+    let prefetches = prefetch::Prefetches::start(run, &registry, &plan, workflow);
     let loaded = match done.is_empty() {
         true => broadcast::broadcast(run, &registry, &mut plan, workflow.quantize).await?,
         false => resume::restore_input(run)?,
     };
     let mut executor = Executor::new(run.clone(), registry, plan, workflow, loaded, done);
+    executor.prefetches = prefetches;
     executor.execute(workflow).await
 }
 
@@ -114,6 +118,8 @@ struct Executor {
     step_inputs: Vec<arbitrate::StepInput>,
     /// Spot checks under way: each a contradiction found, or none.
     spot_checks: Vec<tokio::task::JoinHandle<Option<String>>>,
+    /// Plugins the plan's hosts are making ready for the replays to come.
+    prefetches: prefetch::Prefetches,
 }
 
 impl Executor {
@@ -141,6 +147,7 @@ impl Executor {
             disputes: Default::default(),
             step_inputs: Vec::new(),
             spot_checks: Vec::new(),
+            prefetches: Default::default(),
         }
     }
 }

@@ -221,6 +221,7 @@ fn transfer_record(
             finished_ms,
             fallback: updated.fallback.clone(),
             error: None,
+            plugin_wait_ms: updated.plugin_wait_ms,
         },
         Err(error) => TransferRecord {
             host,
@@ -234,6 +235,7 @@ fn transfer_record(
             finished_ms,
             fallback: None,
             error: Some(error.to_string()),
+            plugin_wait_ms: None,
         },
     }
 }
@@ -259,6 +261,7 @@ mod tests {
             apply_ms: 0.0,
             fallback: fallback.map(str::to_owned),
             disagreed: fallback.map(|_| "b".repeat(64)),
+            plugin_wait_ms: None,
         };
         let disputes = Disputes::default();
         let judged = |outcome| judge(outcome, &announced, &receiver, &producer, 3, &disputes);

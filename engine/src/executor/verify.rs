@@ -379,6 +379,7 @@ mod tests {
             apply_ms: 0.0,
             fallback: None,
             disagreed: None,
+            plugin_wait_ms: None,
         };
         assert_eq!(updated(&update(hash('b')), &hash('b')), Ok(()));
         assert!(updated(&update(hash('c')), &hash('b')).is_err());

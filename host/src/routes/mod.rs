@@ -34,6 +34,7 @@ pub fn router(host: Arc<Host>) -> Router {
         )
         .route("/plugins/{digest}", delete(plugins::delete))
         .route("/plugins/{digest}/wasm", get(plugins::component))
+        .route("/replay-plugins", post(plugins::prefetch))
         .route("/sessions", post(sessions::create))
         .route("/sessions/{id}", get(sessions::status).delete(sessions::delete))
         .route("/sessions/{id}/update", post(steps::update))

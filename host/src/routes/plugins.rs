@@ -9,10 +9,13 @@ use axum::extract::{Path, Query, State};
 use axum::http::StatusCode;
 use serde::Deserialize;
 
-use super::error::ApiError;
+use super::error::{ApiError, ApiJson};
 use crate::plugins::Upload;
 use crate::state::Host;
-use meshflow_api::host::{PluginEntry, ServiceEntry, UploadedPlugin};
+use meshflow_api::host::{
+    MAX_PREFETCH_PLUGINS, PluginEntry, PrefetchPlugins, PrefetchedPlugins, ServiceEntry,
+    UploadedPlugin, Vouched,
+};
 
 /// `POST /plugins?replace=true`.
 #[derive(Deserialize)]
@@ -59,6 +62,27 @@ pub async fn component(
         ApiError::new(StatusCode::NOT_FOUND, "no-plugin", format!("no plugin {digest} here"))
     })?;
     Ok(([(axum::http::header::CONTENT_TYPE, "application/wasm")], bytes))
+}
+
+/// `POST /replay-plugins` (cluster token): makes ready the plugins a run may replay
+/// here, each fetched from the cluster host named beside it. The work is a task of its
+/// own, so a caller that hangs up does not cancel a compile half done; the answer comes
+/// when every plugin is ready or has failed (a failure is an outcome, not an error).
+pub async fn prefetch(
+    State(host): State<Arc<Host>>,
+    ApiJson(Vouched { body, peers }): ApiJson<Vouched<PrefetchPlugins>>,
+) -> Result<Json<PrefetchedPlugins>, ApiError> {
+    let PrefetchPlugins { plugins: wanted } = body;
+    if wanted.len() > MAX_PREFETCH_PLUGINS {
+        let message = format!("at most {MAX_PREFETCH_PLUGINS} plugins per request");
+        return Err(ApiError::bad_request("too-many-plugins", message));
+    }
+    let scope = host.downloads.scope(&peers)?;
+    let work = tokio::spawn(async move {
+        host.replay_plugins.prefetch_all(&host.plugins, &scope, &wanted).await
+    });
+    let plugins = work.await.map_err(|e| ApiError::internal(format!("prefetch failed: {e}")))?;
+    Ok(Json(PrefetchedPlugins { plugins }))
 }
 
 /// `DELETE /plugins/{digest}`.

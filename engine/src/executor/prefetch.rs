@@ -1,0 +1,203 @@
+//! Plugins made ready before a replay needs them (issue 34, "nothing waits that could
+//! have run beside"): while the input broadcasts, every host of the plan that may replay a
+//! filter step is asked to fetch and compile that step's plugin (`POST /replay-plugins`),
+//! from the host planned to run the step. A replay then finds the plugin compiled instead
+//! of fetching and compiling it inside the transfer (an 18 MB Python component: 23 s).
+//!
+//! Only what the plan names is asked for: per filter task, its pinned digest or the plugin
+//! its planned host serves the service from, to every other host of the plan that does not
+//! offer it. A failed prefetch is recorded and nothing else: the replay still fetches the
+//! plugin on demand.
+
+use std::collections::HashSet;
+use std::sync::{Arc, Mutex};
+
+use meshflow_api::host::{PrefetchOutcome, PrefetchedPlugins, WantedPlugin};
+use meshflow_api::params::ServiceKind;
+use serde_json::json;
+use tokio::task::JoinHandle;
+
+use crate::plan::Plan;
+use crate::record::PrefetchRecord;
+use crate::registry::{HostEntry, Registry};
+use crate::run::Run;
+use crate::workflow::{Transfer, Workflow};
+
+/// The prefetches of one run: which (host, plugin digest) are ready, and the requests
+/// still under way (dropped with the run: the hosts finish their own work regardless).
+#[derive(Default)]
+pub(super) struct Prefetches {
+    ready: Arc<Mutex<HashSet<(String, String)>>>,
+    requests: Vec<JoinHandle<()>>,
+}
+
+impl Drop for Prefetches {
+    fn drop(&mut self) {
+        self.requests.iter().for_each(JoinHandle::abort);
+    }
+}
+
+impl Prefetches {
+    /// Asks every host of `plan` that may replay a filter step for that step's plugin, in
+    /// the background. Nothing is asked when the workflow's transfer never replays.
+    pub fn start(
+        run: &Arc<Run>,
+        registry: &Arc<Registry>,
+        plan: &Plan,
+        workflow: &Workflow,
+    ) -> Self {
+        let mut prefetches = Self::default();
+        if !matches!(workflow.transfer, Transfer::Auto | Transfer::Replay) {
+            return prefetches;
+        }
+        for (receiver, wanted) in wanted(plan, workflow) {
+            let (run, registry, ready) = (run.clone(), registry.clone(), prefetches.ready.clone());
+            prefetches.requests.push(tokio::spawn(async move {
+                let started_ms = run.elapsed_ms();
+                let answer = receiver.client.prefetch_plugins(wanted.clone()).await;
+                let finished_ms = run.elapsed_ms();
+                let timing = (started_ms, finished_ms);
+                let records = records(&receiver.url, &wanted, answer, timing);
+                for record in &records {
+                    if record.outcome != PrefetchOutcome::Failed.name() {
+                        let key = (receiver.url.clone(), record.plugin.clone());
+                        ready.lock().unwrap().insert(key);
+                        registry.measured.prefetched(&receiver.url, &record.plugin);
+                    }
+                }
+                run.update("prefetch", |r| {
+                    let json = json!({"host": receiver.url, "plugins": records});
+                    r.prefetches.extend(records);
+                    json
+                });
+            }));
+        }
+        prefetches
+    }
+
+    /// Whether a prefetch made the plugin `digest` ready on `host` in this run.
+    pub fn ready(&self, host: &str, digest: &str) -> bool {
+        self.ready.lock().unwrap().contains(&(host.to_owned(), digest.to_owned()))
+    }
+}
+
+/// Per receiving host, the plugins it may replay and the host each is to come from: for
+/// every filter task, its plugin (the pin, or what its planned host serves the service
+/// from), wanted by every other host of the plan that does not offer it.
+fn wanted(plan: &Plan, workflow: &Workflow) -> Vec<(Arc<HostEntry>, Vec<WantedPlugin>)> {
+    let hosts = plan.hosts();
+    let mut wanted: Vec<(Arc<HostEntry>, Vec<WantedPlugin>)> =
+        hosts.iter().map(|h| (h.clone(), Vec::new())).collect();
+    for task in workflow.tasks() {
+        let producer = plan.host(&task.path);
+        let Some(digest) = filter_plugin(producer, &task.service, plan.pin(&task.path)) else {
+            continue;
+        };
+        for (receiver, plugins) in &mut wanted {
+            let lacks = !Arc::ptr_eq(receiver, producer) && !receiver.has_plugin(&digest);
+            if lacks && !plugins.iter().any(|w| w.digest == digest) {
+                plugins.push(WantedPlugin { digest: digest.clone(), from: producer.url.clone() });
+            }
+        }
+    }
+    wanted.retain(|(_, plugins)| !plugins.is_empty());
+    wanted
+}
+
+/// The digest of the plugin `host` runs the filter `service` from (pinned to a digest
+/// starting with `pin`, else the one serving the name to unpinned runs); none for a check.
+fn filter_plugin(host: &HostEntry, service: &str, pin: Option<&str>) -> Option<String> {
+    let state = host.state();
+    let entry = state.services.iter().find(|s| {
+        s.info.name == service
+            && match pin {
+                Some(pin) => s.plugin.starts_with(pin),
+                None => !s.pinned_only,
+            }
+    })?;
+    (entry.info.kind == ServiceKind::Filter).then(|| entry.plugin.clone())
+}
+
+/// The record of one host's prefetch: its answer per plugin, or the request's failure for
+/// each. An answer is believed only for the digests asked, once each.
+fn records(
+    host: &str,
+    wanted: &[WantedPlugin],
+    answer: Result<PrefetchedPlugins, meshflow_api::ClientError>,
+    (started_ms, finished_ms): (f64, f64),
+) -> Vec<PrefetchRecord> {
+    let failed = |w: &WantedPlugin, error: String| PrefetchRecord {
+        host: host.to_owned(),
+        plugin: w.digest.clone(),
+        from: w.from.clone(),
+        outcome: PrefetchOutcome::Failed.name().to_owned(),
+        ms: finished_ms - started_ms,
+        bytes: None,
+        started_ms,
+        finished_ms,
+        error: Some(error),
+    };
+    let answered = match answer {
+        Ok(answered) => answered.plugins,
+        Err(error) => return wanted.iter().map(|w| failed(w, error.to_string())).collect(),
+    };
+    wanted
+        .iter()
+        .map(|w| match answered.iter().find(|a| a.digest == w.digest) {
+            Some(a) => PrefetchRecord {
+                outcome: a.outcome.name().to_owned(),
+                ms: a.ms,
+                bytes: a.bytes,
+                error: a.error.as_ref().map(|e| meshflow_api::params::clip(e)),
+                ..failed(w, String::new())
+            },
+            None => failed(w, "the host's answer did not name it".to_owned()),
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use meshflow_api::ClientError;
+    use meshflow_api::host::PluginPrefetch;
+
+    use super::*;
+
+    #[test]
+    fn an_answer_counts_only_for_the_plugins_asked() {
+        let wanted = vec![
+            WantedPlugin { digest: "a".repeat(64), from: "http://p".into() },
+            WantedPlugin { digest: "b".repeat(64), from: "http://p".into() },
+        ];
+        let answer = PrefetchedPlugins {
+            plugins: vec![
+                PluginPrefetch {
+                    digest: "a".repeat(64),
+                    outcome: PrefetchOutcome::Fetched,
+                    ms: 12.5,
+                    bytes: Some(1000),
+                    error: None,
+                },
+                // Not asked: ignored.
+                PluginPrefetch {
+                    digest: "c".repeat(64),
+                    outcome: PrefetchOutcome::Present,
+                    ms: 0.0,
+                    bytes: None,
+                    error: None,
+                },
+            ],
+        };
+        let found = records("http://r", &wanted, Ok(answer), (1.0, 20.0));
+        let outcomes: Vec<&str> = found.iter().map(|r| r.outcome.as_str()).collect();
+        assert_eq!(outcomes, ["fetched", "failed"]);
+        assert_eq!(
+            (found[0].ms, found[0].bytes, found[0].error.as_deref()),
+            (12.5, Some(1000), None)
+        );
+        assert!(found[1].error.as_deref().unwrap().contains("did not name it"));
+        let refused = ClientError::Timeout { url: "http://r".into(), message: "slow".into() };
+        let found = records("http://r", &wanted, Err(refused), (1.0, 20.0));
+        assert!(found.iter().all(|r| r.outcome == "failed" && r.ms == 19.0), "{found:?}");
+    }
+}
