@@ -54,6 +54,8 @@ fn every_part_of_the_cpp_header_works_against_a_host() {
     // The refused edit came back as a value with the host's reason; removed vertices listed.
     assert!(stdout.contains("edit refused (invalid triangle)"), "{stdout}");
     assert!(stdout.contains("removed=9 "), "{stdout}");
+    // The connectivity the host derives reads as the triangles say.
+    assert!(stdout.contains("edges-agree=1 opposites-agree=1"), "{stdout}");
 
     let out = meshflow_in(dir, &["check", "sdk-api-fail", &bunny, "--plugin", &plugin]);
     let stderr = String::from_utf8_lossy(&out.stderr);

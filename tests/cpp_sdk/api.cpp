@@ -3,7 +3,10 @@
 // getters, builders on named objects, and capturing lambdas as services.
 #include <meshflow.hpp>
 
+#include <algorithm>
+#include <set>
 #include <string>
+#include <utility>
 
 using meshflow::half_edge;
 using meshflow::Mesh;
@@ -69,6 +72,24 @@ Result<std::string> edits(const Mesh& mesh, const Params& params) {
     std::span<const uint32_t> ids = abc;
     note("removed", uint32_t(mesh.removed_vertices().size()));
     note("slots", uint32_t(ids.size() / 3));
+
+    // The derived connectivity agrees with the triangles it comes from: one edge per
+    // distinct corner pair of the proper live triangles, opposites that point back.
+    std::set<std::pair<uint32_t, uint32_t>> distinct;
+    for (size_t t = 0; t < ids.size() / 3; ++t) {
+        uint32_t c[3] = {ids[3 * t], ids[3 * t + 1], ids[3 * t + 2]};
+        if (c[0] == meshflow::REMOVED || c[0] == c[1] || c[1] == c[2] || c[0] == c[2]) continue;
+        for (int k = 0; k < 3; ++k) distinct.insert(std::minmax(c[k], c[(k + 1) % 3]));
+    }
+    meshflow::Array<uint32_t> opposite = mesh.half_edge_opposites();
+    meshflow::Array<uint8_t> kinds = mesh.half_edge_kinds();
+    bool pointing_back = opposite.size() == ids.size() && kinds.size() == ids.size();
+    for (size_t h = 0; pointing_back && h < opposite.size(); ++h) {
+        uint32_t o = opposite[h];
+        pointing_back = o == meshflow::REMOVED || (opposite[o] == h && kinds[h] >= 2 && kinds[h] <= 3);
+    }
+    note("edges-agree", uint32_t(mesh.edges().size() == distinct.size()));
+    note("opposites-agree", uint32_t(pointing_back));
     return log;
 }
 

@@ -323,6 +323,29 @@ public:
         meshflow_geometry_mesh_method_mesh_removed_vertices(raw_, &list);
         return {list.ptr, list.len};
     }
+    // ---- derived connectivity (the host derives it once per mesh version; see the WIT)
+
+    // Per half-edge: the other half-edge on its edge when the edge has exactly two, else
+    // REMOVED (u32 max).
+    Array<uint32_t> half_edge_opposites() const {
+        plugin_list_u32_t list;
+        meshflow_geometry_mesh_method_mesh_half_edge_opposites(raw_, &list);
+        return {list.ptr, list.len};
+    }
+    // Per half-edge: 0 not a proper triangle, 1 boundary, 2 interior, 3 interior with both
+    // half-edges running the same way, 4 non-manifold.
+    Array<uint8_t> half_edge_kinds() const {
+        plugin_list_u8_t list;
+        meshflow_geometry_mesh_method_mesh_half_edge_kinds(raw_, &list);
+        return {list.ptr, list.len};
+    }
+    // Every edge once, by its smallest half-edge id, in ascending (smaller, larger) vertex order.
+    Array<uint32_t> edges() const {
+        plugin_list_u32_t list;
+        meshflow_geometry_mesh_method_mesh_edges(raw_, &list);
+        return {list.ptr, list.len};
+    }
+
     // One vertex's x y z; an error for a dead or unknown id.
     Result<std::array<float, 3>> position(uint32_t vertex) const {
         plugin_tuple3_f32_f32_f32_t p;
