@@ -24,7 +24,13 @@ pub struct MeshArrays<'a> {
 
 enum Source<'a> {
     Host(Mesh<'a>),
-    Arrays { positions: &'a [f32], triangles: &'a [u32], connectivity: OnceCell<Connectivity> },
+    Arrays { positions: &'a [f32], triangles: &'a [u32], connectivity: Derivation<'a> },
+}
+
+/// Plain arrays' connectivity: derived on first use, or given.
+enum Derivation<'a> {
+    Lazy(OnceCell<Connectivity>),
+    Given(&'a Connectivity),
 }
 
 impl<'a> MeshArrays<'a> {
@@ -36,7 +42,20 @@ impl<'a> MeshArrays<'a> {
     /// Plain arrays (`x y z` per vertex, three ids per triangle); the connectivity is derived
     /// on first use.
     pub fn native(positions: &'a [f32], triangles: &'a [u32]) -> Self {
-        Self::with(Source::Arrays { positions, triangles, connectivity: OnceCell::new() })
+        let connectivity = Derivation::Lazy(OnceCell::new());
+        Self::with(Source::Arrays { positions, triangles, connectivity })
+    }
+
+    /// Plain arrays with their connectivity already derived (by [`Connectivity::new`] on
+    /// these triangles), as a host holds it for the checks that follow: what a native
+    /// bench times a check alone with.
+    pub fn derived(
+        positions: &'a [f32],
+        triangles: &'a [u32],
+        connectivity: &'a Connectivity,
+    ) -> Self {
+        let connectivity = Derivation::Given(connectivity);
+        Self::with(Source::Arrays { positions, triangles, connectivity })
     }
 
     fn with(source: Source<'a>) -> Self {
@@ -117,11 +136,16 @@ impl<'a> MeshArrays<'a> {
     }
 }
 
-/// The connectivity of plain arrays, derived once, as the host derives it.
+/// The connectivity of plain arrays, derived once (as the host derives it) unless given.
 fn derived<'c>(
-    cell: &'c OnceCell<Connectivity>,
+    derivation: &'c Derivation<'_>,
     positions: &[f32],
     triangles: &[u32],
 ) -> &'c Connectivity {
-    cell.get_or_init(|| Connectivity::new(positions.len() / 3, triangles))
+    match derivation {
+        Derivation::Lazy(cell) => {
+            cell.get_or_init(|| Connectivity::new(positions.len() / 3, triangles))
+        }
+        Derivation::Given(connectivity) => connectivity,
+    }
 }
