@@ -83,19 +83,23 @@ impl Prefetches {
 
 /// Per receiving host, the plugins it may replay and the host each is to come from: for
 /// every filter task, its plugin (the pin, or what its planned host serves the service
-/// from), wanted by every other host of the plan that does not offer it.
+/// from), wanted by every host that lacks it and has a task that may come after it (a
+/// later one, or any at all for a task in a WHILE body, which may run again).
 fn wanted(plan: &Plan, workflow: &Workflow) -> Vec<(Arc<HostEntry>, Vec<WantedPlugin>)> {
-    let hosts = plan.hosts();
+    let tasks = workflow.tasks();
     let mut wanted: Vec<(Arc<HostEntry>, Vec<WantedPlugin>)> =
-        hosts.iter().map(|h| (h.clone(), Vec::new())).collect();
-    for task in workflow.tasks() {
+        plan.hosts().into_iter().map(|h| (h, Vec::new())).collect();
+    for (index, task) in tasks.iter().enumerate() {
         let producer = plan.host(&task.path);
         let Some(digest) = filter_plugin(producer, &task.service, plan.pin(&task.path)) else {
             continue;
         };
+        let repeats = task.path.contains(".do[");
+        let after = if repeats { &tasks[..] } else { &tasks[index + 1..] };
         for (receiver, plugins) in &mut wanted {
+            let receives = after.iter().any(|t| Arc::ptr_eq(plan.host(&t.path), receiver));
             let lacks = !Arc::ptr_eq(receiver, producer) && !receiver.has_plugin(&digest);
-            if lacks && !plugins.iter().any(|w| w.digest == digest) {
+            if receives && lacks && !plugins.iter().any(|w| w.digest == digest) {
                 plugins.push(WantedPlugin { digest: digest.clone(), from: producer.url.clone() });
             }
         }
