@@ -7,7 +7,7 @@
 
 use meshflow_plugin_sdk::Result;
 use meshflow_plugin_sdk::topology::halfedge::edge_key;
-use meshflow_plugin_sdk::topology::{EdgeKind, NONE, UnionFind, boundary_loops};
+use meshflow_plugin_sdk::topology::{EdgeKind, NONE, UnionFind, boundary_loops, contains_kind};
 
 use crate::arrays::MeshArrays;
 
@@ -26,7 +26,7 @@ pub fn component_count(mesh: &MeshArrays) -> Result<usize> {
     // An improper triangle still joins its neighbours through its edges with two distinct
     // in-range ids, which the derived connectivity leaves out: such a mesh is grouped over
     // every edge from the triangles, as before the host derived anything.
-    if kinds.contains(&EdgeKind::Degenerate) {
+    if contains_kind(kinds, EdgeKind::Degenerate) {
         return Ok(UnionFind::edge_connected(mesh.vertex_slots(), mesh.triangles()).sets());
     }
     let mut forest = UnionFind::new(kinds.len() / 3);
@@ -36,7 +36,7 @@ pub fn component_count(mesh: &MeshArrays) -> Result<usize> {
         }
     }
     // The triangles of a non-manifold edge have no twins: group its half-edges by edge.
-    if kinds.contains(&EdgeKind::NonManifold) {
+    if contains_kind(kinds, EdgeKind::NonManifold) {
         let triangles = mesh.triangles();
         let mut sheets: Vec<((u32, u32), u32)> = (0..kinds.len() as u32)
             .filter(|&h| kinds[h as usize] == EdgeKind::NonManifold)

@@ -6,7 +6,7 @@
 //! distinct ids are proper and count like any other.
 
 use meshflow_plugin_sdk::Result;
-use meshflow_plugin_sdk::topology::{EdgeKind, NONE, manifold};
+use meshflow_plugin_sdk::topology::{EdgeKind, NONE, contains_kind, manifold};
 
 use crate::arrays::MeshArrays;
 use crate::forest::ParityForest;
@@ -16,7 +16,7 @@ use crate::forest::ParityForest;
 /// a single fan, so no bow-tie). One pass over the kinds settles a non-manifold edge; the
 /// rest is O(V + T).
 pub fn is_manifold(mesh: &MeshArrays) -> Result<bool> {
-    if mesh.kinds()?.contains(&EdgeKind::NonManifold) {
+    if contains_kind(mesh.kinds()?, EdgeKind::NonManifold) {
         return Ok(false);
     }
     let (vertex_count, triangles) = (mesh.vertex_slots(), mesh.triangles());
@@ -31,7 +31,7 @@ pub fn is_manifold(mesh: &MeshArrays) -> Result<bool> {
 /// Whether every interior (two-triangle) edge is traversed in opposite directions by its two
 /// triangles. Boundary and non-manifold edges impose nothing. One pass over the kinds.
 pub fn is_oriented(mesh: &MeshArrays) -> Result<bool> {
-    Ok(!mesh.kinds()?.contains(&EdgeKind::InteriorInconsistent))
+    Ok(!contains_kind(mesh.kinds()?, EdgeKind::InteriorInconsistent))
 }
 
 /// Whether flipping some triangles would make the mesh oriented (false for a Möbius strip).

@@ -106,16 +106,26 @@ impl EdgeLookup for HalfEdgeView<'_> {
     }
 }
 
-/// The kinds of [`Connectivity::kind_codes`] back as [`EdgeKind`]s (in place: no second
-/// array), or the first byte that names no kind.
+/// The kinds of [`Connectivity::kind_codes`] back as [`EdgeKind`]s, without a copy (one
+/// pass that vectorises checks every byte), or the first byte that names no kind.
 pub fn kinds_from_codes(codes: Vec<u8>) -> Result<Vec<EdgeKind>, ConnectivityError> {
-    codes
-        .into_iter()
-        .enumerate()
-        .map(|(h, code)| {
-            EdgeKind::from_code(code).ok_or(ConnectivityError::Kind { half_edge: h, code })
-        })
-        .collect()
+    let largest = codes.iter().fold(0u8, |m, &c| m.max(c));
+    if largest > EdgeKind::NonManifold as u8 {
+        let half_edge = codes.iter().position(|&c| EdgeKind::from_code(c).is_none());
+        let half_edge = half_edge.expect("a byte above the largest kind");
+        return Err(ConnectivityError::Kind { half_edge, code: codes[half_edge] });
+    }
+    let mut codes = std::mem::ManuallyDrop::new(codes);
+    let (ptr, len, capacity) = (codes.as_mut_ptr(), codes.len(), codes.capacity());
+    // SAFETY: every byte is a valid `EdgeKind` (checked above), which is `repr(u8)`: the
+    // same size and alignment as `u8`, so the allocation is the same allocation.
+    Ok(unsafe { Vec::from_raw_parts(ptr.cast::<EdgeKind>(), len, capacity) })
+}
+
+/// Whether some half-edge is of `kind`: one pass the compiler vectorises (a short-circuiting
+/// search is not), a few milliseconds fewer per check in the sandbox.
+pub fn contains_kind(kinds: &[EdgeKind], kind: EdgeKind) -> bool {
+    kinds.iter().fold(false, |found, &k| found | (k == kind))
 }
 
 /// Derived arrays that cannot be used.
@@ -168,6 +178,16 @@ mod tests {
         }
         assert_eq!(view.sorted_boundary_half_edges(), c.half_edges().sorted_boundary_half_edges());
         assert_eq!(c.opposites()[0], NONE);
+    }
+
+    #[test]
+    fn kinds_are_searched_whole() {
+        let kinds = [EdgeKind::Boundary, EdgeKind::Interior, EdgeKind::Interior];
+        assert!(contains_kind(&kinds, EdgeKind::Interior));
+        assert!(
+            !contains_kind(&kinds, EdgeKind::NonManifold)
+                && !contains_kind(&[], EdgeKind::Boundary)
+        );
     }
 
     #[test]

@@ -58,7 +58,9 @@ pub mod transform;
 pub use adjacency::{VertexNeighbours, VertexTriangles, unreferenced_vertices};
 pub use boundary::{BoundaryLoop, boundary_loops, boundary_vertices};
 pub use components::{TriangleComponents, UnionFind};
-pub use connectivity::{Connectivity, ConnectivityError, HalfEdgeView, kinds_from_codes};
+pub use connectivity::{
+    Connectivity, ConnectivityError, HalfEdgeView, contains_kind, kinds_from_codes,
+};
 pub use csr::{Csr, for_each_by_four};
 pub use edges::{EdgeBuckets, Members};
 pub use halfedge::{EdgeKind, EdgeLookup, HalfEdges};
