@@ -32,6 +32,9 @@ pub const BOUNDARY_WEIGHT: f64 = 1.0;
 /// The best point is used only within this many edge lengths of the edge's midpoint; beyond
 /// it (near-singular quadric) the better of the ends and the midpoint is taken.
 const MAX_OPTIMUM_REACH: f64 = 2.0;
+/// The collapse queue gives back its buckets' spare capacity after popping this fraction of
+/// its entries.
+const SHRINK_EVERY_FRACTION: usize = 64;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settings {
@@ -62,7 +65,19 @@ pub struct Decimation {
 /// allowed collapse is left. Removed triangles (all corners `NONE`) are skipped.
 pub fn decimate(positions: &[f32], triangles: &[u32], settings: Settings) -> Decimation {
     let (ids, positions, triangles) = Renumbering::spatial(positions, triangles);
-    let d = decimate_in_place(&positions, &triangles, settings);
+    translate(&ids, decimate_in_place(&positions, triangles, settings))
+}
+
+/// [`decimate`] of arrays it may drop once it has its working copy: the guest then holds
+/// the mesh once, not twice, while it works.
+pub fn decimate_owned(positions: Vec<f32>, triangles: Vec<u32>, settings: Settings) -> Decimation {
+    let (ids, work_positions, work_triangles) = Renumbering::spatial(&positions, &triangles);
+    drop((positions, triangles));
+    translate(&ids, decimate_in_place(&work_positions, work_triangles, settings))
+}
+
+/// A decimation in working ids, in the host's.
+fn translate(ids: &Renumbering, d: Decimation) -> Decimation {
     let mut order: Vec<usize> = (0..d.moved.len()).collect();
     order.sort_unstable_by_key(|&i| ids.vertex(d.moved[i]));
     Decimation {
@@ -77,19 +92,23 @@ pub fn decimate(positions: &[f32], triangles: &[u32], settings: Settings) -> Dec
     }
 }
 
-/// [`decimate`] in the ids it is given.
-fn decimate_in_place(positions: &[f32], triangles: &[u32], settings: Settings) -> Decimation {
-    let mut state = State::new(positions, triangles, settings);
+/// [`decimate`] in the ids it is given; `triangles` are dropped once the state is built.
+fn decimate_in_place(positions: &[f32], triangles: Vec<u32>, settings: Settings) -> Decimation {
+    let mut state = State::new(positions, &triangles, settings);
+    drop(triangles);
     let before = state.live;
-    let mut queue = Queue::new();
-    for v in 0..state.pos.len() as u32 {
-        for w in state.mesh.neighbours(v) {
-            if v < w {
-                state.push(&mut queue, v, w);
-            }
-        }
-    }
+    let mut queue = state.first_queue();
+    let mut pops_since_shrink = 0;
     while state.live > settings.target_triangles {
+        // The heap's buckets keep the largest capacity they ever had while entries move
+        // between them as the top rises: without this they held about four times the
+        // entries in them. Order is untouched, so is the result; a shrink copies at most
+        // the entries, once per 1/64 of them popped.
+        pops_since_shrink += 1;
+        if pops_since_shrink > queue.len() / SHRINK_EVERY_FRACTION {
+            queue.shrink_to_fit();
+            pops_since_shrink = 0;
+        }
         let Some((Reverse(key), entry)) = queue.pop() else { break };
         let Candidate { a, b, .. } = entry;
         if !state.is_current(&entry) {
@@ -289,16 +308,54 @@ impl State {
         }
     }
 
-    /// Queues edge `a`–`b` by its cost. Whether it keeps the topology and folds nothing is
-    /// checked when it is popped: most queued entries go stale before that.
-    fn push(&self, queue: &mut Queue, a: u32, b: u32) {
-        let cost = if self.settings.quality_weight > 0.0 {
+    /// Every edge queued once, in the order of its smaller vertex, then the larger.
+    ///
+    /// The heap is made with its top already at the cheapest of them: a heap without a top
+    /// first gathers its entries in a list of their own and moves each to its bucket at
+    /// the first pop, holding every entry twice (two thirds of the filter's memory went
+    /// to that). The buckets then receive the same entries in the same order, so every pop
+    /// is the same (ties included) and so is the result. That costs a first pass for the
+    /// cheapest cost.
+    fn first_queue(&self) -> Queue {
+        let mut cheapest: Option<u32> = None;
+        self.for_each_edge(|a, b| {
+            if let Some(cost) = self.cost(a, b) {
+                let key = cost_key(cost);
+                cheapest = Some(cheapest.map_or(key, |c| c.min(key)));
+            }
+        });
+        let Some(cheapest) = cheapest else { return Queue::new() };
+        let mut queue = Queue::new_at(Reverse(cheapest));
+        self.for_each_edge(|a, b| self.push(&mut queue, a, b));
+        queue
+    }
+
+    fn for_each_edge(&self, mut f: impl FnMut(u32, u32)) {
+        let mut ring = Vec::new();
+        for v in 0..self.pos.len() as u32 {
+            self.mesh.neighbours_into(v, &mut ring);
+            for &w in &ring {
+                if v < w {
+                    f(v, w);
+                }
+            }
+        }
+    }
+
+    /// What collapsing edge `a`–`b` costs, if its ends may merge.
+    fn cost(&self, a: u32, b: u32) -> Option<f64> {
+        if self.settings.quality_weight > 0.0 {
             // The shape penalty needs the fan anyway.
             self.evaluate(a, b).map(|c| c.cost)
         } else {
             self.placement(a, b).map(|(_, error)| error)
-        };
-        if let Some(cost) = cost {
+        }
+    }
+
+    /// Queues edge `a`–`b` by its cost. Whether it keeps the topology and folds nothing is
+    /// checked when it is popped: most queued entries go stale before that.
+    fn push(&self, queue: &mut Queue, a: u32, b: u32) {
+        if let Some(cost) = self.cost(a, b) {
             let (version_a, version_b) = (self.version[a as usize], self.version[b as usize]);
             let last = queue.top().map_or(0, |Reverse(key)| key);
             let key = cost_key(cost).max(last);

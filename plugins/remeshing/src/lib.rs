@@ -16,7 +16,7 @@ pub mod renumber;
 use meshflow_plugin_sdk::geometry::bounding_box;
 use meshflow_plugin_sdk::{Error, Mesh, ParamSpec, Params, Result, Service};
 
-use decimate::{Settings, decimate};
+use decimate::{Settings, decimate_owned};
 use isotropic::{Edit, remesh};
 use loop_subdivision::loop_subdivision;
 
@@ -48,7 +48,7 @@ fn quadric_decimation(mesh: &Mesh, params: &Params) -> Result<String> {
         preserve_boundary: params.boolean("preserve-boundary")?,
         quality_weight: params.real("quality-weight")?,
     };
-    let result = decimate(&mesh.positions(), &mesh.triangles(), settings);
+    let result = decimate_owned(mesh.positions(), mesh.triangles(), settings);
     for &edge in &result.collapses {
         mesh.collapse_edge(edge)?;
     }

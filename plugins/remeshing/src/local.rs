@@ -105,9 +105,14 @@ impl LocalMesh {
     /// The vertices sharing a live triangle with `v`, ascending.
     pub fn neighbours(&self, v: u32) -> Vec<u32> {
         let mut out = Vec::new();
-        self.ring(v, &mut out);
-        out.dedup();
+        self.neighbours_into(v, &mut out);
         out
+    }
+
+    /// [`LocalMesh::neighbours`] into `out`, whose allocation is reused.
+    pub fn neighbours_into(&self, v: u32, out: &mut Vec<u32>) {
+        self.ring(v, out);
+        out.dedup();
     }
 
     /// How many vertices share a live triangle with `v`.

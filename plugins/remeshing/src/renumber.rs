@@ -30,7 +30,9 @@ impl Renumbering {
         let n = positions.len() / 3;
         let mut coded: Vec<(u64, u32)> = morton_codes(positions).into_iter().zip(0..).collect();
         coded.sort_unstable();
-        let vertices: Vec<u32> = coded.into_iter().map(|(_, v)| v).collect();
+        // Collected in place, these would keep the 16-byte pairs' allocations.
+        let mut vertices: Vec<u32> = coded.into_iter().map(|(_, v)| v).collect();
+        vertices.shrink_to_fit();
         let mut working = vec![0; n];
         for (w, &v) in (0..).zip(&vertices) {
             working[v as usize] = w;
@@ -47,14 +49,16 @@ impl Renumbering {
             })
             .collect();
         keyed.sort_unstable();
-        let order: Vec<u32> = keyed.into_iter().map(|(_, t)| t).collect();
+        let mut order: Vec<u32> = keyed.into_iter().map(|(_, t)| t).collect();
+        order.shrink_to_fit();
         let mut new_positions = Vec::with_capacity(3 * n);
         for &v in &vertices {
             new_positions.extend_from_slice(&positions[3 * v as usize..3 * v as usize + 3]);
         }
-        let new_triangles =
-            order.iter().flat_map(|&t| triangles[3 * t as usize..][..3].iter().map(|&v| rename(v)));
-        let new_triangles = new_triangles.collect();
+        let mut new_triangles = Vec::with_capacity(triangles.len());
+        new_triangles.extend(
+            order.iter().flat_map(|&t| triangles[3 * t as usize..][..3].iter().map(|&v| rename(v))),
+        );
         (Renumbering { vertices, triangles: order }, new_positions, new_triangles)
     }
 
