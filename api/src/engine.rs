@@ -275,8 +275,9 @@ pub struct PrefetchRecord {
     pub plugin: String,
     /// The host it was to come from.
     pub from: String,
-    /// `present` (already there), `loaded` (kept from an earlier replay), `fetched`
-    /// (downloaded and compiled now) or `failed` (a replay fetches it when it needs it).
+    /// `pending` (asked, no answer yet; a run that ends first keeps it so), `present`
+    /// (already there), `loaded` (kept from an earlier replay), `fetched` (downloaded and
+    /// compiled now) or `failed` (a replay fetches it when it needs it).
     pub outcome: String,
     /// The time the host took, as it says.
     pub ms: f64,

@@ -15,7 +15,6 @@ use std::sync::{Arc, Mutex};
 use meshflow_api::host::{PrefetchOutcome, PrefetchedPlugins, WantedPlugin};
 use meshflow_api::params::ServiceKind;
 use serde_json::json;
-use tokio::task::JoinHandle;
 
 use crate::plan::Plan;
 use crate::record::PrefetchRecord;
@@ -23,18 +22,12 @@ use crate::registry::{HostEntry, Registry};
 use crate::run::Run;
 use crate::workflow::{Transfer, Workflow};
 
-/// The prefetches of one run: which (host, plugin digest) are ready, and the requests
-/// still under way (dropped with the run: the hosts finish their own work regardless).
+/// The prefetches of one run: which (host, plugin digest) are ready. The requests are
+/// not awaited: one that outlives its run still teaches `measured` that the host holds the
+/// plugin (the run's record is final by then and keeps it `pending`).
 #[derive(Default)]
 pub(super) struct Prefetches {
     ready: Arc<Mutex<HashSet<(String, String)>>>,
-    requests: Vec<JoinHandle<()>>,
-}
-
-impl Drop for Prefetches {
-    fn drop(&mut self) {
-        self.requests.iter().for_each(JoinHandle::abort);
-    }
 }
 
 impl Prefetches {
@@ -46,14 +39,22 @@ impl Prefetches {
         plan: &Plan,
         workflow: &Workflow,
     ) -> Self {
-        let mut prefetches = Self::default();
+        let prefetches = Self::default();
         if !matches!(workflow.transfer, Transfer::Auto | Transfer::Replay) {
             return prefetches;
         }
         for (receiver, wanted) in wanted(plan, workflow) {
             let (run, registry, ready) = (run.clone(), registry.clone(), prefetches.ready.clone());
-            prefetches.requests.push(tokio::spawn(async move {
-                let started_ms = run.elapsed_ms();
+            let started_ms = run.elapsed_ms();
+            // In the record at once: a run that ends before the host answers still says
+            // what was under way.
+            let pending = pending(&receiver.url, &wanted, started_ms);
+            run.update("prefetch", |r| {
+                let json = json!({"host": receiver.url, "plugins": pending});
+                r.prefetches.extend(pending);
+                json
+            });
+            tokio::spawn(async move {
                 let answer = receiver.client.prefetch_plugins(wanted.clone()).await;
                 let finished_ms = run.elapsed_ms();
                 let timing = (started_ms, finished_ms);
@@ -67,10 +68,20 @@ impl Prefetches {
                 }
                 run.update("prefetch", |r| {
                     let json = json!({"host": receiver.url, "plugins": records});
-                    r.prefetches.extend(records);
+                    for record in records {
+                        let asked = |p: &&mut PrefetchRecord| {
+                            p.host == record.host
+                                && p.plugin == record.plugin
+                                && p.outcome == PENDING
+                        };
+                        match r.prefetches.iter_mut().find(asked) {
+                            Some(entry) => *entry = record,
+                            None => r.prefetches.push(record),
+                        }
+                    }
                     json
                 });
-            }));
+            });
         }
         prefetches
     }
@@ -120,6 +131,24 @@ fn filter_plugin(host: &HostEntry, service: &str, pin: Option<&str>) -> Option<S
             }
     })?;
     (entry.info.kind == ServiceKind::Filter).then(|| entry.plugin.clone())
+}
+
+/// A prefetch asked for and not answered yet (the record keeps it if the run ends first).
+const PENDING: &str = "pending";
+
+fn pending(host: &str, wanted: &[WantedPlugin], started_ms: f64) -> Vec<PrefetchRecord> {
+    let record = |w: &WantedPlugin| PrefetchRecord {
+        host: host.to_owned(),
+        plugin: w.digest.clone(),
+        from: w.from.clone(),
+        outcome: PENDING.to_owned(),
+        ms: 0.0,
+        bytes: None,
+        started_ms,
+        finished_ms: started_ms,
+        error: None,
+    };
+    wanted.iter().map(record).collect()
 }
 
 /// The record of one host's prefetch: its answer per plugin, or the request's failure for
