@@ -29,11 +29,16 @@ pub struct Surface {
 impl Surface {
     /// Indexes the given triangles (all corners in range) with cells of about `cell_size`.
     pub fn new(positions: &[f32], triangles: Vec<[u32; 3]>, cell_size: f64) -> Self {
+        Self::from_owned(positions.to_vec(), triangles, cell_size)
+    }
+
+    /// [`Surface::new`] keeping `positions` rather than a copy of them.
+    pub fn from_owned(positions: Vec<f32>, triangles: Vec<[u32; 3]>, cell_size: f64) -> Self {
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];
         for t in &triangles {
             for &v in t {
-                let p = point(positions, v);
+                let p = point(&positions, v);
                 for k in 0..3 {
                     lo[k] = lo[k].min(p[k]);
                     hi[k] = hi[k].max(p[k]);
@@ -48,7 +53,7 @@ impl Surface {
         let cell = cell_size.max(span / MAX_CELLS_PER_AXIS).max(f64::MIN_POSITIVE);
         let extent = std::array::from_fn(|k| ((hi[k] - lo[k]) / cell) as i64 + 1);
         let mut surface = Surface {
-            positions: positions.to_vec(),
+            positions,
             triangles,
             origin: lo,
             cell,
@@ -58,7 +63,7 @@ impl Surface {
         };
         let mut entries = Vec::with_capacity(surface.triangles.len() * 2);
         for (t, c) in surface.triangles.iter().enumerate() {
-            let cells = c.map(|v| surface.cell_of(point(positions, v)));
+            let cells = c.map(|v| surface.cell_of(point(&surface.positions, v)));
             let min: [i64; 3] = std::array::from_fn(|k| cells.iter().map(|c| c[k]).min().unwrap());
             let max: [i64; 3] = std::array::from_fn(|k| cells.iter().map(|c| c[k]).max().unwrap());
             let count: i64 = (0..3).map(|k| max[k] - min[k] + 1).product();

@@ -88,16 +88,37 @@ pub fn remesh(
     triangles: &[u32],
     settings: Settings,
 ) -> Result<Remeshed, Refusal> {
-    let n = positions.len() / 3;
     let (ids, positions, triangles) = Renumbering::spatial(positions, triangles);
-    let (positions, triangles) = (&positions[..], &triangles[..]);
-    let half_edges = manifold_edges(n, triangles).map_err(Refusal::Input)?;
+    remesh_working(ids, positions, triangles, settings)
+}
+
+/// [`remesh`] of arrays it may drop once it has its working copy: the guest then holds the
+/// input once, not twice, while it works.
+pub fn remesh_owned(
+    positions: Vec<f32>,
+    triangles: Vec<u32>,
+    settings: Settings,
+) -> Result<Remeshed, Refusal> {
+    let (ids, work_positions, work_triangles) = Renumbering::spatial(&positions, &triangles);
+    drop((positions, triangles));
+    remesh_working(ids, work_positions, work_triangles, settings)
+}
+
+/// [`remesh`] in working ids; each array is dropped as soon as nothing needs it.
+fn remesh_working(
+    ids: Renumbering,
+    positions: Vec<f32>,
+    triangles: Vec<u32>,
+    settings: Settings,
+) -> Result<Remeshed, Refusal> {
+    let n = positions.len() / 3;
+    let half_edges = manifold_edges(n, &triangles).map_err(Refusal::Input)?;
     let area: f64 = triangles
         .chunks_exact(3)
         .map(|c| {
             0.5 * norm(cross(
-                sub(point(positions, c[1]), point(positions, c[0])),
-                sub(point(positions, c[2]), point(positions, c[0])),
+                sub(point(&positions, c[1]), point(&positions, c[0])),
+                sub(point(&positions, c[2]), point(&positions, c[0])),
             ))
         })
         .sum();
@@ -108,9 +129,11 @@ pub fn remesh(
     }
 
     let mut mesh =
-        Local::new(positions, triangles, &half_edges, settings.feature_angle_degrees, ids);
+        Local::new(&positions, &triangles, &half_edges, settings.feature_angle_degrees, ids);
+    drop(half_edges);
     let corners: Vec<[u32; 3]> = triangles.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-    let surface = Surface::new(positions, corners, settings.target_length);
+    drop(triangles);
+    let surface = Surface::from_owned(positions, corners, settings.target_length);
     let long = 4.0 / 3.0 * settings.target_length;
     let short = 4.0 / 5.0 * settings.target_length;
     for _ in 0..settings.iterations {
@@ -123,6 +146,7 @@ pub fn remesh(
         mesh.flip_toward_valence_six();
         mesh.relax_and_project(&surface);
     }
+    drop(surface);
     let positions: Vec<f32> = mesh.pos.iter().flat_map(|p| p.map(|x| x as f32)).collect();
     let ids = &mesh.ids;
     let edits = mesh.edits.iter().map(|edit| match *edit {

@@ -17,7 +17,7 @@ use meshflow_plugin_sdk::geometry::bounding_box;
 use meshflow_plugin_sdk::{Error, Mesh, ParamSpec, Params, Result, Service};
 
 use decimate::{Settings, decimate_owned};
-use isotropic::{Edit, remesh};
+use isotropic::{Edit, remesh_owned};
 use loop_subdivision::loop_subdivision;
 
 /// The most Loop iterations a run may ask for (each quadruples the triangles).
@@ -116,7 +116,8 @@ fn isotropic_remeshing(mesh: &Mesh, params: &Params) -> Result<String> {
         iterations: params.integer("iterations")? as u32,
         feature_angle_degrees: params.real("feature-angle")?,
     };
-    let result = remesh(&positions, &triangles, settings)
+    let input_triangles = triangles.len() / 3;
+    let result = remesh_owned(positions, triangles, settings)
         .map_err(|refusal| Error(format!("isotropic-remeshing: {refusal}")))?;
     let mut next_vertex = mesh.vertex_slots() as u32;
     for edit in &result.edits {
@@ -142,7 +143,7 @@ fn isotropic_remeshing(mesh: &Mesh, params: &Params) -> Result<String> {
         result.collapses,
         result.flips,
         settings.iterations,
-        triangles.len() / 3,
+        input_triangles,
         mesh.triangle_count()
     ))
 }
