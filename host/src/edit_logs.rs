@@ -6,8 +6,14 @@
 //! result is hashed and named, and its log follows on a thread of its own. The log's name
 //! comes from the step's base and result hashes, so its URL is in the answer, and a GET of
 //! it waits until it is written (`routes/blobs.rs`).
+//!
+//! The answer carries the log's *estimated* size, from the bytes per edit the same kind of
+//! step's last log took. Those rates are kept in the data folder (`edit-log-rates.json`),
+//! so a restarted host estimates its first uniform smoothing as 1 KB, not as 6 bytes per
+//! moved vertex (which sent receivers to replay a step whose log was tiny).
 
 use std::collections::HashMap;
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -41,6 +47,8 @@ pub struct EditLogs {
     pending: Pending,
     /// Bytes per edit of each kind of step's last encoded log: the next estimate.
     bytes_per_edit: Arc<Mutex<HashMap<String, f64>>>,
+    /// Where the rates are kept across restarts; none in tests.
+    rates_file: Option<PathBuf>,
     /// Each encoding holds a base and a result mesh: a step waits for a slot before its
     /// answer rather than letting them pile up.
     slots: Arc<Semaphore>,
@@ -51,6 +59,7 @@ impl Default for EditLogs {
         Self {
             pending: Pending::default(),
             bytes_per_edit: Arc::default(),
+            rates_file: None,
             slots: Arc::new(Semaphore::new(MAX_ENCODING_EDIT_LOGS)),
         }
     }
@@ -99,6 +108,28 @@ impl Pending {
 }
 
 impl EditLogs {
+    /// Edit logs whose rates are kept in `file`, starting from what it holds. A file that
+    /// is missing, unreadable or not a table of finite positive rates starts empty (with a
+    /// warning for the last two): estimates are only estimates.
+    pub fn kept_in(file: PathBuf) -> Self {
+        let rates = match std::fs::read(&file) {
+            Ok(bytes) => read_rates(&bytes).unwrap_or_else(|| {
+                tracing::warn!("ignoring {}: not a table of edit-log rates", file.display());
+                HashMap::new()
+            }),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => HashMap::new(),
+            Err(e) => {
+                tracing::warn!("ignoring {}: {e}", file.display());
+                HashMap::new()
+            }
+        };
+        Self {
+            bytes_per_edit: Arc::new(Mutex::new(rates)),
+            rates_file: Some(file),
+            ..Self::default()
+        }
+    }
+
     fn rates(&self) -> std::sync::MutexGuard<'_, HashMap<String, f64>> {
         lock_rates(&self.bytes_per_edit)
     }
@@ -114,11 +145,19 @@ impl EditLogs {
         let estimate = self.estimate(&key, edits);
         let encoding = self.pending.begin(&name);
         let (rates, blobs) = (self.bytes_per_edit.clone(), blobs.clone());
+        let rates_file = self.rates_file.clone();
         tokio::spawn(async move {
             let _permit = permit;
             let StepLog { base, base_hash, log, result, result_hash, .. } = step;
             let encoded = tokio::task::spawn_blocking(move || {
-                correction::encode_known(base, base_hash, &log, &result, result_hash)
+                let bytes = correction::encode_known(base, base_hash, &log, &result, result_hash);
+                if let Ok(bytes) = &bytes {
+                    let kept = learn(&mut lock_rates(&rates), &key, edits, bytes.len());
+                    if let Some(file) = rates_file {
+                        keep_rates(&file, &kept);
+                    }
+                }
+                bytes
             })
             .await;
             let encoded = encoded.map_err(|e| e.to_string());
@@ -130,7 +169,6 @@ impl EditLogs {
                     return;
                 }
             };
-            learn(&mut lock_rates(&rates), &key, edits, bytes.len());
             // The session record already names the log: nothing to hold against eviction.
             match blobs.put(&encoding.name, Arc::new(bytes)).await {
                 Ok(stored) => drop(stored),
@@ -162,7 +200,7 @@ impl EditLogs {
 
     #[cfg(test)]
     fn learn(&self, key: &str, edits: usize, bytes: usize) {
-        learn(&mut self.rates(), key, edits, bytes)
+        learn(&mut self.rates(), key, edits, bytes);
     }
 }
 
@@ -172,17 +210,65 @@ fn lock_rates(
     rates.lock().expect("edit log estimates lock")
 }
 
-/// Keeps the bytes per edit of `key`'s last log, within [`MAX_EDIT_LOG_ESTIMATES`] keys.
-fn learn(rates: &mut HashMap<String, f64>, key: &str, edits: usize, bytes: usize) {
+/// Keeps the bytes per edit of `key`'s last log, within [`MAX_EDIT_LOG_ESTIMATES`] keys;
+/// returns the table as it now is, to be written out without the lock.
+fn learn(
+    rates: &mut HashMap<String, f64>,
+    key: &str,
+    edits: usize,
+    bytes: usize,
+) -> HashMap<String, f64> {
     if rates.len() >= MAX_EDIT_LOG_ESTIMATES && !rates.contains_key(key) {
         rates.clear();
     }
     rates.insert(key.to_owned(), bytes as f64 / edits.max(1) as f64);
+    rates.clone()
+}
+
+/// A kept table, if it is one: at most [`MAX_EDIT_LOG_ESTIMATES`] finite positive rates.
+fn read_rates(bytes: &[u8]) -> Option<HashMap<String, f64>> {
+    let rates: HashMap<String, f64> = serde_json::from_slice(bytes).ok()?;
+    let sane =
+        rates.len() <= MAX_EDIT_LOG_ESTIMATES && rates.values().all(|r| r.is_finite() && *r > 0.0);
+    sane.then_some(rates)
+}
+
+/// Writes the table atomically; a failure costs only the next restart's estimates.
+fn keep_rates(file: &Path, rates: &HashMap<String, f64>) {
+    let written = meshflow_meshio::write_private_file(file, |out| {
+        out.write_all(&serde_json::to_vec(rates).expect("a table of numbers serialises"))
+    });
+    if let Err(e) = written {
+        tracing::warn!("keeping edit-log rates in {}: {e}", file.display());
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rates_kept_in_the_data_folder_estimate_after_a_restart_and_bad_files_are_ignored() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("edit-log-rates.json");
+        // Uniform smoothing of 200k vertices: a 1 KB log, 0.005 bytes per moved vertex.
+        let learned = learn(&mut HashMap::new(), "p/laplacian/u", 200_000, 1_000);
+        keep_rates(&file, &learned);
+        let restarted = EditLogs::kept_in(file.clone());
+        assert_eq!(restarted.estimate("p/laplacian/u", 200_000), 1_000);
+        assert_eq!(
+            restarted.estimate("p/other/x", 1_000),
+            (1_000.0 * DEFAULT_EDIT_LOG_BYTES_PER_EDIT) as u64
+        );
+        for hostile in [&b"not json"[..], b"{\"k\": -1.0}", b"{\"k\": 0}", b"[1, 2]"] {
+            std::fs::write(&file, hostile).unwrap();
+            assert!(EditLogs::kept_in(file.clone()).rates().is_empty(), "{hostile:?}");
+        }
+        let too_many: HashMap<String, f64> =
+            (0..=MAX_EDIT_LOG_ESTIMATES).map(|i| (i.to_string(), 1.0)).collect();
+        std::fs::write(&file, serde_json::to_vec(&too_many).unwrap()).unwrap();
+        assert!(EditLogs::kept_in(file).rates().is_empty());
+    }
 
     #[tokio::test]
     async fn a_wait_for_a_log_being_encoded_ends_when_its_encoding_does() {

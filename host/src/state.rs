@@ -45,6 +45,8 @@ pub struct DataDirs {
     pub replay_plugins: PathBuf,
     pub sessions: PathBuf,
     pub cache: PathBuf,
+    /// The edit logs' bytes per edit, kept across restarts (a file).
+    pub edit_log_rates: PathBuf,
 }
 
 impl DataDirs {
@@ -56,6 +58,7 @@ impl DataDirs {
             replay_plugins: data.join("replay-plugins"),
             sessions: data.join("sessions"),
             cache: config.artefact_cache.clone().unwrap_or_else(|| data.join("cache")),
+            edit_log_rates: data.join("edit-log-rates.json"),
         };
         for dir in [&dirs.blobs, &dirs.plugins, &dirs.replay_plugins, &dirs.sessions, &dirs.cache] {
             std::fs::create_dir_all(dir)?;
@@ -86,7 +89,7 @@ impl Host {
         Ok(Self {
             sessions: Sessions::new(dirs.sessions.clone()),
             blobs: Arc::new(blobs),
-            edit_logs: EditLogs::default(),
+            edit_logs: EditLogs::kept_in(dirs.edit_log_rates.clone()),
             replay_plugins,
             conversions: Conversions::default(),
             metrics: Metrics::new(downloads.downloaded()),
