@@ -96,3 +96,50 @@ impl Runtime {
         Ok(runs)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Limits;
+    use meshflow_builtin_plugins::PLUGINS;
+
+    fn load(runtime: &Runtime, name: &str) -> Plugin {
+        let wasm = PLUGINS.iter().find(|p| p.name == name).expect("a built-in plugin").wasm;
+        runtime.load(wasm).expect("it loads")
+    }
+
+    #[test]
+    fn checks_share_an_instance_and_a_refusal_stops_only_its_own_check() {
+        let runtime = Runtime::new(Limits::default(), None).expect("a runtime");
+        let checks = load(&runtime, "checks");
+        let (positions, triangles) = meshflow_topology::shapes::unit_cube();
+        let cube = Arc::new(MeshData::new(positions.clone(), triangles.clone()));
+        let services = ["edge-count", "volume", "hole-count", "is-oriented"];
+        let runs = runtime.run_checks(&checks, &services, Arc::clone(&cube)).expect("runs");
+        // Each as a run of its own gives the same, to the bit.
+        for (run, service) in runs.iter().zip(services) {
+            let alone = runtime.run(&checks, service, Arc::clone(&cube), &[]).expect("a run");
+            assert_eq!(run.value.as_ref().ok(), alone.value.as_ref(), "{service}");
+        }
+        assert_eq!(runs[0].value.as_ref().ok(), Some(&Value::Integer(18)));
+        assert_eq!(runs[3].value.as_ref().ok(), Some(&Value::Boolean(true)));
+        // Without its top the cube encloses nothing: volume refuses, the rest still answer.
+        let open = MeshData::new(positions, triangles[6..].to_vec());
+        let runs = runtime.run_checks(&checks, &services, open).expect("runs");
+        let refused = runs[1].value.as_ref().expect_err("an open mesh has no volume");
+        assert!(refused.to_string().contains("no closed component"), "{refused}");
+        assert_eq!(runs[2].value.as_ref().ok(), Some(&Value::Integer(1)));
+    }
+
+    #[test]
+    fn filters_and_unknown_names_are_refused_before_anything_runs() {
+        let runtime = Runtime::new(Limits::default(), None).expect("a runtime");
+        let cube = MeshData::new(vec![0.0; 9], vec![0, 1, 2]);
+        let smoothing = load(&runtime, "smoothing");
+        let error = runtime.run_checks(&smoothing, &["laplacian-smoothing"], cube.clone());
+        assert!(matches!(error, Err(ChecksError::Filter(name)) if name == "laplacian-smoothing"));
+        let checks = load(&runtime, "checks");
+        let error = runtime.run_checks(&checks, &["edge-count", "edge-cuont"], cube);
+        assert!(matches!(error, Err(ChecksError::Unknown(name)) if name == "edge-cuont"));
+    }
+}
