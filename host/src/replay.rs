@@ -88,15 +88,20 @@ pub struct Replayed {
     pub plugin_wait: Option<Duration>,
 }
 
-/// Why a plugin named for a prefetch is refused before anything is fetched.
+/// Why a plugin named for a prefetch is not ready: refused before anything is fetched (a
+/// digest or source that does not qualify), or the fetch or compile failed or took too long.
 #[derive(Debug, thiserror::Error)]
-pub enum PrefetchRefusal {
+pub enum PrefetchError {
     #[error("the digest is not 64 lowercase hex digits")]
     Digest,
     #[error("{0:?} is not the origin of a host of the cluster")]
     NotACluster(String),
     #[error("not ready after {0:?}")]
     TimedOut(Duration),
+    #[error("the host is stopping")]
+    Stopping,
+    #[error(transparent)]
+    Plugin(#[from] ReplayFailure),
 }
 
 impl ReplayPlugins {
@@ -327,8 +332,9 @@ impl ReplayPlugins {
         match outcome {
             Ok(outcome) => answer(outcome, None),
             Err(error) => {
-                tracing::warn!(from = %wanted.from, "prefetching plugin {digest:.64}: {error}");
-                answer(PrefetchOutcome::Failed, Some(error))
+                let from: String = wanted.from.chars().take(200).collect();
+                tracing::warn!(%from, "prefetching plugin {digest:.64}: {error}");
+                answer(PrefetchOutcome::Failed, Some(error.to_string()))
             }
         }
     }
@@ -350,24 +356,24 @@ impl ReplayPlugins {
         offered: &PluginSet,
         scope: &FetchScope,
         wanted: &WantedPlugin,
-    ) -> Result<PrefetchOutcome, String> {
+    ) -> Result<PrefetchOutcome, PrefetchError> {
         let digest = wanted.digest.as_str();
         if !is_digest(digest) {
-            return Err(PrefetchRefusal::Digest.to_string());
+            return Err(PrefetchError::Digest);
         }
         if self.ready(offered, digest).is_some() {
             return Ok(PrefetchOutcome::Present);
         }
-        let from = cluster_origin(scope, &wanted.from).map_err(|e| e.to_string())?;
+        let from = cluster_origin(scope, &wanted.from)?;
         let work = async {
-            let _slot = self.prefetching.acquire().await.map_err(|e| e.to_string())?;
+            let _slot = self.prefetching.acquire().await.map_err(|_| PrefetchError::Stopping)?;
             // Another prefetch or a replay may have made it ready while this one waited.
             if self.ready(offered, digest).is_some() {
                 return Ok(PrefetchOutcome::Present);
             }
             let kept = tokio::fs::try_exists(self.path(digest)).await.unwrap_or(false);
             let source = PluginSource { scope, producer: Some(&from) };
-            self.plugin_for(offered, source, digest).await.map_err(|e| e.to_string())?;
+            self.plugin_for(offered, source, digest).await?;
             Ok(match kept {
                 true => PrefetchOutcome::Loaded,
                 false => PrefetchOutcome::Fetched,
@@ -375,7 +381,7 @@ impl ReplayPlugins {
         };
         tokio::time::timeout(PREFETCH_TIMEOUT, work)
             .await
-            .unwrap_or_else(|_| Err(PrefetchRefusal::TimedOut(PREFETCH_TIMEOUT).to_string()))
+            .unwrap_or(Err(PrefetchError::TimedOut(PREFETCH_TIMEOUT)))
     }
 
     /// The size of the copy kept from an earlier replay or prefetch.
@@ -438,8 +444,8 @@ fn is_digest(digest: &str) -> bool {
 
 /// The origin of `from` if it is one of the cluster's (the engine vouched for it), else
 /// why not: a prefetch fetches only from hosts of the cluster.
-fn cluster_origin(scope: &FetchScope, from: &str) -> Result<String, PrefetchRefusal> {
-    let not_cluster = || PrefetchRefusal::NotACluster(from.chars().take(200).collect());
+fn cluster_origin(scope: &FetchScope, from: &str) -> Result<String, PrefetchError> {
+    let not_cluster = || PrefetchError::NotACluster(from.chars().take(200).collect());
     let url = reqwest::Url::parse(from).map_err(|_| not_cluster())?;
     let found = origin(&url);
     match scope.cluster.contains(&found) {
@@ -451,4 +457,33 @@ fn cluster_origin(scope: &FetchScope, from: &str) -> Result<String, PrefetchRefu
 fn parse_digest(hex: &str) -> Option<[u8; 32]> {
     let bytes = hex::decode(hex).ok()?;
     bytes.try_into().ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_prefetch_names_only_digests_and_fetches_only_from_the_cluster() {
+        assert!(is_digest(&"0a".repeat(32)));
+        for bad in
+            ["0A".repeat(32), "0a".repeat(31), format!("../{}", "a".repeat(61)), String::new()]
+        {
+            assert!(!is_digest(&bad), "{bad}");
+        }
+        let mut scope = FetchScope {
+            allowed: meshflow_api::fetch_rules::Origins::any(),
+            cluster: Default::default(),
+            token: None,
+        };
+        scope.cluster.insert("http://127.0.0.1:7001".to_owned());
+        let found = cluster_origin(&scope, "http://127.0.0.1:7001/anything?x=1").unwrap();
+        assert_eq!(found, "http://127.0.0.1:7001");
+        // Allowed to fetch inputs from is not enough: the source must be a cluster host.
+        for stranger in ["http://127.0.0.1:7002", "http://example.org", "not a url", "file:///etc"]
+        {
+            let refused = cluster_origin(&scope, stranger).unwrap_err();
+            assert!(matches!(refused, PrefetchError::NotACluster(_)), "{stranger}: {refused}");
+        }
+    }
 }
