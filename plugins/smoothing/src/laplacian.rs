@@ -39,21 +39,39 @@ pub fn smooth(
     pinning: Pinning,
     weights: Weights,
 ) -> Vec<f32> {
+    smooth_owned(positions.to_vec(), triangles.to_vec(), iterations, pinning, weights)
+}
+
+/// [`smooth`] of arrays it may keep or drop: the positions become the first buffer, and
+/// uniform weights drop the triangles once the neighbours are known, so the guest holds
+/// the mesh once. The half-edges (for the boundary) come and go before the neighbours are
+/// built, so the two never take memory at once.
+pub fn smooth_owned(
+    positions: Vec<f32>,
+    triangles: Vec<u32>,
+    iterations: u32,
+    pinning: Pinning,
+    weights: Weights,
+) -> Vec<f32> {
     let vertex_count = positions.len() / 3;
-    let neighbours = VertexNeighbours::new(vertex_count, triangles);
     let pinned = match pinning {
         Pinning::Boundary => {
-            boundary_vertices(vertex_count, triangles, &HalfEdges::new(vertex_count, triangles))
+            boundary_vertices(vertex_count, &triangles, &HalfEdges::new(vertex_count, &triangles))
         }
         Pinning::None => vec![false; vertex_count],
     };
-    let mut current = positions.to_vec();
-    let mut next = positions.to_vec();
+    let neighbours = VertexNeighbours::new(vertex_count, &triangles);
+    let triangles = match weights {
+        Weights::Uniform => Vec::new(),
+        Weights::Cotangent => triangles,
+    };
+    let mut current = positions;
+    let mut next = current.clone();
     for _ in 0..iterations {
         match weights {
             Weights::Uniform => step(&current, &mut next, &neighbours, &pinned, |_| 1.0),
             Weights::Cotangent => {
-                let cot = cotangent_weights(&current, triangles, &neighbours);
+                let cot = cotangent_weights(&current, &triangles, &neighbours);
                 step(&current, &mut next, &neighbours, &pinned, |i| larger(f64::from(cot[i]), 0.0));
             }
         }

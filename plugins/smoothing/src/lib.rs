@@ -19,7 +19,7 @@ fn laplacian_smoothing(mesh: &Mesh, params: &Params) -> Result<String> {
         _ => Weights::Uniform,
     };
     let smoothed =
-        laplacian::smooth(&mesh.positions(), &mesh.triangles(), iterations, pinning, weights);
+        laplacian::smooth_owned(mesh.positions(), mesh.triangles(), iterations, pinning, weights);
     // One move-all edit for the whole step: the correction codes it as displacements.
     mesh.set_positions(&smoothed)?;
     Ok(format!(
@@ -32,7 +32,7 @@ fn laplacian_smoothing(mesh: &Mesh, params: &Params) -> Result<String> {
 fn taubin_smoothing(mesh: &Mesh, params: &Params) -> Result<String> {
     let (lambda, mu) = (params.real("lambda")?, params.real("mu")?);
     let iterations = params.integer("iterations")? as u32;
-    let smoothed = taubin::smooth(&mesh.positions(), &mesh.triangles(), lambda, mu, iterations);
+    let smoothed = taubin::smooth_owned(mesh.positions(), mesh.triangles(), lambda, mu, iterations);
     mesh.set_positions(&smoothed)?;
     Ok(format!(
         "{iterations} Taubin iteration(s) (lambda {lambda}, mu {mu}) over {} vertices",

@@ -19,13 +19,27 @@ pub fn smooth(
     mu: f64,
     iterations: u32,
 ) -> Vec<f32> {
+    smooth_owned(positions.to_vec(), triangles.to_vec(), lambda, mu, iterations)
+}
+
+/// [`smooth`] of arrays it may keep or drop: the positions become the first buffer and the
+/// triangles go once the neighbours are known, so the guest holds the mesh once; the
+/// half-edges (for the boundary) go before the neighbours are built.
+pub fn smooth_owned(
+    positions: Vec<f32>,
+    triangles: Vec<u32>,
+    lambda: f64,
+    mu: f64,
+    iterations: u32,
+) -> Vec<f32> {
     let vertex_count = positions.len() / 3;
-    let neighbours = VertexNeighbours::new(vertex_count, triangles);
     let pinned =
-        boundary_vertices(vertex_count, triangles, &HalfEdges::new(vertex_count, triangles));
+        boundary_vertices(vertex_count, &triangles, &HalfEdges::new(vertex_count, &triangles));
+    let neighbours = VertexNeighbours::new(vertex_count, &triangles);
+    drop(triangles);
     // Two buffers, each half-step writing one from the other: pinned vertices and those
     // without neighbours are never written, so they stay the same in both.
-    let mut current = positions.to_vec();
+    let mut current = positions;
     let mut next = current.clone();
     for _ in 0..iterations {
         for factor in [lambda, mu] {
