@@ -690,4 +690,17 @@ fn what_a_file_holds_beyond_the_mesh_is_named_not_dropped_silently() {
     assert!(
         String::from_utf8_lossy(&hashed.stderr).contains("not kept: vertex property 'quality'")
     );
+
+    // Through the engine and its hosts: the run record says it, and so does `run`.
+    let workflow = dir.path().join("w.json");
+    std::fs::write(&workflow, r#"{"steps": [{"run": "remove-degenerate-triangles"}]}"#).unwrap();
+    let report = dir.path().join("run.json");
+    let (workflow, report_path) = (workflow.display().to_string(), report.display().to_string());
+    let ran = ok(&["run", &workflow, &scan, "-o", &out, "--report", &report_path]);
+    let record = json(&std::fs::read_to_string(&report).unwrap());
+    let recorded = &record["input"]["not_kept"];
+    assert_eq!(recorded[0], "vertex colour (red, green, blue)", "{record:#}");
+    assert_eq!(recorded[1], "vertex property 'quality'", "{record:#}");
+    let warning = "warning: the input's vertex colour (red, green, blue) is not kept";
+    assert!(ran.contains(warning), "{ran}");
 }

@@ -111,7 +111,20 @@ async fn the_workbench_builds_runs_shows_downloads_and_remembers_runs() {
         .run(&serde_json::json!({"steps": [{"run": "remove-degenerate-triangles"}]}), &large)
         .await;
     assert_eq!(record["status"], "completed", "{record:#}");
-    browse("big", &engine.url, &artefacts, &[("BIG_RUN", text(&record["id"]))]);
+    // A coloured input: its run's page says what the file held that the run does not keep.
+    let coloured = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+                    property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n\
+                    element face 1\nproperty list uchar int vertex_indices\nend_header\n\
+                    0 0 0 255 0 0\n1 0 0 0 255 0\n0 1 0 0 0 255\n3 0 1 2\n";
+    let mesh = io::load_bytes(coloured.as_bytes(), io::Format::Ply, "coloured.ply").unwrap();
+    let coloured = Input { name: "coloured.ply", bytes: coloured.as_bytes().to_vec(), mesh };
+    let url = api.upload(&coloured).await;
+    let kept_less = api
+        .run(&serde_json::json!({"steps": [{"run": "remove-degenerate-triangles"}]}), &url)
+        .await;
+    assert_eq!(kept_less["status"], "completed", "{kept_less:#}");
+    let (big, coloured) = (text(&record["id"]), text(&kept_less["id"]));
+    browse("big", &engine.url, &artefacts, &[("BIG_RUN", big), ("COLOURED_RUN", coloured)]);
 
     engine.kill_and_restart().await;
     browse("restarted", &engine.url, &artefacts, &[]);

@@ -260,6 +260,10 @@ pub struct InputRecord {
     /// The step exponents of a quantised run's grid.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grid: Option<[i32; 3]>,
+    /// What the input file held that a mesh does not keep (colours, normals, quality, …),
+    /// as the first host to load it found: the result has none of it.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub not_kept: Vec<String>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

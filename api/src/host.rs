@@ -239,6 +239,9 @@ pub struct SessionStatus {
     pub download_ms: Option<f64>,
     pub load_ms: Option<f64>,
     pub input_bytes: Option<u64>,
+    /// What the input file held that a mesh does not keep (colours, normals, …), once loaded.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub not_kept: Vec<String>,
     /// The step exponents of the session's grid, when it keeps one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grid: Option<[i32; 3]>,

@@ -473,6 +473,7 @@ mod tests {
             vertices: 3,
             triangles: 1,
             grid: None,
+            not_kept: Vec::new(),
         });
         let cluster = Cluster(vec![other, used]);
         let downloads = Downloads::default();

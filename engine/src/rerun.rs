@@ -202,6 +202,7 @@ mod tests {
             vertices: 3,
             triangles: 1,
             grid: None,
+            not_kept: Vec::new(),
         });
         record.steps = outputs
             .iter()

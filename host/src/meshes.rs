@@ -41,6 +41,8 @@ pub struct Decoded {
     pub mesh: CurrentMesh,
     pub bytes: Vec<u8>,
     pub encoding: MeshEncoding,
+    /// What the file held that the mesh does not keep (nothing for packed meshes).
+    pub not_kept: Vec<String>,
 }
 
 const PACKED_MAGIC: &[u8] = b"MFM\x1a";
@@ -129,9 +131,16 @@ pub async fn decode_hashed(url: &str, bytes: Vec<u8>) -> Result<Decoded, MeshErr
     let encoding = MeshEncoding::detect(url, &bytes)?;
     let url = url.to_owned();
     tokio::task::spawn_blocking(move || {
-        let mesh = decode(&bytes, encoding, &url)?;
+        let (mesh, not_kept) = match encoding {
+            MeshEncoding::File(format) => {
+                let loaded = io::load_bytes_reporting(&bytes, format, &url)?;
+                (loaded.mesh, loaded.dropped.lines())
+            }
+            MeshEncoding::Packed => (decode(&bytes, encoding, &url)?, Vec::new()),
+        };
         let hash = mesh.content_hash().to_hex();
-        Ok(Decoded { mesh: CurrentMesh { mesh: Arc::new(mesh), hash }, bytes, encoding })
+        let mesh = CurrentMesh { mesh: Arc::new(mesh), hash };
+        Ok(Decoded { mesh, bytes, encoding, not_kept })
     })
     .await?
 }

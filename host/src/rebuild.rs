@@ -15,7 +15,7 @@ use super::blobs::{BlobError, Stored};
 use super::downloads::PeersError;
 use super::meshes::{self, CORRECTION, CurrentMesh, MeshEncoding, MeshError, REPLAY, hashed};
 use super::replay::{PluginSource, ReplayFailure};
-use super::sessions::{LoadTimes, SessionError, SessionRecord};
+use super::sessions::{LoadReport, SessionError, SessionRecord};
 use super::spool::SpoolError;
 use super::state::Host;
 
@@ -78,7 +78,7 @@ pub async fn load(host: Arc<Host>, id: String, record: SessionRecord) {
     }
 }
 
-type Built<'a> = (String, CurrentMesh, Option<Grid>, LoadTimes, Option<Stored<'a>>);
+type Built<'a> = (String, CurrentMesh, Option<Grid>, LoadReport, Option<Stored<'a>>);
 
 async fn build<'a>(
     host: &'a Host,
@@ -89,7 +89,7 @@ async fn build<'a>(
         Some(name) => {
             let mesh = read_mesh_blob(host, name).await?;
             let current = hashed(mesh).await?;
-            (name.clone(), current, LoadTimes::default(), None)
+            (name.clone(), current, LoadReport::default(), None)
         }
         None => {
             let (name, current, times, stored) = download_input(host, record, cancel).await?;
@@ -149,7 +149,7 @@ async fn download_input<'a>(
     host: &'a Host,
     record: &SessionRecord,
     cancel: &tokio_util::sync::CancellationToken,
-) -> Result<(String, CurrentMesh, LoadTimes, Stored<'a>), RebuildError> {
+) -> Result<(String, CurrentMesh, LoadReport, Stored<'a>), RebuildError> {
     let started = Instant::now();
     let scope = host.downloads.scope(&record.peers)?;
     // On disk as it comes; read back once to parse, and kept as the blob by renaming.
@@ -159,7 +159,7 @@ async fn download_input<'a>(
     let url = quoted(&record.input_url);
     let bytes = spooled.read().await.map_err(|source| SpoolError::Io { url, source })?;
     let decoded = meshes::decode_hashed(&record.input_url, bytes).await?;
-    let (current, encoding) = (decoded.mesh, decoded.encoding);
+    let (current, encoding, not_kept) = (decoded.mesh, decoded.encoding, decoded.not_kept);
     drop(decoded.bytes);
     let hash = &current.hash;
     // On a grid, the expected hash is the snapped mesh's: checked once it is snapped.
@@ -169,10 +169,11 @@ async fn download_input<'a>(
     let load_ms = millis(started.elapsed()) - download_ms;
     let name = meshes::blob_name(&spooled.digest, encoding, hash);
     let stored = host.blobs.adopt(&name, spooled.path).await?;
-    let times = LoadTimes {
+    let times = LoadReport {
         download_ms: Some(download_ms),
         load_ms: Some(load_ms),
         input_bytes: Some(input_bytes),
+        not_kept,
     };
     Ok((name, current, times, stored))
 }

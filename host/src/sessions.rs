@@ -54,11 +54,13 @@ pub struct SessionRecord {
 }
 
 /// How loading went, for the status.
-#[derive(Clone, Copy, Default)]
-pub struct LoadTimes {
+#[derive(Clone, Default)]
+pub struct LoadReport {
     pub download_ms: Option<f64>,
     pub load_ms: Option<f64>,
     pub input_bytes: Option<u64>,
+    /// What the input file held that the mesh does not keep (`meshflow_meshio::Dropped`).
+    pub not_kept: Vec<String>,
 }
 
 struct Session {
@@ -67,7 +69,7 @@ struct Session {
     /// Every step's result is snapped back onto it.
     grid: Option<Grid>,
     error: Option<String>,
-    times: LoadTimes,
+    times: LoadReport,
     record: SessionRecord,
     last_used: Instant,
     /// Cancelled when the session is deleted: its downloads stop at once.
@@ -102,7 +104,7 @@ impl Sessions {
             current: None,
             grid: None,
             error: None,
-            times: LoadTimes::default(),
+            times: LoadReport::default(),
             record,
             last_used: Instant::now(),
             cancel: CancellationToken::new(),
@@ -143,7 +145,7 @@ impl Sessions {
         input: String,
         current: CurrentMesh,
         grid: Option<Grid>,
-        times: LoadTimes,
+        times: LoadReport,
     ) {
         let mut table = self.table();
         let Some(session) = table.get_mut(id) else { return };
@@ -186,6 +188,7 @@ impl Sessions {
             download_ms: session.times.download_ms,
             load_ms: session.times.load_ms,
             input_bytes: session.times.input_bytes,
+            not_kept: session.times.not_kept.clone(),
             grid: session.grid.and_then(|g| match g.spacing() {
                 Spacing::Binary(exponents) => Some(exponents),
                 Spacing::Decimal(_) => None,

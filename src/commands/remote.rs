@@ -377,6 +377,9 @@ fn print_summary(record: &RunRecord, output: Option<&Path>) {
     for warning in &record.warnings {
         out!("warning: {warning}");
     }
+    for dropped in record.input.iter().flat_map(|input| &input.not_kept) {
+        out!("warning: the input's {dropped} is not kept: the result has only the mesh");
+    }
     if let Some(path) = output {
         out!("wrote {}", path.display());
     }

@@ -5,6 +5,7 @@ use std::collections::BTreeSet;
 use std::sync::Arc;
 use std::time::Instant;
 
+use meshflow_api::engine::InputRecord;
 use meshflow_api::host::GridSpec;
 use serde_json::json;
 
@@ -96,7 +97,7 @@ pub(super) async fn broadcast(
 /// The input as the first host to load it tells it, which the record keeps.
 fn input_loaded(run: &Run, url: &str, status: &meshflow_api::host::SessionStatus) -> Current {
     let current = Current::loaded(url, status);
-    let record = current.input_record(url);
+    let record = InputRecord { not_kept: status.not_kept.clone(), ..current.input_record(url) };
     run.update("input", |r| {
         let json = json!(record);
         r.input = Some(record);

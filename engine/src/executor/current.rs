@@ -63,6 +63,7 @@ impl Current {
             vertices: self.vertices,
             triangles: self.triangles,
             grid: self.grid,
+            not_kept: Vec::new(),
         }
     }
 

@@ -365,6 +365,7 @@ mod tests {
             download_ms: None,
             load_ms: None,
             input_bytes: None,
+            not_kept: Vec::new(),
         };
         assert_eq!(loaded(&status(&hash('a'), 4), None), Ok(()));
         assert_eq!(loaded(&status(&hash('a'), 4), Some(&hash('a'))), Ok(()));

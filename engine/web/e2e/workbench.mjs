@@ -455,6 +455,12 @@ async function big(page) {
   await canvasNotBlank(page, 'result');
   await shot(page, '11-large-result');
   writeFileSync(join(ARTEFACTS, 'first-frame.json'), JSON.stringify(figures, null, 2));
+
+  // A run on a coloured PLY says what its input held that the run does not keep.
+  await page.goto(`${BASE}/?run=${process.env.COLOURED_RUN}#token=${API_TOKEN}`);
+  const notKept = page.getByTestId('input-not-kept');
+  await notKept.waitFor({ timeout: RUN_TIMEOUT });
+  assert.match(await notKept.innerText(), /Not kept from the input file: vertex colour \(red, green, blue\)/);
 }
 
 const phases = { main, restarted, big };

@@ -23,6 +23,14 @@ const PATCHES = {
     if (step) Object.assign(step, { correction_bytes: data.correction_bytes, correction_estimated: false });
   },
   condition: (record, data) => { if (record.steps[data.step]) record.steps[data.step].condition = data.condition; },
+  prefetch: (record, data) => {
+    record.prefetches ??= [];
+    for (const plugin of data.plugins) {
+      const at = record.prefetches.findIndex((p) => p.host === plugin.host && p.plugin === plugin.plugin && p.outcome === 'pending');
+      if (at >= 0) record.prefetches[at] = plugin;
+      else record.prefetches.push(plugin);
+    }
+  },
 };
 
 /** Downloads `path` with the token and saves it under the engine's file name. */
@@ -75,12 +83,23 @@ export class RunView {
     }
   }
 
-  async event(kind, data) {
+  /** Events apply in the order they came: a whole-record read must not overwrite the
+   *  steps that arrived while it was on its way. */
+  event(kind, data) {
+    // A failed read is said, and the chain goes on with the next event.
+    this.applied = (this.applied ?? Promise.resolve())
+      .then(() => this.apply(kind, data))
+      .catch((error) => this.problem(error.message));
+    return this.applied;
+  }
+
+  async apply(kind, data) {
     if (this.abort.signal.aborted) return;
     if (kind === 'record') this.record = data;
     else if (this.record && PATCHES[kind]) PATCHES[kind](this.record, data);
     else {
-      // A restart or resume rewrote the record: read it whole.
+      // A restart or resume rewrote the record, or an event this view does not know:
+      // read it whole.
       this.record = await getJson(`/runs/${encodeURIComponent(this.id)}`);
     }
     this.draw();
@@ -103,6 +122,9 @@ export class RunView {
       r.warnings.length > 0 && el('ul', { className: 'warnings', testid: 'run-warnings' }, r.warnings.map((w) => el('li', {}, w))),
       r.input && el('p', {}, `Input: ${r.input.vertices.toLocaleString('en')} vertices, ${r.input.triangles.toLocaleString('en')} triangles `,
         el('button', { testid: 'show-input', onclick: () => this.show('input', this.path('input')) }, 'view input')),
+      // What the file held beyond the mesh, which neither the steps nor the result keep.
+      r.input?.not_kept?.length > 0 && el('ul', { className: 'warnings', testid: 'input-not-kept' },
+        r.input.not_kept.map((what) => el('li', {}, `Not kept from the input file: ${what}`))),
       r.broadcast && el('p', { className: 'note' }, `Input loaded on ${r.broadcast.hosts.length} host(s) in ${ms(r.broadcast.ms)}: `,
         r.broadcast.hosts.map((h) => `${h.host} (${bytes(h.bytes)}, ${ms(h.download_ms)} download, ${ms(h.load_ms)} load)`).join('; ')),
       this.stepTable(steps),
