@@ -40,7 +40,7 @@ fn a_smoothing_run_past_the_cap_is_refused_naming_the_cap_and_the_flag() {
     let path = |name: &str| dir.path().join(name).display().to_string();
     let (scan, out) = (path("scan.ply"), path("out.ply"));
     // Large enough that smoothing grows the guest past its initial memory.
-    ok(&["generate", "scan", "--vertices", "1000000", "-o", &scan]);
+    ok(&["generate", "scan", "--vertices", "1500000", "-o", &scan]);
     let apply = |cap: Option<u64>| {
         let mut args = vec!["apply", "laplacian-smoothing", &scan, "-o", &out, "--json"];
         let cap = cap.map(|mib| mib.to_string());
