@@ -348,13 +348,28 @@ fn print_summary(record: &RunRecord, output: Option<&Path>) {
     if let Some(broadcast) = &record.broadcast {
         out!("input broadcast to {} hosts in {:.0} ms", broadcast.hosts.len(), broadcast.ms);
     }
+    // Plugins fetched beside the broadcast; those already there are not news.
+    for prefetch in record.prefetches.iter().filter(|p| p.outcome != "present") {
+        let digest: String = prefetch.plugin.chars().take(12).collect();
+        let error = prefetch.error.as_deref().map(|e| format!(": {e}")).unwrap_or_default();
+        out!(
+            "plugin {digest} prefetched by {}: {} in {:.0} ms{error}",
+            prefetch.host,
+            prefetch.outcome,
+            prefetch.ms
+        );
+    }
     for step in &record.steps {
         let transfers: Vec<String> = step
             .transfers
             .iter()
             .map(|t| {
                 let kb = t.bytes as f64 / 1024.0;
-                format!("{} {kb:.1} KB in {:.0} ms", t.via, t.finished_ms - t.started_ms)
+                let waited = match t.plugin_wait_ms {
+                    Some(ms) if ms >= 1.0 => format!(" (waited {ms:.0} ms for its plugin)"),
+                    _ => String::new(),
+                };
+                format!("{} {kb:.1} KB in {:.0} ms{waited}", t.via, t.finished_ms - t.started_ms)
             })
             .collect();
         let forwarded = match transfers.is_empty() {
