@@ -59,7 +59,7 @@ fn remove_degenerate_triangles(mesh: &Mesh, params: &Params) -> Result<String> {
 }
 
 fn repair_non_manifold(mesh: &Mesh, _: &Params) -> Result<String> {
-    let repair = nonmanifold::repair_non_manifold(&mesh.positions(), &mesh.triangles());
+    let repair = nonmanifold::repair_non_manifold_owned(&mesh.positions(), mesh.triangles());
     let gone: Vec<u32> = repair.removed.iter().chain(&repair.repointed).copied().collect();
     if !gone.is_empty() {
         mesh.remove_triangles(&gone)?;

@@ -30,15 +30,25 @@ pub struct Repair {
 /// What it takes to make `triangles` manifold. Unreferenced vertices are left alone.
 /// O(V + T log d).
 pub fn repair_non_manifold(positions: &[f32], triangles: &[u32]) -> Repair {
+    repair_non_manifold_owned(positions, triangles.to_vec())
+}
+
+/// [`repair_non_manifold`] working in `triangles` itself rather than a copy of them, and
+/// dropping each adjacency once it has served, so the guest holds the mesh once and one
+/// adjacency at a time.
+pub fn repair_non_manifold_owned(positions: &[f32], triangles: Vec<u32>) -> Repair {
     let vertex_count = positions.len() / 3;
     let tris = triangles.len() / 3;
     let mut repair = Repair::default();
-    // A working copy in which removed triangles read NONE (no half-edges, no incidence).
-    let mut work = triangles[..3 * tris].to_vec();
+    // The working copy, in which removed triangles read NONE (no half-edges, no incidence).
+    let mut work = triangles;
+    work.truncate(3 * tris);
     let mut removed = vec![false; tris];
 
     for t in 0..tris as u32 {
-        if !is_proper_triangle(triangles, vertex_count, t) {
+        // Only triangle `t` has been dropped when `t` is tested, so `work` answers as the
+        // input would.
+        if !is_proper_triangle(&work, vertex_count, t) {
             repair.improper += 1;
             drop_triangle(&mut removed, &mut work, t);
         }
@@ -62,6 +72,7 @@ pub fn repair_non_manifold(positions: &[f32], triangles: &[u32]) -> Repair {
             drop_triangle(&mut removed, &mut work, t);
         }
     }
+    drop(around);
 
     let half_edges = HalfEdges::new(vertex_count, &work);
     repair.non_manifold_edges = half_edges.non_manifold_edge_count();
@@ -81,6 +92,7 @@ pub fn repair_non_manifold(positions: &[f32], triangles: &[u32]) -> Repair {
         }
     }
 
+    drop(half_edges);
     let half_edges = HalfEdges::new(vertex_count, &work);
     let bad = non_manifold_vertices(vertex_count, &work, &half_edges);
     repair.non_manifold_vertices = bad.len();
