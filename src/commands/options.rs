@@ -25,7 +25,7 @@ pub struct SandboxArgs {
           value_parser = clap::value_parser!(u64).range(1..=MAX_DEADLINE.as_secs()))]
     pub run_deadline: u64,
     /// MiB of linear memory one plugin run may grow to, 1-4096 (a 32-bit guest addresses
-    /// 4 GiB). The built-ins need 30-100 bytes per triangle, decimation and remeshing up
+    /// 4 GiB). The built-ins need 30-60 bytes per triangle, decimation and remeshing up
     /// to 320 (docs/benchmarks.md); each of the host's concurrent runs may take this much.
     #[arg(long, value_name = "MIB", default_value_t = (DEFAULT_MEMORY_BYTES / MIB) as u64,
           value_parser = parse_memory_cap)]
