@@ -306,9 +306,10 @@ const LIMITS: &str = "\
 Every run is sandboxed (no files, sockets, clock or entropy: take randomness from a `seed`
 parameter) and limited: a deadline of 60 s of wall-clock time per run by default
 (`--run-deadline SECONDS`, up to 3600, on `meshflow apply`, `check`, `run`, `host`, `up`),
-and a memory cap of 2 GiB of linear memory per run (a 1M-vertex mesh with adjacency needs
-about 200 MB). Service names must differ from the built-ins' (`meshflow services` lists
-them): a host refuses such an upload, and `--plugin` says on stderr when yours hides one.
+and a memory cap of 2 GiB of linear memory per run by default (`--memory-cap MIB`, up to
+4096, on the same commands; a 1M-vertex mesh with adjacency needs about 200 MB). Service
+names must differ from the built-ins' (`meshflow services` lists them): a host refuses
+such an upload, and `--plugin` says on stderr when yours hides one.
 ";
 
 fn rust_readme(name: &str, wasm: &str) -> String {
