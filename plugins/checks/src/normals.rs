@@ -19,41 +19,59 @@ use crate::arrays::MeshArrays;
 pub fn normal_instability(mesh: &MeshArrays) -> f64 {
     let normals = unit_normals(mesh.positions(), mesh.triangles());
     let opposites = mesh.opposites();
-    let (mut sum, mut edges) = (0.0f64, 0u64);
-    // Small angles wait in a batch and are summed by a loop the compiler vectorises.
-    let mut small = Vec::with_capacity(BATCH);
+    let mut angles = AngleSum::default();
     // An edge's smallest half-edge comes first, so `(x, y)` is in ascending id order.
     for &x in mesh.edges() {
         let y = opposites[x as usize];
-        if y == NONE {
-            continue;
-        }
-        let (u, v) = (normals[x as usize / 3], normals[y as usize / 3]);
-        if !u[0].is_nan() && !v[0].is_nan() {
-            let d = sub(u, v);
-            let half_chord_squared = 0.25 * dot(d, d);
-            if half_chord_squared <= SERIES_LIMIT {
-                small.push(half_chord_squared);
-                if small.len() == BATCH {
-                    sum += small_angles_sum(&small);
-                    small.clear();
-                }
-            } else {
-                sum += angle_between(u, v);
-            }
-            edges += 1;
+        if y != NONE {
+            angles.add(normals[x as usize / 3], normals[y as usize / 3]);
         }
     }
-    sum += small_angles_sum(&small);
-    if edges == 0 { 0.0 } else { (sum / edges as f64).to_degrees() }
+    angles.mean_degrees()
 }
 
 /// Small angles summed per batch.
 const BATCH: usize = 1024;
 
+/// The angles between pairs of unit normals, in the order they are added (pairs with a NaN
+/// normal skipped): deterministic for a given order.
+#[derive(Default)]
+pub(crate) struct AngleSum {
+    sum: f64,
+    edges: u64,
+    /// Small angles wait in a batch and are summed by a loop the compiler vectorises.
+    small: Vec<f64>,
+}
+
+impl AngleSum {
+    pub(crate) fn add(&mut self, u: Vec3, v: Vec3) {
+        if u[0].is_nan() || v[0].is_nan() {
+            return;
+        }
+        let d = sub(u, v);
+        let half_chord_squared = 0.25 * dot(d, d);
+        if half_chord_squared <= SERIES_LIMIT {
+            self.small.push(half_chord_squared);
+            if self.small.len() == BATCH {
+                self.sum += small_angles_sum(&self.small);
+                self.small.clear();
+            }
+        } else {
+            self.sum += angle_between(u, v);
+        }
+        self.edges += 1;
+    }
+
+    /// The mean angle in degrees, 0 without any pair.
+    pub(crate) fn mean_degrees(mut self) -> f64 {
+        self.sum += small_angles_sum(&self.small);
+        if self.edges == 0 { 0.0 } else { (self.sum / self.edges as f64).to_degrees() }
+    }
+}
+
 /// The unit normal of every triangle, or NaNs where it has none: an improper triangle (never
 /// on an edge of the connectivity), zero area, or a non-finite corner.
-fn unit_normals(positions: &[f32], triangles: &[u32]) -> Vec<Vec3> {
+pub(crate) fn unit_normals(positions: &[f32], triangles: &[u32]) -> Vec<Vec3> {
     let vertex_count = positions.len() / 3;
     (0..triangles.len() as u32 / 3)
         .map(|t| {
