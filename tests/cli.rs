@@ -4,31 +4,9 @@ mod common;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 
-use common::process::UpProcess;
-
-fn meshflow(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_meshflow"))
-        .args(args)
-        // Share compiled components between tests, as a user's cache would.
-        .env("MESHFLOW_CACHE_DIR", Path::new(env!("CARGO_TARGET_TMPDIR")).join("components"))
-        .output()
-        .expect("running meshflow")
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = meshflow(args);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "meshflow {args:?} failed: {stderr}");
-    String::from_utf8(out.stdout).expect("utf-8 output")
-}
-
-fn failure(args: &[&str]) -> String {
-    let out = meshflow(args);
-    assert!(!out.status.success(), "meshflow {args:?} should fail");
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
+use common::process::{UpProcess, failure, meshflow, ok};
 
 fn bunny() -> String {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data/bunny.obj").display().to_string()

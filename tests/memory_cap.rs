@@ -2,34 +2,15 @@
 //! past it is refused naming the cap and the flag, the same run passes under a cap just
 //! large enough, and caps the sandbox cannot give are refused before anything starts.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod common;
 
+use std::path::Path;
+
+use common::process::{failure, meshflow, ok};
 use meshflow_builtin_plugins::fixture;
 use meshflow_mesh::MeshData;
 use meshflow_runtime::{Limits, MAX_MEMORY_BYTES, MIB, MemoryCapError, PluginError, RunError};
 use meshflow_runtime::{Runtime, memory_cap_bytes};
-
-fn meshflow(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_meshflow"))
-        .args(args)
-        .env("MESHFLOW_CACHE_DIR", Path::new(env!("CARGO_TARGET_TMPDIR")).join("components"))
-        .output()
-        .expect("running meshflow")
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = meshflow(args);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "meshflow {args:?} failed: {stderr}");
-    String::from_utf8(out.stdout).expect("utf-8 output")
-}
-
-fn failure(args: &[&str]) -> String {
-    let out = meshflow(args);
-    assert!(!out.status.success(), "meshflow {args:?} should fail");
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
 
 /// The in-house plugins start with 128 MiB of linear memory (`.cargo/config.toml`).
 const INITIAL_GUEST_BYTES: u64 = 128 << 20;

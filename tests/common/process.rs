@@ -190,6 +190,26 @@ impl Drop for UpProcess {
     }
 }
 
+/// Runs `meshflow ARGS` here, sharing the tests' compiled components.
+pub fn meshflow(args: &[&str]) -> std::process::Output {
+    meshflow_in(Path::new("."), args)
+}
+
+/// The standard output of `meshflow ARGS`, which must succeed.
+pub fn ok(args: &[&str]) -> String {
+    let out = meshflow(args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "meshflow {args:?} failed: {stderr}");
+    String::from_utf8(out.stdout).expect("utf-8 output")
+}
+
+/// The standard error of `meshflow ARGS`, which must fail.
+pub fn failure(args: &[&str]) -> String {
+    let out = meshflow(args);
+    assert!(!out.status.success(), "meshflow {args:?} should fail");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
 /// Runs `meshflow ARGS` in `dir`, sharing the tests' compiled components.
 pub fn meshflow_in(dir: &Path, args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_meshflow"))
