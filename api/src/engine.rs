@@ -344,6 +344,10 @@ pub struct StepRecord {
     /// `correction_bytes` is the producer's estimate.
     #[serde(default)]
     pub correction_estimated: bool,
+    /// The producer's estimate, kept once `correction_bytes` is the real size: what the
+    /// engine chose transfers by, against what the log turned out to be.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub correction_estimate_bytes: Option<u64>,
     /// The size of the step's replay correction (`.mfr`).
     #[serde(default)]
     pub replay_bytes: Option<u64>,
@@ -503,6 +507,7 @@ mod tests {
             edits: Some(1839),
             correction_bytes: Some(152),
             correction_estimated: false,
+            correction_estimate_bytes: Some(300),
             replay_bytes: Some(180),
             full_bytes: None,
             value: None,

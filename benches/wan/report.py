@@ -99,6 +99,10 @@ def pair(mesh, workflow, auto, full):
             "host": a["host"].removeprefix("http://").rsplit(":", 1)[0],
             "value": a["value"],
             "correction_kb": kb(a["correction_bytes"] if a["correction_bytes"] is not None else f["correction_bytes"]),
+            # What the producer estimated the log at when it answered (auto chose by it);
+            # none when the estimate was never replaced by the real size.
+            "correction_estimate_kb": kb(a.get("correction_estimate_bytes")),
+            "correction_sizes": (a.get("correction_estimate_bytes"), a["correction_bytes"]),
             "replay_bytes": a.get("replay_bytes"),
             "receivers": receivers(a),
             "full_kb": kb(f["full_bytes"] if f["full_bytes"] is not None else a["full_bytes"]),
@@ -121,6 +125,14 @@ def pair(mesh, workflow, auto, full):
         "warnings": auto["warnings"] + full["warnings"],
         "steps": steps,
     }
+
+
+def estimates_within_2x(runs):
+    """How many edit-log estimates of the auto runs were within 2× of the real size."""
+    pairs = [s["correction_sizes"] for run in runs for s in run["steps"]
+             if all(s["correction_sizes"])]
+    within = sum(1 for est, actual in pairs if 0.5 <= est / actual <= 2.0)
+    return within, len(pairs)
 
 
 def read_records(directory):
@@ -223,6 +235,10 @@ def markdown(report):
             f"| {'yes' if run['auto_total_s'] <= 0.5 * run['full_total_s'] else 'no'} "
             f"| {run['auto_floor_s']:.1f} | {run['auto_over_floor']:.2f} |"
         )
+    within, estimated = estimates_within_2x(report["runs"])
+    if estimated:
+        lines += ["", f"Edit-log size estimates (what `auto` chose by) within 2× of the real size: "
+                      f"{within} of {estimated} ({within / estimated:.0%})."]
     if report["placements"]:
         lines += [
             "",
@@ -245,10 +261,10 @@ def markdown(report):
             "Times in ms; T_i = slowest download of the step's result by a host with work left, "
             "U_i = slowest apply. auto moves corrections where they are smaller, full moves `.mfm` meshes.",
             "",
-            "| step | task | host | correction KB | full KB | task (auto) | T_i (auto) | U_i (auto) "
+            "| step | task | host | correction KB | est. KB | full KB | task (auto) | T_i (auto) | U_i (auto) "
             "| task (full) | T_i (full) | U_i (full) |",
-            "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|",
-            f"| IB | input | {run['broadcast']['auto']['hosts']} hosts | | {cell(kb(run['broadcast']['auto']['bytes']), 1)} "
+            "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+            f"| IB | input | {run['broadcast']['auto']['hosts']} hosts | | | {cell(kb(run['broadcast']['auto']['bytes']), 1)} "
             f"| | {cell(run['broadcast']['auto']['ms'])} | | | {cell(run['broadcast']['full']['ms'])} | |",
         ]
         for step in run["steps"]:
@@ -258,11 +274,11 @@ def markdown(report):
             a, f = step["auto"], step["full"]
             lines.append(
                 f"| {step['index']} | {name} | {step['host']} | {cell(step['correction_kb'], 1)} "
-                f"| {cell(step['full_kb'], 1)} | {cell(a['task_ms'])} | {cell(a['transfer_ms'])} "
+                f"| {cell(step['correction_estimate_kb'], 1)} | {cell(step['full_kb'], 1)} | {cell(a['task_ms'])} | {cell(a['transfer_ms'])} "
                 f"| {cell(a['update_ms'])} | {cell(f['task_ms'])} | {cell(f['transfer_ms'])} | {cell(f['update_ms'])} |"
             )
         lines.append(
-            f"| total | | | | | **{run['auto_total_s']:.2f} s** | | | **{run['full_total_s']:.2f} s** | | |"
+            f"| total | | | | | | **{run['auto_total_s']:.2f} s** | | | **{run['full_total_s']:.2f} s** | | |"
         )
         lines.append("")
         lines.append(f"full / auto = **{run['full_over_auto']:.2f}**; same final mesh in both modes: "

@@ -80,9 +80,12 @@ pub(super) fn record_log_size(
             return;
         }
         run.update_step("correction", index, |step| {
+            if step.correction_estimated {
+                step.correction_estimate_bytes = step.correction_bytes;
+            }
             step.correction_bytes = Some(bytes);
             step.correction_estimated = false;
-            json!({"step": index, "correction_bytes": bytes})
+            json!({"step": index, "correction_bytes": bytes, "estimate_bytes": step.correction_estimate_bytes})
         });
     })
 }

@@ -94,6 +94,7 @@ impl Ran<'_> {
             edits: filter.map(|f| f.edits as u64),
             correction_bytes: filter.map(|f| f.correction.bytes),
             correction_estimated: filter.is_some(),
+            correction_estimate_bytes: None,
             replay_bytes: filter.map(|f| f.replay.bytes),
             full_bytes: None,
             value: answer.value.cloned(),

@@ -20,7 +20,7 @@ const PATCHES = {
   transfer: (record, data) => { record.steps[data.step]?.transfers.push(data.transfer); },
   correction: (record, data) => {
     const step = record.steps[data.step];
-    if (step) Object.assign(step, { correction_bytes: data.correction_bytes, correction_estimated: false });
+    if (step) Object.assign(step, { correction_bytes: data.correction_bytes, correction_estimated: false, correction_estimate_bytes: data.estimate_bytes });
   },
   condition: (record, data) => { if (record.steps[data.step]) record.steps[data.step].condition = data.condition; },
   prefetch: (record, data) => {
