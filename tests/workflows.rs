@@ -101,6 +101,8 @@ fn assert_transfers(record: &Json, mode: &str) {
             }
         }
         assert_eq!(step["correction_estimated"], false, "{step}");
+        // The estimate the engine chose by stays beside the real size.
+        assert!(step["correction_estimate_bytes"].as_u64().unwrap() > 0, "{step}");
         if mode == "full" && !transfers.is_empty() {
             assert!(step["full_bytes"].as_u64().unwrap() > 0, "{step}");
         }
