@@ -101,8 +101,12 @@ fn assert_transfers(record: &Json, mode: &str) {
             }
         }
         assert_eq!(step["correction_estimated"], false, "{step}");
-        // The estimate the engine chose by stays beside the real size.
-        assert!(step["correction_estimate_bytes"].as_u64().unwrap() > 0, "{step}");
+        // The estimate the engine chose by stays beside the real size; a small step's
+        // log is encoded before its answer, so its "estimate" is its size.
+        let estimate = step["correction_estimate_bytes"].as_u64().unwrap();
+        if step["edits"].as_u64().unwrap() <= 20_000 {
+            assert_eq!(Some(estimate), step["correction_bytes"].as_u64(), "{step}");
+        }
         if mode == "full" && !transfers.is_empty() {
             assert!(step["full_bytes"].as_u64().unwrap() > 0, "{step}");
         }

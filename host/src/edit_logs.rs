@@ -21,8 +21,8 @@ use tokio::sync::{Semaphore, watch};
 
 use super::blobs::BlobStore;
 use super::config::{
-    DEFAULT_EDIT_LOG_BYTES_PER_EDIT, EDIT_LOG_WAIT, MAX_EDIT_LOG_ESTIMATES, MAX_ENCODING_EDIT_LOGS,
-    MIN_EDIT_LOG_BYTES,
+    DEFAULT_EDIT_LOG_BYTES_PER_EDIT, EDIT_LOG_WAIT, ENCODE_BEFORE_ANSWER_EDITS,
+    MAX_EDIT_LOG_ESTIMATES, MAX_ENCODING_EDIT_LOGS, MIN_EDIT_LOG_BYTES,
 };
 use super::meshes;
 use meshflow_codec::correction;
@@ -135,7 +135,9 @@ impl EditLogs {
     }
 
     /// Starts encoding `step`'s edit log in the background, once a slot is free, and then
-    /// stores it in `blobs`. Returns the log's blob name and its estimated size.
+    /// stores it in `blobs`. Returns the log's blob name and its size: the real one for a
+    /// step of at most [`ENCODE_BEFORE_ANSWER_EDITS`] edits (whose encode takes a few
+    /// milliseconds: less than a wrong estimate costs the receivers), else the estimate.
     pub async fn encode_later(&self, blobs: &Arc<BlobStore>, step: StepLog) -> (String, u64) {
         let permit = self.slots.clone().acquire_owned().await.expect("the slots are never closed");
         let name = meshes::edit_log_name(step.base_hash, step.result_hash);
@@ -146,7 +148,7 @@ impl EditLogs {
         let encoding = self.pending.begin(&name);
         let (rates, blobs) = (self.bytes_per_edit.clone(), blobs.clone());
         let rates_file = self.rates_file.clone();
-        tokio::spawn(async move {
+        let job = tokio::spawn(async move {
             let _permit = permit;
             let StepLog { base, base_hash, log, result, result_hash, .. } = step;
             let encoded = tokio::task::spawn_blocking(move || {
@@ -166,16 +168,24 @@ impl EditLogs {
                 Err(e) => {
                     // Receivers asking for it get a 404 and fall back to the full mesh.
                     tracing::warn!("encoding edit log {}: {e}", encoding.name);
-                    return;
+                    return None;
                 }
             };
+            let size = bytes.len() as u64;
             // The session record already names the log: nothing to hold against eviction.
             match blobs.put(&encoding.name, Arc::new(bytes)).await {
                 Ok(stored) => drop(stored),
                 Err(e) => tracing::warn!("{e}"),
             }
+            Some(size)
         });
-        (name, estimate)
+        if edits > ENCODE_BEFORE_ANSWER_EDITS {
+            return (name, estimate);
+        }
+        // Awaiting the task, not the encode itself: an answer given up on (a caller that
+        // hung up) leaves the log to be written all the same.
+        let size = job.await.ok().flatten();
+        (name, size.unwrap_or(estimate))
     }
 
     /// Waits, up to [`EDIT_LOG_WAIT`], until every edit log being encoded is written: a host
