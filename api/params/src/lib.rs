@@ -104,6 +104,31 @@ pub struct ServiceInfo {
     pub result_type: Option<ValueType>,
 }
 
+/// Why a service's result does not match its description.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ResultError {
+    #[error("a filter returned a value ({0})")]
+    FilterValue(Value),
+    #[error("a check returned no value; expected {expected}")]
+    NoValue { expected: &'static str },
+    #[error("expected {expected}, got {found}")]
+    WrongType { expected: &'static str, found: Value },
+}
+
+/// A result against its service's description: a filter returns no value, a check one of
+/// its declared type. The host and the native test backends check it the same way.
+pub fn check_result(info: &ServiceInfo, value: Option<&Value>) -> Result<(), ResultError> {
+    match (info.result_type, value) {
+        (None, None) => Ok(()),
+        (None, Some(v)) => Err(ResultError::FilterValue(v.clone())),
+        (Some(ty), None) => Err(ResultError::NoValue { expected: type_name(ty) }),
+        (Some(ty), Some(v)) if v.is_of(ty) => Ok(()),
+        (Some(ty), Some(v)) => {
+            Err(ResultError::WrongType { expected: type_name(ty), found: v.clone() })
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

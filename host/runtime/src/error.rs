@@ -2,8 +2,7 @@
 
 use std::time::Duration;
 
-pub use meshflow_params::ParamError;
-use meshflow_params::Value;
+pub use meshflow_params::{ParamError, ResultError};
 
 use crate::limits::{MAX_MEMORY_BYTES, MIB, MemoryCapError};
 
@@ -74,15 +73,4 @@ fn raise_hint(limit_mib: usize) -> String {
         true => format!(" (raise it with --memory-cap, at most {max_mib})"),
         false => " (the most a 32-bit guest can address)".to_owned(),
     }
-}
-
-/// How a service's result disagrees with its description.
-#[derive(Debug, thiserror::Error)]
-pub enum ResultError {
-    #[error("a filter returned a value ({0})")]
-    FilterValue(Value),
-    #[error("a check returned no value; expected {expected}")]
-    NoValue { expected: &'static str },
-    #[error("expected {expected}, got {found}")]
-    WrongType { expected: &'static str, found: Value },
 }

@@ -200,7 +200,7 @@ impl Runtime {
         let outcome =
             outcome.map_err(|message| RunError::Failed { service: service.to_owned(), message })?;
         let value = outcome.value.map(Value::from);
-        check_value(info, value.as_ref())
+        meshflow_params::check_result(info, value.as_ref())
             .map_err(|problem| RunError::BadResult { service: service.to_owned(), problem })?;
         let (edited, log) = state.mesh.finish();
         Ok(RunOutput {
@@ -359,18 +359,6 @@ fn start_epoch_ticker(engine: &Engine) {
             }
         })
         .expect("spawning the epoch ticker thread");
-}
-
-fn check_value(info: &ServiceInfo, value: Option<&Value>) -> Result<(), ResultError> {
-    match (info.result_type, value) {
-        (None, None) => Ok(()),
-        (None, Some(v)) => Err(ResultError::FilterValue(v.clone())),
-        (Some(ty), None) => Err(ResultError::NoValue { expected: type_name(ty) }),
-        (Some(ty), Some(v)) if v.is_of(ty) => Ok(()),
-        (Some(ty), Some(v)) => {
-            Err(ResultError::WrongType { expected: type_name(ty), found: v.clone() })
-        }
-    }
 }
 
 fn captured(pipe: &wasmtime_wasi::p2::pipe::MemoryOutputPipe) -> String {

@@ -8,8 +8,9 @@ use std::time::{Duration, Instant};
 use wasmtime::component::Resource;
 
 use super::bindings::Param;
-use super::{Plugin, RunError, Runtime, ServiceKind, Value, check_value, ticks};
+use super::{Plugin, RunError, Runtime, ServiceKind, Value, ticks};
 use meshflow_mesh::MeshData;
+use meshflow_params::check_result;
 
 /// Why [`Runtime::run_checks`] ran nothing, or stopped.
 #[derive(Debug, thiserror::Error)]
@@ -84,10 +85,10 @@ impl Runtime {
                         .map_err(|message| RunError::Failed { service: service.clone(), message })
                         .and_then(|outcome| {
                             let value = outcome.value.map(Value::from);
-                            check_value(info, value.as_ref()).map_err(|problem| {
+                            check_result(info, value.as_ref()).map_err(|problem| {
                                 RunError::BadResult { service: service.clone(), problem }
                             })?;
-                            Ok(value.expect("check_value refuses a check without a value"))
+                            Ok(value.expect("check_result refuses a check without a value"))
                         });
                     runs.push(CheckRun { service, value, duration });
                 }

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use meshflow_mesh::MeshData;
 use meshflow_mesh::calls::Recorder;
-use meshflow_params::{ParamError, ServiceInfo, ServiceKind, Value, ValueType, type_name};
+use meshflow_params::{ParamError, ServiceInfo, ServiceKind, Value, ValueType};
 
 use crate::abi::{
     self, CValue, DescribeFn, List, OptionValue, Outcome, Param, RunFn, Str, c_list, c_string,
@@ -32,7 +32,7 @@ enum Failure {
     /// The service returned an error: `RunError::Failed`.
     Failed { service: String, message: String },
     /// A result unlike the description: `RunError::BadResult`.
-    BadResult { service: String, problem: String },
+    BadResult { service: String, problem: meshflow_params::ResultError },
     /// What a host would trap on: `RunError::Trap`.
     Crashed { service: String, message: String },
     /// A wrong argument to this API (null pointers, lengths).
@@ -489,7 +489,7 @@ unsafe fn run_service(
     let report = report.ok_or_else(|| crashed("a null report"))?;
     let value =
         value.map(|v| v.ok_or_else(|| crashed("a value of an unknown type"))).transpose()?;
-    check_value(info, value.as_ref())
+    meshflow_params::check_result(info, value.as_ref())
         .map_err(|problem| Failure::BadResult { service: service.to_owned(), problem })?;
 
     let (mesh, ops) = recorder.finish();
@@ -577,16 +577,4 @@ fn value_type(code: u8) -> Option<ValueType> {
         3 => ValueType::Text,
         _ => return None,
     })
-}
-
-/// The host's check of a result against the description (the runtime's `check_value`, with
-/// its `ResultError` messages).
-fn check_value(info: &ServiceInfo, value: Option<&Value>) -> Result<(), String> {
-    match (info.result_type, value) {
-        (None, None) => Ok(()),
-        (None, Some(v)) => Err(format!("a filter returned a value ({v})")),
-        (Some(ty), None) => Err(format!("a check returned no value; expected {}", type_name(ty))),
-        (Some(ty), Some(v)) if v.is_of(ty) => Ok(()),
-        (Some(ty), Some(v)) => Err(format!("expected {}, got {v}", type_name(ty))),
-    }
 }
