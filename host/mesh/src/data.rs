@@ -4,12 +4,16 @@
 ///
 /// `positions` holds `x y z` per vertex, `triangles` holds `a b c` per triangle. Input meshes
 /// may be raw scans, so triangles may be degenerate (repeated vertices), non-manifold, and
-/// vertices may be unreferenced; only indices out of range are impossible.
+/// vertices may be unreferenced; only indices out of range are impossible. `attributes`
+/// holds what else the mesh carries (colours, normals, …), one value per element.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct MeshData {
     pub positions: Vec<f32>,
     pub triangles: Vec<u32>,
+    pub attributes: Attributes,
 }
+
+use crate::attributes::{AttributeError, Attributes};
 
 /// The BLAKE3 hash of a mesh's canonical bytes: names one mesh state on every host.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -44,7 +48,14 @@ const CANONICAL_TAG: &[u8] = b"meshflow-mesh-v1";
 
 impl MeshData {
     pub fn new(positions: Vec<f32>, triangles: Vec<u32>) -> Self {
-        Self { positions, triangles }
+        Self { positions, triangles, attributes: Attributes::default() }
+    }
+
+    /// The mesh with `attributes`, which must fit it (see [`Attributes::check`]).
+    pub fn with_attributes(mut self, attributes: Attributes) -> Result<Self, AttributeError> {
+        attributes.check(self.vertex_count(), self.triangle_count())?;
+        self.attributes = attributes;
+        Ok(self)
     }
 
     pub fn vertex_count(&self) -> usize {
@@ -56,8 +67,10 @@ impl MeshData {
     }
 
     /// The canonical content hash: BLAKE3 over the tag, both counts (u32 LE), the position
-    /// bit patterns (f32 LE) and the corner indices (u32 LE). Bit patterns, not values, so
-    /// `-0.0` and `0.0` are different states, as they are different bytes.
+    /// bit patterns (f32 LE) and the corner indices (u32 LE), then, for a mesh that has
+    /// attributes, each in canonical order (domain, type, components, name, values LE) and
+    /// the materials. Bit patterns, not values, so `-0.0` and `0.0` are different states, as
+    /// they are different bytes. A mesh without attributes hashes as before they existed.
     pub fn content_hash(&self) -> ContentHash {
         let mut hasher = blake3::Hasher::new();
         hasher.update(CANONICAL_TAG);
@@ -65,6 +78,9 @@ impl MeshData {
         hasher.update(&(self.triangle_count() as u32).to_le_bytes());
         hasher.update(as_le_bytes_f32(&self.positions).as_ref());
         hasher.update(as_le_bytes_u32(&self.triangles).as_ref());
+        if !self.attributes.is_empty() {
+            crate::attributes::hash_into(&self.attributes, &mut hasher);
+        }
         ContentHash(*hasher.finalize().as_bytes())
     }
 
@@ -110,6 +126,7 @@ pub fn as_le_bytes_u32(values: &[u32]) -> std::borrow::Cow<'_, [u8]> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::attributes::Attribute;
 
     #[test]
     fn hash_depends_on_every_byte_and_on_the_split_between_arrays() {
@@ -121,6 +138,36 @@ mod tests {
         let mut c = a.clone();
         c.triangles = vec![0, 2, 1];
         assert_ne!(a.content_hash(), c.content_hash());
+    }
+
+    #[test]
+    fn hash_covers_attributes_and_an_attribute_free_mesh_hashes_as_before() {
+        let a = MeshData::new(vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], vec![0, 1, 2]);
+        // The v1 hash of this triangle, from before attributes existed.
+        let mut v1 = blake3::Hasher::new();
+        v1.update(CANONICAL_TAG);
+        v1.update(&3u32.to_le_bytes());
+        v1.update(&1u32.to_le_bytes());
+        v1.update(&as_le_bytes_f32(&a.positions));
+        v1.update(&as_le_bytes_u32(&a.triangles));
+        assert_eq!(a.content_hash().0, *v1.finalize().as_bytes());
+
+        let mut red = a.clone();
+        red.attributes.insert(Attribute::color(vec![255, 0, 0, 255].repeat(3)), 3, 1).unwrap();
+        let mut redder = red.clone();
+        redder
+            .attributes
+            .insert(
+                Attribute::color([vec![254, 0, 0, 255], vec![255, 0, 0, 255].repeat(2)].concat()),
+                3,
+                1,
+            )
+            .unwrap();
+        assert_ne!(a.content_hash(), red.content_hash());
+        assert_ne!(red.content_hash(), redder.content_hash());
+        let mut named = red.clone();
+        named.attributes.materials.textures.push("skin.png".into());
+        assert_ne!(red.content_hash(), named.content_hash());
     }
 
     #[test]

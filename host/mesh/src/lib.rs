@@ -7,6 +7,7 @@
 //! This crate must not depend on file formats, codecs, wasmtime or HTTP: everything else
 //! builds on it.
 
+pub mod attributes;
 pub mod calls;
 mod data;
 pub mod store;
