@@ -212,6 +212,18 @@ impl Values {
         })
     }
 
+    /// Appends `other`'s numbers; they must be of the same type.
+    pub fn extend(&mut self, other: &Values) {
+        match (self, other) {
+            (Values::U8(a), Values::U8(b)) => a.extend_from_slice(b),
+            (Values::I32(a), Values::I32(b)) => a.extend_from_slice(b),
+            (Values::U32(a), Values::U32(b)) => a.extend_from_slice(b),
+            (Values::F32(a), Values::F32(b)) => a.extend_from_slice(b),
+            (Values::F64(a), Values::F64(b)) => a.extend_from_slice(b),
+            (a, b) => panic!("extending {:?} values with {:?}", a.number_type(), b.number_type()),
+        }
+    }
+
     /// Reserves room for `more` numbers.
     pub fn reserve(&mut self, more: usize) {
         each_values!(self, v => v.reserve(more))

@@ -1,6 +1,7 @@
 //! What encoder and decoder share: the four output sections and every adaptive model, each
 //! starting from the same state on both sides.
 
+use super::attributes::AttributeCoder;
 use super::coding::corners::CornerCoder;
 use super::coding::integer::{BUCKETS, int_model};
 use super::coding::model::AdaptiveModel;
@@ -10,8 +11,8 @@ use super::removals::Removals;
 use crate::quantize::Grid;
 use meshflow_mesh::store::OpKind;
 
-/// The kind alphabet: the 16 op kinds, then "no further op".
-pub(super) const END: usize = 16;
+/// The kind alphabet: every op kind, then "no further op".
+pub(super) const END: usize = super::header::KINDS;
 
 /// One coder per section, in `SECTIONS` order.
 pub(super) struct Sections<T> {
@@ -42,6 +43,7 @@ pub(super) struct Models {
     pub(super) smoothing: ResidualCoder,
     pub(super) split_points: ResidualCoder,
     pub(super) last_extend_vertex: u32,
+    pub(super) attributes: AttributeCoder,
     /// The grid the mesh is on, if coordinates are coded as grid steps.
     pub(super) grid: Option<Grid>,
 }
@@ -64,6 +66,7 @@ impl Models {
             smoothing: ResidualCoder::new(grid),
             split_points: ResidualCoder::new(grid),
             last_extend_vertex: 0,
+            attributes: AttributeCoder::new(),
             grid,
         }
     }

@@ -10,7 +10,7 @@ use super::CorrectionError;
 use super::codec::{END, Models, Sections, motion};
 use super::coding::residual::{ResidualCoder, Residuals};
 use super::coding::stream::{CorruptStream, SymbolReader};
-use super::header::{Correction, KindCount, kind_index};
+use super::header::{Correction, KINDS, KindCount, kind_index};
 use super::predict::{self, NewVertexNeighbours, Smoothing};
 use super::removals::Removals;
 
@@ -71,7 +71,7 @@ struct Decoder {
     models: Models,
     input: Sections<SymbolReader>,
     /// What the header says is still to come, per kind.
-    remaining: [KindCount; 16],
+    remaining: [KindCount; KINDS],
     /// The kind of the next op, when it was read early (after an add-vertices).
     announced: Option<usize>,
 }
@@ -140,6 +140,22 @@ impl Decoder {
             }
             OpKind::Transform => Op::Transform { matrix: self.matrix()? },
             OpKind::Clear => Op::Clear,
+            OpKind::SetAttribute | OpKind::RemoveAttribute => {
+                let limit = self.remaining[kind_index(kind)].edits;
+                let op = m.attributes.read(
+                    kind,
+                    &self.store,
+                    &mut input.ops,
+                    &mut input.ids,
+                    &mut input.geometry,
+                    &mut m.lists,
+                    limit,
+                )?;
+                if kind == OpKind::SetAttribute {
+                    self.take(kind, op.edit_count() as u64)?;
+                }
+                op
+            }
         })
     }
 
@@ -362,5 +378,6 @@ fn is_single(kind: OpKind) -> bool {
             | OpKind::RemoveVertices
             | OpKind::RemoveTriangles
             | OpKind::FlipTriangles
+            | OpKind::SetAttribute
     )
 }

@@ -10,7 +10,7 @@ use meshflow_mesh::{ContentHash, MeshData};
 use super::CorrectionError;
 use super::codec::{END, Models, Sections, kind_symbol, motion};
 use super::coding::stream::SymbolWriter;
-use super::header::{self, Correction, KindCount, kind_index};
+use super::header::{self, Correction, KINDS, KindCount, kind_index};
 use super::predict::{self, NewVertexNeighbours, Smoothing};
 use super::removals::Removals;
 use crate::quantize::Grid;
@@ -51,7 +51,7 @@ fn write(
     log: &[Op],
     [base_counts, result_counts]: [[u64; 2]; 2],
 ) -> Result<Vec<u8>, CorrectionError> {
-    let mut kinds = [KindCount::default(); 16];
+    let mut kinds = [KindCount::default(); KINDS];
     for op in log {
         let count = &mut kinds[kind_index(op.kind())];
         count.ops += 1;
@@ -165,6 +165,9 @@ impl Encoder {
             }
             Op::Transform { matrix } => matrix.iter().for_each(|&v| out.geometry.f32_bits(v)),
             Op::Clear => {}
+            Op::SetAttribute { .. } | Op::RemoveAttribute { .. } => {
+                m.attributes.write(&mut out.ops, &mut out.ids, &mut out.geometry, &mut m.lists, op)
+            }
         }
         self.apply(index, op)?;
         Ok(1)
@@ -277,7 +280,10 @@ impl Encoder {
 
 /// Bit-identical meshes (so `-0.0 != 0.0`, as in the content hash).
 fn same_bytes(a: &MeshData, b: &MeshData) -> bool {
-    a.triangles == b.triangles && as_le_bytes_f32(&a.positions) == as_le_bytes_f32(&b.positions)
+    a.triangles == b.triangles
+        && as_le_bytes_f32(&a.positions) == as_le_bytes_f32(&b.positions)
+        && (a.attributes.is_empty() && b.attributes.is_empty()
+            || a.content_hash() == b.content_hash())
 }
 
 fn at(positions: &[f32], v: u32) -> [f32; 3] {

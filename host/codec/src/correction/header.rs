@@ -5,7 +5,7 @@
 //! base hash [32] | result hash [32]
 //! varints: base vertices, base triangles, result vertices, result triangles,
 //!          grid flag (0, or 1 and then the zigzagged step exponent of each axis),
-//!          ops and edits for each of the 16 op kinds (OpKind::ALL order),
+//!          ops and edits for each of the 18 op kinds (OpKind::ALL order),
 //!          byte length of each section (SECTIONS order)
 //! sections, back to back, ending exactly at the end of the file
 //! ```
@@ -18,7 +18,10 @@ use super::CorrectionError;
 use super::coding::bytes::{open_sealed, put_grid, put_varint, seal, sealed_front};
 
 pub(crate) const MAGIC: [u8; 4] = *b"MFC\x1a";
-pub const VERSION: u16 = 5;
+pub const VERSION: u16 = 6;
+
+/// How many op kinds the header counts.
+pub(crate) const KINDS: usize = OpKind::ALL.len();
 
 /// The entropy-coded streams of a correction, in file order.
 pub const SECTIONS: [&str; 4] = ["ops", "ids", "connectivity", "geometry"];
@@ -43,7 +46,7 @@ pub struct Correction {
     /// The grid base and result lie on, when coordinates are coded as grid steps.
     pub grid: Option<Grid>,
     /// Per op kind, in `OpKind::ALL` order.
-    pub kinds: [KindCount; 16],
+    pub kinds: [KindCount; KINDS],
     /// Bytes of the uncompressed header.
     pub header_bytes: usize,
     /// Bytes of each section, in [`SECTIONS`] order.
@@ -106,7 +109,7 @@ pub(crate) fn read(bytes: &[u8]) -> Result<(Correction, [&[u8]; 4]), CorrectionE
         }
     }
     let grid = r.grid()?;
-    let mut kinds = [KindCount::default(); 16];
+    let mut kinds = [KindCount::default(); KINDS];
     for k in &mut kinds {
         *k = KindCount { ops: r.varint()?, edits: r.varint()? };
     }

@@ -29,6 +29,7 @@
 //! assert_eq!(correction::apply(base, &bytes).unwrap(), result);
 //! ```
 
+mod attributes;
 mod codec;
 pub(crate) mod coding;
 mod decode;

@@ -5,6 +5,7 @@
 
 use meshflow_codec::correction;
 use meshflow_mesh::MeshData;
+use meshflow_mesh::attributes::{Domain, NumberType, Values};
 use meshflow_mesh::store::{MeshStore, Op, OpKind};
 
 /// SplitMix64: deterministic, seedable, good enough for test data.
@@ -159,7 +160,48 @@ pub fn random_op(kind: OpKind, store: &MeshStore, rng: &mut Rng) -> Option<Op> {
         }
         OpKind::Transform => Op::Transform { matrix: matrix(rng) },
         OpKind::Clear => Op::Clear,
+        OpKind::SetAttribute => set_attribute(store, rng)?,
+        OpKind::RemoveAttribute => {
+            let (domain, name, ..) = ATTRIBUTES[rng.below(ATTRIBUTES.len() as u32) as usize];
+            Op::RemoveAttribute { domain, name: name.into() }
+        }
     })
+}
+
+/// The attributes random edits set: well-known ones and one of a file's own.
+const ATTRIBUTES: [(Domain, &str, u8, NumberType); 4] = [
+    (Domain::Vertex, "quality", 1, NumberType::F32),
+    (Domain::Vertex, "color", 4, NumberType::U8),
+    (Domain::Face, "label", 1, NumberType::I32),
+    (Domain::Corner, "texcoord", 2, NumberType::F32),
+];
+
+/// A set-attribute on some live elements, or on every slot.
+fn set_attribute(store: &MeshStore, rng: &mut Rng) -> Option<Op> {
+    let (domain, name, components, ty) = ATTRIBUTES[rng.below(ATTRIBUTES.len() as u32) as usize];
+    let ids: Option<Vec<u32>> = if rng.chance(30) {
+        None
+    } else {
+        let one = |rng: &mut Rng| match domain {
+            Domain::Vertex => live_vertex(store, rng),
+            Domain::Face => live_triangle(store, rng),
+            Domain::Corner => live_triangle(store, rng).map(|t| 3 * t + rng.below(3)),
+        };
+        Some((0..1 + rng.below(5)).filter_map(|_| one(rng)).collect())
+    };
+    let elements = ids.as_ref().map_or_else(
+        || domain.len(store.vertex_slots() as usize, store.triangle_slots() as usize),
+        Vec::len,
+    );
+    let mut values = Values::empty(ty);
+    for _ in 0..elements * usize::from(components) {
+        values.push(match ty {
+            NumberType::U8 => f64::from(rng.below(256)),
+            NumberType::I32 => f64::from(rng.below(2000)) - 1000.0,
+            _ => f64::from(rng.unit()),
+        });
+    }
+    Some(Op::SetAttribute { domain, name: name.into(), components, ids, values })
 }
 
 /// Hole-filling shaped: new vertices and, right after, triangles joining them to the mesh.

@@ -2,11 +2,15 @@
 
 use super::REMOVED;
 use crate::MeshData;
+use crate::attributes::Domain;
 
 /// Compacts `mesh` in place: its arrays are the store's own by now, and writing survivors
 /// forward into them costs no second allocation of the mesh (whose fresh pages alone took
 /// longer than the move).
 pub(super) fn compact(mut mesh: MeshData, vertex_removed: &[bool]) -> MeshData {
+    if !mesh.attributes.is_empty() {
+        keep_live_attributes(&mut mesh, vertex_removed);
+    }
     let new_ids = move_live_vertices(&mut mesh.positions, vertex_removed);
     // One loop per way of finding new ids, so the choice is not made again for every corner.
     match new_ids {
@@ -19,6 +23,23 @@ pub(super) fn compact(mut mesh: MeshData, vertex_removed: &[bool]) -> MeshData {
         }
     }
     mesh
+}
+
+/// Drops the values of removed vertices, triangles and their corners, keeping order.
+fn keep_live_attributes(mesh: &mut MeshData, vertex_removed: &[bool]) {
+    let vertex_live: Vec<bool> = vertex_removed.iter().map(|&removed| !removed).collect();
+    let face_live: Vec<bool> = mesh.triangles.chunks_exact(3).map(|c| c[0] != REMOVED).collect();
+    for domain in [Domain::Vertex, Domain::Face, Domain::Corner] {
+        for a in mesh.attributes.of_domain_mut(domain) {
+            let (keep, per) = match domain {
+                Domain::Vertex => (&vertex_live, usize::from(a.components)),
+                Domain::Face => (&face_live, usize::from(a.components)),
+                // A triangle's three corners are one run of 3 × components numbers.
+                Domain::Corner => (&face_live, 3 * usize::from(a.components)),
+            };
+            a.values.retain_elements(per, keep);
+        }
+    }
 }
 
 /// Moves the live triangles forward, their corners renamed by `new_id`.

@@ -87,6 +87,7 @@ impl MeshStore {
             check_finite(p, &format!("{op}: image of vertex {v}"))?;
         }
         for (&v, p) in vertices.iter().zip(images) {
+            self.touch(v);
             self.positions_mut()[3 * v as usize..3 * v as usize + 3].copy_from_slice(&p);
         }
         Ok(())

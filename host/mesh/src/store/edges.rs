@@ -2,6 +2,7 @@
 
 use meshflow_topology::edits::split_on_edge;
 
+use super::attributes::edge_parameter;
 use super::{EditError, EditErrorKind, MeshStore, check_finite};
 
 /// A validated half-edge: its triangle, corner, and end points.
@@ -40,9 +41,11 @@ impl MeshStore {
     }
 
     pub(super) fn extend_edge(&mut self, edge: u32, vertex: u32) -> Result<u32, EditError> {
-        let HalfEdge { from, to, .. } = self.half_edge(edge, "extend-edge")?;
+        let HalfEdge { triangle, from, to, .. } = self.half_edge(edge, "extend-edge")?;
         self.check_new_triangle([to, from, vertex])?;
-        Ok(self.push_triangle([to, from, vertex]))
+        let corners = [to, from, vertex];
+        let origins = self.corner_origins(&[triangle], corners, None);
+        Ok(self.push_triangle(corners, Some(triangle), origins))
     }
 
     /// Each triangle `(x, y, o)` on the edge becomes `(x, v, o)` and appends `(v, y, o)`,
@@ -59,12 +62,24 @@ impl MeshStore {
             )));
         }
         let (pa, pb) = (self.point(a), self.point(b));
-        let v = self.push_vertex(at.unwrap_or_else(|| midpoint(pa, pb)));
+        let (p, s) = match at {
+            Some(p) => (p, edge_parameter(p, pa, pb)),
+            None => (midpoint(pa, pb), 0.5),
+        };
+        let parents = [(a, 1.0 - s), (b, s)];
+        let v = self.push_vertex(p, &parents);
         for t in on_edge {
             let (kept, appended) = split_on_edge(self.corners(t), a, b, v)
                 .expect("a non-degenerate triangle with both ends has the edge");
+            let new = Some((v, &parents[..]));
+            let kept_origins = self.corner_origins(&[t], kept, new);
+            let appended_origins = self.corner_origins(&[t], appended, new);
+            let kept_values = kept_origins.map(|origins| self.corner_values(&origins));
+            self.push_triangle(appended, Some(t), appended_origins);
             self.set_corners(t, kept);
-            self.push_triangle(appended);
+            if let Some(values) = kept_values {
+                self.write_corners(t, values);
+            }
         }
         Ok(v)
     }
@@ -104,8 +119,17 @@ impl MeshStore {
         new_t[(k + 1) % 3] = d;
         let mut new_u = uc;
         new_u[(m + 1) % 3] = c;
+        let values = [(t, new_t, [t, u]), (u, new_u, [u, t])].map(|(id, corners, sources)| {
+            let origins = self.corner_origins(&sources, corners, None);
+            (id, origins.map(|origins| self.corner_values(&origins)))
+        });
         self.set_corners(t, new_t);
         self.set_corners(u, new_u);
+        for (id, values) in values {
+            if let Some(values) = values {
+                self.write_corners(id, values);
+            }
+        }
         Ok(())
     }
 

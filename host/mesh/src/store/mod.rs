@@ -24,6 +24,7 @@
 //! assert_eq!(replay.finish().0.content_hash(), result.content_hash());
 //! ```
 
+mod attributes;
 mod compact;
 mod components;
 mod edges;
@@ -39,6 +40,8 @@ pub use op::{Affine, Op, OpKind};
 use std::sync::Arc;
 
 use crate::MeshData;
+use crate::attributes::{Domain, NORMAL};
+use attributes::{CornerOrigin, NormalTracking};
 use incidence::Incidence;
 
 /// What the bulk triangle read shows in all three corners of a removed triangle.
@@ -67,6 +70,10 @@ pub struct MeshStore {
     incidence: Option<Incidence>,
     scans: usize,
     log: Vec<Op>,
+    /// Present while the mesh has vertex normals: what the step touched and set.
+    normals: Option<NormalTracking>,
+    /// Vertices `add-vertices` made that took default attribute values, ascending.
+    defaulted: Vec<u32>,
 }
 
 impl MeshStore {
@@ -74,6 +81,8 @@ impl MeshStore {
     pub fn new(mesh: impl Into<Arc<MeshData>>) -> Self {
         let mesh = mesh.into();
         let vertex_slots = mesh.vertex_count();
+        let normals =
+            mesh.attributes.get(Domain::Vertex, NORMAL).map(|_| NormalTracking::new(vertex_slots));
         Self {
             mesh,
             vertex_removed: vec![false; vertex_slots],
@@ -82,6 +91,8 @@ impl MeshStore {
             incidence: None,
             scans: 0,
             log: Vec::new(),
+            normals,
+            defaulted: Vec::new(),
         }
     }
 
@@ -171,6 +182,12 @@ impl MeshStore {
             }
             Op::Transform { matrix } => self.transform(matrix).map(|_| None)?,
             Op::Clear => self.clear().map(|_| None)?,
+            Op::SetAttribute { domain, name, components, ids, values } => self
+                .set_attribute(*domain, name, *components, ids.as_deref(), values)
+                .map(|_| None)?,
+            Op::RemoveAttribute { domain, name } => {
+                self.remove_attribute(*domain, name).map(|_| None)?
+            }
         };
         // Removed slots keep their positions whatever the op said, and the log records what
         // they hold; with none removed the op's values are the positions, kept as they came.
@@ -196,7 +213,8 @@ impl MeshStore {
     }
 
     /// Ends the step: the compacted mesh and the log of everything applied.
-    pub fn finish(self) -> (MeshData, Vec<Op>) {
+    pub fn finish(mut self) -> (MeshData, Vec<Op>) {
+        self.recompute_normals();
         let mesh = Arc::unwrap_or_clone(self.mesh);
         let mesh = if self.removed_vertex_count == 0 && self.removed_triangle_count == 0 {
             mesh
@@ -281,27 +299,44 @@ impl MeshStore {
         self.incidence.get_or_insert_with(|| Incidence::build(slots, triangles))
     }
 
-    fn push_vertex(&mut self, p: [f32; 3]) -> u32 {
+    /// Appends a vertex at `p` whose attribute values blend `parents` (weights summing to
+    /// one), or take the defaults when there are none.
+    fn push_vertex(&mut self, p: [f32; 3], parents: &[(u32, f64)]) -> u32 {
         let id = self.vertex_slots();
         self.positions_mut().extend_from_slice(&p);
         self.vertex_removed.push(false);
         if let Some(incidence) = &mut self.incidence {
             incidence.add_vertex();
         }
+        self.attributes_for_new_vertex(parents);
         id
     }
 
-    fn push_triangle(&mut self, corners: [u32; 3]) -> u32 {
+    /// Appends a triangle whose face values copy `from` (else the defaults) and whose
+    /// corner values come from `corner_origins` (read before the edit changed anything).
+    fn push_triangle(
+        &mut self,
+        corners: [u32; 3],
+        from: Option<u32>,
+        corner_origins: Option<[CornerOrigin; 3]>,
+    ) -> u32 {
+        let values = corner_origins.map(|origins| self.corner_values(&origins));
         let id = self.triangle_slots();
         self.triangles_mut().extend_from_slice(&corners);
         if let Some(incidence) = &mut self.incidence {
             incidence.add_triangle(id, corners);
         }
+        self.attributes_for_new_triangle(from);
+        if let Some(values) = values {
+            self.write_corners(id, values);
+        }
+        corners.iter().for_each(|&v| self.touch(v));
         id
     }
 
     fn set_corners(&mut self, triangle: u32, corners: [u32; 3]) {
         let old = self.corners(triangle);
+        old.iter().chain(&corners).for_each(|&v| self.touch(v));
         if let Some(incidence) = &mut self.incidence {
             incidence.remove_triangle(triangle, old);
             incidence.add_triangle(triangle, corners);
@@ -312,6 +347,7 @@ impl MeshStore {
 
     fn kill_triangle(&mut self, triangle: u32) {
         let old = self.corners(triangle);
+        old.iter().for_each(|&v| self.touch(v));
         if let Some(incidence) = &mut self.incidence {
             incidence.remove_triangle(triangle, old);
         }
@@ -343,7 +379,9 @@ impl MeshStore {
 /// 8 ms). Room never written is never paged in.
 fn owned(mesh: &mut Arc<MeshData>) -> &mut MeshData {
     if Arc::get_mut(mesh).is_none() {
-        *mesh = Arc::new(MeshData::new(with_room(&mesh.positions), with_room(&mesh.triangles)));
+        let mut copy = MeshData::new(with_room(&mesh.positions), with_room(&mesh.triangles));
+        copy.attributes = mesh.attributes.clone();
+        *mesh = Arc::new(copy);
     }
     Arc::get_mut(mesh).expect("the store's own copy")
 }

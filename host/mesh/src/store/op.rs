@@ -4,6 +4,8 @@
 //! replaying a log through another store reproduces the step exactly. Bulk variants carry
 //! lists; the store merges consecutive single edits of one kind into one bulk op.
 
+use crate::attributes::{Domain, Values};
+
 /// A row-major 3x4 affine map: `[r00 r01 r02 t0  r10 r11 r12 t1  r20 r21 r22 t2]`.
 pub type Affine = [f32; 12];
 
@@ -41,6 +43,18 @@ pub enum Op {
     Transform { matrix: Affine },
     /// Remove everything.
     Clear,
+    /// Set an attribute at `ids` (at every slot of its domain when `None`: `values` then
+    /// cover removed slots too) to `values`, `components` numbers an element; an attribute
+    /// the mesh does not have yet is made, every other element at its default.
+    SetAttribute {
+        domain: Domain,
+        name: String,
+        components: u8,
+        ids: Option<Vec<u32>>,
+        values: Values,
+    },
+    /// Drop an attribute.
+    RemoveAttribute { domain: Domain, name: String },
 }
 
 impl Op {
@@ -63,6 +77,8 @@ impl Op {
             Op::TransformComponent { .. } => OpKind::TransformComponent,
             Op::Transform { .. } => OpKind::Transform,
             Op::Clear => OpKind::Clear,
+            Op::SetAttribute { .. } => OpKind::SetAttribute,
+            Op::RemoveAttribute { .. } => OpKind::RemoveAttribute,
         }
     }
 
@@ -75,6 +91,10 @@ impl Op {
             | Op::RemoveTriangles { ids }
             | Op::FlipTriangles { ids } => ids.len(),
             Op::AddTriangles { abc } => abc.len() / 3,
+            Op::SetAttribute { ids: Some(ids), .. } => ids.len(),
+            Op::SetAttribute { ids: None, components, values, .. } => {
+                values.len() / usize::from((*components).max(1))
+            }
             _ => 1,
         }
     }
@@ -94,6 +114,15 @@ impl Op {
             | (Op::FlipTriangles { ids }, Op::FlipTriangles { ids: more }) => ids.extend(more),
             // Each set-positions replaces every live position, so only the last one counts.
             (Op::SetPositions { xyz }, Op::SetPositions { xyz: later }) => *xyz = later,
+            (
+                Op::SetAttribute { domain, name, components, ids: Some(ids), values },
+                Op::SetAttribute { domain: d, name: n, components: c, ids: Some(more), values: v },
+            ) if (*domain, &*name, *components, values.number_type())
+                == (d, &n, c, v.number_type()) =>
+            {
+                ids.extend(more);
+                values.extend(&v);
+            }
             (_, next) => return Some(next),
         }
         None
@@ -119,10 +148,12 @@ pub enum OpKind {
     TransformComponent,
     Transform,
     Clear,
+    SetAttribute,
+    RemoveAttribute,
 }
 
 impl OpKind {
-    pub const ALL: [OpKind; 16] = [
+    pub const ALL: [OpKind; 18] = [
         OpKind::AddVertices,
         OpKind::MoveVertices,
         OpKind::SetPositions,
@@ -139,6 +170,8 @@ impl OpKind {
         OpKind::TransformComponent,
         OpKind::Transform,
         OpKind::Clear,
+        OpKind::SetAttribute,
+        OpKind::RemoveAttribute,
     ];
 
     pub fn name(self) -> &'static str {
@@ -159,6 +192,8 @@ impl OpKind {
             OpKind::TransformComponent => "transform-component",
             OpKind::Transform => "transform",
             OpKind::Clear => "clear",
+            OpKind::SetAttribute => "set-attribute",
+            OpKind::RemoveAttribute => "remove-attribute",
         }
     }
 }

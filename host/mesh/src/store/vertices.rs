@@ -11,7 +11,7 @@ impl MeshStore {
         check_finite(xyz, "add-vertices")?;
         let first = self.vertex_slots();
         for p in xyz.chunks_exact(3) {
-            self.push_vertex([p[0], p[1], p[2]]);
+            self.push_vertex([p[0], p[1], p[2]], &[]);
         }
         Ok(first)
     }
@@ -29,6 +29,7 @@ impl MeshStore {
         for &v in ids {
             self.check_vertex(v)?;
         }
+        ids.iter().for_each(|&v| self.touch(v));
         let positions = self.positions_mut();
         for (&v, p) in ids.iter().zip(xyz.chunks_exact(3)) {
             let i = 3 * v as usize;
@@ -54,14 +55,22 @@ impl MeshStore {
         if let Some((v, p)) = bad {
             check_finite(p, &format!("set-positions, vertex {v}"))?;
         }
+        if self.normals.is_some() {
+            for v in 0..self.vertex_slots() {
+                if self.is_vertex_live(v) {
+                    self.touch(v);
+                }
+            }
+        }
         if self.removed_vertex_count == 0 {
             // Every slot takes its value: one copy, no per-vertex check, and a mesh still
             // shared with the caller is not copied first only to be overwritten.
             match Arc::get_mut(&mut self.mesh) {
                 Some(mesh) => mesh.positions.copy_from_slice(xyz),
                 None => {
-                    let triangles = self.mesh.triangles.clone();
-                    self.mesh = Arc::new(MeshData::new(xyz.to_vec(), triangles));
+                    let mut mesh = MeshData::new(xyz.to_vec(), self.mesh.triangles.clone());
+                    mesh.attributes = self.mesh.attributes.clone();
+                    self.mesh = Arc::new(mesh);
                 }
             }
             return Ok(());
