@@ -1,7 +1,8 @@
-//! What a file held beyond positions and triangles. The mesh keeps only those two, so a
-//! load says what it left behind (colours, normals, quality, texture coordinates, other
-//! properties and elements, the precision of double coordinates) instead of dropping it
-//! without a word.
+//! What a file held that the mesh does not keep. The mesh keeps positions, triangles and
+//! the attributes of `meshflow_mesh::attributes` (colours, normals, quality, texture
+//! coordinates, materials, other numbers by name); a load says what else it left behind
+//! (other elements, list properties it cannot hold, names the model refuses, the precision
+//! of double coordinates) instead of dropping it without a word.
 
 use meshflow_mesh::MeshData;
 
@@ -12,24 +13,20 @@ pub struct Loaded {
     pub dropped: Dropped,
 }
 
-/// PLY property names that together are one attribute, as writers name them.
-const PLY_GROUPS: [(&str, &[&str]); 3] = [
-    ("colour", &["red", "green", "blue", "alpha", "diffuse_red", "diffuse_green", "diffuse_blue"]),
-    ("normal", &["nx", "ny", "nz", "normal_x", "normal_y", "normal_z"]),
-    (
-        "texture coordinate",
-        &["u", "v", "s", "t", "texture_u", "texture_v", "texture_s", "texture_t"],
-    ),
-];
+/// At most this many lines name what a load left behind; the rest are counted.
+const MAX_LINES: usize = 64;
 
 /// What a load left behind.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Dropped {
     /// What each left-behind attribute or element is, in file order:
-    /// `vertex colour (red, green, blue, alpha)`, `vertex property 'flags'`.
+    /// `vertex property 'flags' (…)`, `element 'edge' (2 records)`; also what a load had
+    /// to change to keep an attribute (`normals … averaged per vertex`).
     pub attributes: Vec<String>,
     /// Coordinates stored as doubles were rounded to f32: the largest absolute change.
     pub rounding: Option<f64>,
+    /// Lines beyond [`MAX_LINES`], counted only (a hostile header may name millions).
+    more: usize,
 }
 
 impl Dropped {
@@ -40,6 +37,9 @@ impl Dropped {
     /// One line per thing left behind, for a warning or `meshflow info`.
     pub fn lines(&self) -> Vec<String> {
         let mut lines = self.attributes.clone();
+        if self.more > 0 {
+            lines.push(format!("and {} more", self.more));
+        }
         if let Some(error) = self.rounding {
             lines
                 .push(format!("double coordinates, rounded to float (largest change {error:.3e})"));
@@ -48,8 +48,13 @@ impl Dropped {
     }
 
     pub(crate) fn add(&mut self, what: String) {
-        if !self.attributes.contains(&what) {
+        if self.attributes.contains(&what) {
+            return;
+        }
+        if self.attributes.len() < MAX_LINES {
             self.attributes.push(what);
+        } else {
+            self.more += 1;
         }
     }
 
@@ -58,31 +63,5 @@ impl Dropped {
         let change = (exact - f64::from(rounded)).abs();
         let largest = self.rounding.get_or_insert(0.0);
         *largest = largest.max(change);
-    }
-
-    /// Names the properties of PLY element `element` other than those the mesh takes,
-    /// grouped into what they are: colours, normals, texture coordinates; others by name.
-    pub(crate) fn ply_properties<'a>(
-        &mut self,
-        element: &str,
-        names: impl IntoIterator<Item = &'a str>,
-    ) {
-        let names: Vec<&str> = names.into_iter().collect();
-        let owner = if element == "face" { "face" } else { "vertex" };
-        for (group, members) in PLY_GROUPS {
-            let found: Vec<&str> = names.iter().copied().filter(|n| members.contains(n)).collect();
-            if !found.is_empty() {
-                self.add(format!("{owner} {group} ({})", found.join(", ")));
-            }
-        }
-        let grouped = |n: &&str| PLY_GROUPS.iter().any(|(_, members)| members.contains(n));
-        for name in names.iter().filter(|n| !grouped(n)) {
-            match *name {
-                "texcoord" | "texcoords" => {
-                    self.add(format!("corner texture coordinates ('{name}')"))
-                }
-                _ => self.add(format!("{element} property '{name}'")),
-            }
-        }
     }
 }

@@ -68,6 +68,8 @@ pub enum MeshDefect {
     NonFinite { vertex: usize, value: f32 },
     #[error("triangle {triangle} uses vertex {vertex}, but there are only {vertices} vertices")]
     VertexOutOfRange { triangle: usize, vertex: u32, vertices: usize },
+    #[error("{0}")]
+    Attributes(String),
 }
 
 fn at_prefix(at: &Option<Position>) -> String {

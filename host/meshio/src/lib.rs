@@ -1,5 +1,7 @@
-//! Mesh files: loading OBJ, PLY (ascii and binary), OFF and STL into a [`MeshData`], and
-//! saving meshes atomically.
+//! Mesh files: loading OBJ, PLY (ascii and binary), OFF and STL into a [`MeshData`] with
+//! the attributes they carry (colours, normals, quality, texture coordinates, materials,
+//! other numbers by name), and saving meshes atomically with every attribute the format
+//! can hold; [`unsupported`] names the others before a save leaves them out.
 //!
 //! Loading keeps raw scans as they are: non-manifold edges, unreferenced vertices and
 //! degenerate faces load unchanged, polygons are fan-triangulated. What cannot be a mesh is
@@ -11,8 +13,11 @@
 
 mod atomic;
 mod build;
+mod companions;
 mod dropped;
 mod error;
+mod holds;
+mod keep;
 mod obj;
 mod off;
 mod ply;
@@ -26,8 +31,10 @@ use std::path::Path;
 use meshflow_mesh::MeshData;
 
 pub use atomic::{write_file, write_private_file};
+pub use companions::{Companions, copy_companion_files};
 pub use dropped::{Dropped, Loaded};
 pub use error::{LoadError, MeshDefect, Position, SaveError};
+pub use holds::unsupported;
 
 /// A mesh file format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -56,6 +63,16 @@ impl Format {
     pub fn from_name(name: &str) -> Option<Format> {
         let name = name.strip_prefix('.').unwrap_or(name);
         Format::ALL.into_iter().find(|f| f.extension().eq_ignore_ascii_case(name))
+    }
+
+    /// The format's name as people write it: `PLY`, `OBJ`, `OFF`, `STL`.
+    pub fn display_name(self) -> &'static str {
+        match self {
+            Format::Obj => "OBJ",
+            Format::Ply => "PLY",
+            Format::Off => "OFF",
+            Format::Stl => "STL",
+        }
     }
 
     /// The usual file extension, lower case and without the dot.
@@ -110,10 +127,20 @@ pub fn load_as_reporting(path: &Path, format: Format) -> Result<Loaded, LoadErro
     // One read of the whole file: every reader works on a byte slice, which is the fastest
     // way to parse and lets binary readers check counts against the remaining size.
     let bytes = std::fs::read(path).map_err(|cause| LoadError::Io { name: name.clone(), cause })?;
-    load_bytes_reporting(&bytes, format, &name)
+    let mut loaded = load_bytes_reporting(&bytes, format, &name)?;
+    // An OBJ's textures are named in its material libraries, beside it.
+    if format == Format::Obj && !loaded.mesh.attributes.materials.libraries.is_empty() {
+        let dir = match path.parent() {
+            Some(dir) if !dir.as_os_str().is_empty() => dir,
+            _ => Path::new("."),
+        };
+        obj::read_libraries(dir, &mut loaded);
+    }
+    Ok(loaded)
 }
 
-/// Decodes a mesh held in memory; `name` is what error messages call it.
+/// Decodes a mesh held in memory; `name` is what error messages call it. An OBJ's material
+/// libraries are named, but the textures they name are not known (see [`load_reporting`]).
 pub fn load_bytes(bytes: &[u8], format: Format, name: &str) -> Result<MeshData, LoadError> {
     load_bytes_reporting(bytes, format, name).map(|loaded| loaded.mesh)
 }
@@ -130,7 +157,7 @@ pub fn load_bytes_reporting(bytes: &[u8], format: Format, name: &str) -> Result<
 }
 
 /// Saves a mesh, choosing the format by the file extension; PLY is written binary little
-/// endian. Atomic: the data goes to a temporary file in the same directory that is renamed
+/// endian. Attributes the format cannot hold ([`unsupported`]) are left out: check first. Atomic: the data goes to a temporary file in the same directory that is renamed
 /// over `path` only when complete, so a failure leaves no partial and no new file.
 pub fn save(path: &Path, mesh: &MeshData) -> Result<(), SaveError> {
     let format =
@@ -208,5 +235,8 @@ fn validate(mesh: &MeshData) -> Result<(), MeshDefect> {
         let (triangle, vertex) = (i / 3, mesh.triangles[i]);
         return Err(MeshDefect::VertexOutOfRange { triangle, vertex, vertices });
     }
-    Ok(())
+    let attributes = &mesh.attributes;
+    attributes
+        .check(vertices, mesh.triangle_count())
+        .map_err(|e| MeshDefect::Attributes(e.to_string()))
 }

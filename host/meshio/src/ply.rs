@@ -5,9 +5,10 @@
 //! one pass without per-value dispatch, which is what makes large scans load fast.
 
 mod header;
+mod plan;
 mod read;
 mod source;
 mod write;
 
 pub(crate) use read::read;
-pub(crate) use write::write;
+pub(crate) use write::{unsupported, write};

@@ -64,6 +64,16 @@ pub(crate) fn write_f32(out: &mut dyn Write, value: f32) -> io::Result<()> {
     }
 }
 
+/// Writes an `f64` as the shortest decimal that parses back to the same bits.
+pub(crate) fn write_f64(out: &mut dyn Write, value: f64) -> io::Result<()> {
+    let magnitude = value.abs();
+    if magnitude == 0.0 || (1e-5..1e16).contains(&magnitude) {
+        write!(out, "{value}")
+    } else {
+        write!(out, "{value:e}")
+    }
+}
+
 /// Writes three coordinates separated by spaces.
 pub(crate) fn write_xyz(out: &mut dyn Write, p: &[f32]) -> io::Result<()> {
     write_f32(out, p[0])?;

@@ -2,6 +2,7 @@
 //! errors with line numbers.
 
 use meshflow_mesh::MeshData;
+use meshflow_mesh::attributes::{Domain, Values};
 use meshflow_meshio::{self as io, Format, LoadError, Position};
 
 fn load(text: &str) -> Result<MeshData, LoadError> {
@@ -28,7 +29,18 @@ fn square_with_apex() -> MeshData {
 fn plain_off_with_comments_polygons_and_face_colours() {
     let text = "OFF\n# a comment line\n5 3 0 # counts\n\n0 0 0\n1 0 0\n1 1 0\n0 1 0 # corner\n0.5 0.5 1\n\
                 4 0 1 2 3 255 0 0\n3 4 1 0\n3 1 1 2 0.5 0.5 0.5 1\n";
-    assert_eq!(load(text).unwrap(), square_with_apex());
+    let mesh = load(text).unwrap();
+    assert_eq!(
+        (&mesh.positions, &mesh.triangles),
+        (&square_with_apex().positions, &square_with_apex().triangles)
+    );
+    // Integer colours are bytes, float ones from 0 to 1; a face without one is white, and
+    // the quad's colour goes to both its triangles.
+    let colour = mesh.attributes.get(Domain::Face, "color").unwrap();
+    assert_eq!(
+        colour.values,
+        Values::U8(vec![255, 0, 0, 255, 255, 0, 0, 255, 255, 255, 255, 255, 128, 128, 128, 255])
+    );
 }
 
 #[test]
@@ -58,7 +70,9 @@ fn header_variants_and_a_missing_header_load_the_same_mesh() {
         format!("OFF\r\n5 3 0\r\n{}{}", plain.replace('\n', "\r\n"), faces.replace('\n', "\r\n")),
     ];
     for text in cases {
-        assert_eq!(load(&text).unwrap(), square_with_apex(), "{text}");
+        let mesh = load(&text).unwrap();
+        assert_eq!(mesh.positions, square_with_apex().positions, "{text}");
+        assert_eq!(mesh.triangles, square_with_apex().triangles, "{text}");
     }
 }
 

@@ -2,6 +2,7 @@
 //! features, and rejection of malformed files with positions in the message.
 
 use meshflow_mesh::MeshData;
+use meshflow_mesh::attributes::{Domain, Values};
 use meshflow_meshio::{self as io, Format, LoadError, Position};
 
 /// One value of a hand-written PLY body.
@@ -137,9 +138,10 @@ fn face_records() -> Vec<Vec<V>> {
 }
 
 #[test]
-fn extra_properties_and_elements_are_skipped_in_every_encoding() {
-    // Fixed-size vertex records with doubles, normals, colours and confidence; a material
-    // element before the faces, extra face properties, and an edge element after them.
+fn extra_properties_are_kept_and_other_elements_skipped_in_every_encoding() {
+    // Fixed-size vertex records with doubles, a lone normal component, two colour channels
+    // and confidence; a material element before the faces, extra face properties, and an
+    // edge element after them.
     let declarations = "comment from a scanner\nobj_info scanner v2\n\
         element vertex 5\nproperty float confidence\nproperty double z\nproperty double x\n\
         property float nx\nproperty double y\nproperty uchar red\nproperty uchar green\n\
@@ -160,8 +162,37 @@ fn extra_properties_and_elements_are_skipped_in_every_encoding() {
     records.push(vec![V::I32(0), V::I32(1), V::U32(3), V::I8(-1), V::I8(2), V::I8(3)]);
     records.push(vec![V::I32(1), V::I32(2), V::U32(0)]);
     for enc in Enc::ALL {
-        let mesh = load(&ply(enc, declarations, &records)).unwrap();
-        assert_eq!(mesh, expected_scan(), "{}", enc.name());
+        let loaded =
+            io::load_bytes_reporting(&ply(enc, declarations, &records), Format::Ply, "s").unwrap();
+        let mesh = loaded.mesh;
+        assert_eq!(mesh.positions, expected_scan().positions, "{}", enc.name());
+        assert_eq!(mesh.triangles, expected_scan().triangles, "{}", enc.name());
+        // Properties that make no well-known attribute are kept by name and type; face
+        // values spread over their polygon's triangles.
+        assert_eq!(
+            mesh.attributes.describe(),
+            [
+                "vertex confidence (1 × f32)",
+                "vertex green (1 × u8)",
+                "vertex nx (1 × f32)",
+                "vertex red (1 × u8)",
+                "face intensity (1 × u8)"
+            ],
+            "{}",
+            enc.name()
+        );
+        let intensity = mesh.attributes.get(Domain::Face, "intensity").unwrap();
+        assert_eq!(intensity.values, Values::U8(vec![200; 7]));
+        assert_eq!(
+            loaded.dropped.attributes,
+            [
+                "element 'material' (2 records)",
+                "element 'edge' (2 records)",
+                "corner texture coordinates (face list 'texcoord'): a face's list does not hold u v per corner"
+            ],
+            "{}",
+            enc.name()
+        );
     }
 }
 

@@ -123,6 +123,8 @@ pub(super) struct Header {
     pub body_offset: usize,
     /// Line number of the body's first line (for ascii errors).
     pub body_line: usize,
+    /// The text of each `comment` line after the keyword, trimmed (`TextureFile skin.png`).
+    pub comments: Vec<String>,
 }
 
 /// Parses the header at the start of `bytes`.
@@ -132,6 +134,7 @@ pub(super) fn parse(bytes: &[u8]) -> ReadResult<Header> {
     // Names seen so far, so that a header of many properties is read in linear time.
     let mut element_names = HashSet::new();
     let mut property_names = HashSet::new();
+    let mut comments = Vec::new();
     let mut offset = 0;
     for (number, line) in text::lines(bytes) {
         offset += line.len() + 1;
@@ -193,9 +196,19 @@ pub(super) fn parse(bytes: &[u8]) -> ReadResult<Header> {
                 let encoding =
                     encoding.ok_or_else(|| error("no 'format' line before 'end_header'".into()))?;
                 let body_offset = offset.min(bytes.len());
-                return Ok(Header { encoding, elements, body_offset, body_line: number + 1 });
+                return Ok(Header {
+                    encoding,
+                    elements,
+                    body_offset,
+                    body_line: number + 1,
+                    comments,
+                });
             }
-            Some(b"comment") | Some(b"obj_info") | None => {}
+            Some(b"comment") => {
+                let start = line.windows(7).position(|w| w == b"comment").unwrap_or(0) + 7;
+                comments.push(String::from_utf8_lossy(line[start..].trim_ascii()).into_owned());
+            }
+            Some(b"obj_info") | None => {}
             Some(other) => {
                 return Err(error(format!("unexpected '{}' in the PLY header", shown(other))));
             }

@@ -1,11 +1,13 @@
 //! Reading a PLY body into a mesh: the `vertex` element's x/y/z, the `face` element's index
-//! lists; every other property and element is skipped, and named in the [`Dropped`] report.
+//! lists, and the attributes [`plan`](super::plan) found in both; other elements are
+//! skipped, and named in the [`Dropped`] report.
 
 use super::super::build::{
     capacity, check_arity, check_corner, check_finite, check_vertex_count, push_fan,
 };
 use super::super::error::{Invalid, Position, ReadResult};
 use super::header::{self, Element, Encoding, Header, Kind, Scalar};
+use super::plan::{self, Column, Plan, Role};
 use super::source::{Ascii, BigEndian, Binary, LittleEndian, Source, truncated};
 use crate::dropped::{Dropped, Loaded};
 use meshflow_mesh::MeshData;
@@ -16,45 +18,49 @@ pub(crate) fn read(bytes: &[u8]) -> ReadResult<Loaded> {
     let body = &bytes[header.body_offset..];
     check_sizes(&header, body.len())?;
     let layout = Layout::new(&header)?;
-    let mut dropped = left_behind(&header, &layout);
-    let mesh = match header.encoding {
-        Encoding::Ascii => {
-            read_body(&header, &layout, Ascii::new(body, header.body_line), &mut dropped)
-        }
+    let mut dropped = Dropped::default();
+    let axes = header.elements.iter().any(|e| e.name == "vertex").then_some(layout.axes);
+    let mut plan = plan::plan(&header, axes, layout.corners, &mut dropped);
+    let mut mesh = Body::default();
+    match header.encoding {
+        Encoding::Ascii => read_body(
+            &header,
+            &layout,
+            &mut plan,
+            Ascii::new(body, header.body_line),
+            &mut mesh,
+            &mut dropped,
+        ),
         Encoding::BinaryLittleEndian => read_body(
             &header,
             &layout,
+            &mut plan,
             Binary::<LittleEndian>::new(body, header.body_offset),
+            &mut mesh,
             &mut dropped,
         ),
         Encoding::BinaryBigEndian => read_body(
             &header,
             &layout,
+            &mut plan,
             Binary::<BigEndian>::new(body, header.body_offset),
+            &mut mesh,
             &mut dropped,
         ),
     }?;
-    Ok(Loaded { mesh, dropped })
+    let mut data = MeshData::new(mesh.positions, mesh.triangles);
+    let (vertices, triangles) = (data.vertex_count(), data.triangle_count());
+    data.attributes = plan.assemble(vertices, triangles, &mesh.corners, &mut dropped);
+    Ok(Loaded { mesh: data, dropped })
 }
 
-/// The properties and elements of the header the mesh does not take.
-fn left_behind(header: &Header, layout: &Layout) -> Dropped {
-    let mut dropped = Dropped::default();
-    for element in header.elements.iter().filter(|e| e.count > 0) {
-        let taken = |p: usize| match element.name.as_str() {
-            "vertex" => layout.axes.contains(&p),
-            "face" => layout.corners == Some(p),
-            _ => false,
-        };
-        let others = (element.properties.iter().enumerate())
-            .filter(|&(p, _)| !taken(p))
-            .map(|(_, property)| property.name.as_str());
-        match element.name.as_str() {
-            "vertex" | "face" => dropped.ply_properties(&element.name, others),
-            name => dropped.add(format!("element '{name}' ({} records)", element.count)),
-        }
-    }
-    dropped
+/// What the body reader fills.
+#[derive(Default)]
+struct Body {
+    positions: Vec<f32>,
+    triangles: Vec<u32>,
+    /// Each face's corner count, when face values are kept (they are per polygon).
+    corners: Vec<u32>,
 }
 
 /// Rejects headers whose counts the body cannot hold, before anything is allocated from
@@ -125,56 +131,96 @@ impl Layout {
 fn read_body<S: Source>(
     header: &Header,
     layout: &Layout,
+    plan: &mut Plan,
     mut source: S,
+    body: &mut Body,
     dropped: &mut Dropped,
-) -> ReadResult<MeshData> {
-    let mut positions = Vec::new();
-    let mut triangles = Vec::new();
+) -> ReadResult<()> {
+    let record_corners = plan.face_columns();
     for element in &header.elements {
         match (element.name.as_str(), layout.corners) {
-            ("vertex", _) => {
-                read_vertices(&mut source, element, layout.axes, &mut positions, dropped)?
-            }
-            ("face", Some(list)) => {
-                read_faces(&mut source, element, list, layout.vertex_count, &mut triangles)?
+            ("vertex", _) => read_vertices(
+                &mut source,
+                element,
+                &plan.vertex_roles,
+                &mut plan.columns,
+                &mut body.positions,
+                dropped,
+            )?,
+            ("face", Some(_)) => {
+                let corners = record_corners.then_some(&mut body.corners);
+                let faces = Faces { roles: &plan.face_roles, vertices: layout.vertex_count };
+                faces.read(&mut source, element, &mut plan.columns, &mut body.triangles, corners)?
             }
             _ => skip_element(&mut source, element)?,
         }
     }
     // Bytes after the last element are ignored, as other readers do.
-    Ok(MeshData::new(positions, triangles))
+    Ok(())
+}
+
+/// Reads one property value into its column: a scalar, or a list (its length noted).
+fn read_column<S: Source>(source: &mut S, kind: Kind, column: &mut Column) -> ReadResult<()> {
+    match kind {
+        Kind::Scalar(ty) => {
+            column.values.push(source.value(ty)?);
+            Ok(())
+        }
+        Kind::List { count, item } => {
+            let n = source.integer(count)?;
+            let n = usize::try_from(n)
+                .map_err(|_| Invalid::at(source.last_at(), format!("negative list length {n}")))?;
+            if column.record(n) {
+                (0..n).try_for_each(|_| source.value(item).map(|x| column.values.push(x)))
+            } else {
+                source.skip_items(item, n)
+            }
+        }
+    }
 }
 
 fn read_vertices<S: Source>(
     source: &mut S,
     element: &Element,
-    axes: [usize; 3],
+    roles: &[Role],
+    columns: &mut [Column],
     positions: &mut Vec<f32>,
     dropped: &mut Dropped,
 ) -> ReadResult<()> {
-    // `check_sizes` bounded the count by the file size, so this reservation is safe.
+    // `check_sizes` bounded the count by the file size, so these reservations are safe.
     positions.reserve(element.count as usize * 3);
+    for role in roles {
+        if let Role::Column(c) = *role {
+            columns[c].values.reserve(element.count as usize);
+        }
+    }
+    let mut axes = [0; 3];
+    for (p, role) in roles.iter().enumerate() {
+        if let Role::Axis(k) = *role {
+            axes[k] = p;
+        }
+    }
     if let Some(size) = element.fixed_size()
         && let Some((data, offset)) = source.unread()
     {
         let block = fixed_block(data, offset, element.count, size)?;
         decode_fixed_vertices::<S>(element, axes, size, block, offset, positions, dropped)?;
+        decode_fixed_columns::<S>(element, roles, columns, size, block);
         source.consume(block.len());
         return Ok(());
     }
-    let roles: Vec<Option<usize>> =
-        (0..element.properties.len()).map(|p| axes.iter().position(|&a| a == p)).collect();
     for vertex in 0..element.count as usize {
         let mut p = [0.0f32; 3];
-        for (property, role) in element.properties.iter().zip(&roles) {
-            let value = match (role, property.kind) {
-                (Some(axis), Kind::Scalar(Scalar::F64)) => {
+        for (property, role) in element.properties.iter().zip(roles) {
+            let value = match (*role, property.kind) {
+                (Role::Axis(axis), Kind::Scalar(Scalar::F64)) => {
                     source.double_coordinate().map(|(exact, rounded)| {
                         dropped.rounded(exact, rounded);
-                        p[*axis] = rounded;
+                        p[axis] = rounded;
                     })
                 }
-                (Some(axis), Kind::Scalar(ty)) => source.coordinate(ty).map(|c| p[*axis] = c),
+                (Role::Axis(axis), Kind::Scalar(ty)) => source.coordinate(ty).map(|c| p[axis] = c),
+                (Role::Column(c), kind) => read_column(source, kind, &mut columns[c]),
                 _ => source.skip(property.kind),
             };
             value.map_err(|e| e.context(format_args!("vertex {vertex}")))?;
@@ -183,6 +229,27 @@ fn read_vertices<S: Source>(
         positions.extend_from_slice(&p);
     }
     Ok(())
+}
+
+/// The attribute columns of fixed-size binary records, one column at a time.
+fn decode_fixed_columns<S: Source>(
+    element: &Element,
+    roles: &[Role],
+    columns: &mut [Column],
+    size: usize,
+    block: &[u8],
+) {
+    let mut start = 0;
+    for (property, role) in element.properties.iter().zip(roles) {
+        let Kind::Scalar(ty) = property.kind else { unreachable!("fixed records hold scalars") };
+        if let Role::Column(c) = *role {
+            let values = &mut columns[c].values;
+            for record in block.chunks_exact(size) {
+                values.push(S::decode_value(ty, &record[start..]));
+            }
+        }
+        start += ty.size();
+    }
 }
 
 /// The first `count` records of `size` bytes of a binary body, or the truncation error.
@@ -239,52 +306,75 @@ fn scalar_size(kind: Kind) -> usize {
     }
 }
 
-fn read_faces<S: Source>(
-    source: &mut S,
-    element: &Element,
-    list: usize,
+/// How face records are read: each property's role, and the vertex count corners are
+/// checked against.
+struct Faces<'a> {
+    roles: &'a [Role],
     vertices: u64,
-    triangles: &mut Vec<u32>,
-) -> ReadResult<()> {
-    let Kind::List { count: count_type, item } = element.properties[list].kind else {
-        unreachable!("Layout keeps only list corners")
-    };
-    // Most faces are triangles; the cap keeps a lying count from reserving beyond the file.
-    let triangle_bytes = element.min_size(Encoding::BinaryLittleEndian) + 3 * item.size();
-    triangles.reserve(capacity(element.count, source.remaining(), triangle_bytes) * 3);
-    if element.properties.len() == 1
-        && let Some((data, offset)) = source.unread()
-    {
-        let len = decode_face_lists::<S>(
-            data,
-            offset,
-            element.count,
-            [count_type, item],
-            vertices,
-            triangles,
-        )?;
-        source.consume(len);
-        return Ok(());
-    }
-    let mut corners = Vec::new();
-    for face in 0..element.count as usize {
-        let in_face = |e: Invalid| e.context(format_args!("face {face}"));
-        for (index, property) in element.properties.iter().enumerate() {
-            if index != list {
-                source.skip(property.kind).map_err(in_face)?;
-                continue;
-            }
-            let n = source.integer(count_type).map_err(in_face)?;
-            check_arity(face, n, source.last_at())?;
-            corners.clear();
-            for _ in 0..n {
-                let corner = source.integer(item).map_err(in_face)?;
-                corners.push(check_corner(face, corner, vertices, source.last_at())?);
-            }
-            push_fan(triangles, &corners);
+}
+
+impl Faces<'_> {
+    fn read<S: Source>(
+        &self,
+        source: &mut S,
+        element: &Element,
+        columns: &mut [Column],
+        triangles: &mut Vec<u32>,
+        mut corner_counts: Option<&mut Vec<u32>>,
+    ) -> ReadResult<()> {
+        let list = self.roles.iter().position(|r| *r == Role::Corners).expect("a corner list");
+        let vertices = self.vertices;
+        let Kind::List { count: count_type, item } = element.properties[list].kind else {
+            unreachable!("Layout keeps only list corners")
+        };
+        // Most faces are triangles; the cap keeps a lying count from reserving beyond the file.
+        let triangle_bytes = element.min_size(Encoding::BinaryLittleEndian) + 3 * item.size();
+        let faces = capacity(element.count, source.remaining(), triangle_bytes);
+        triangles.reserve(faces * 3);
+        if element.properties.len() == 1
+            && let Some((data, offset)) = source.unread()
+        {
+            let len = decode_face_lists::<S>(
+                data,
+                offset,
+                element.count,
+                [count_type, item],
+                vertices,
+                triangles,
+            )?;
+            source.consume(len);
+            return Ok(());
         }
+        if let Some(counts) = corner_counts.as_deref_mut() {
+            counts.reserve(faces);
+        }
+        let mut corners = Vec::new();
+        for face in 0..element.count as usize {
+            let in_face = |e: Invalid| e.context(format_args!("face {face}"));
+            for (property, role) in element.properties.iter().zip(self.roles) {
+                match *role {
+                    Role::Corners => {
+                        let n = source.integer(count_type).map_err(in_face)?;
+                        check_arity(face, n, source.last_at())?;
+                        corners.clear();
+                        for _ in 0..n {
+                            let corner = source.integer(item).map_err(in_face)?;
+                            corners.push(check_corner(face, corner, vertices, source.last_at())?);
+                        }
+                        push_fan(triangles, &corners);
+                    }
+                    Role::Column(c) => {
+                        read_column(source, property.kind, &mut columns[c]).map_err(in_face)?
+                    }
+                    _ => source.skip(property.kind).map_err(in_face)?,
+                }
+            }
+            if let Some(counts) = corner_counts.as_deref_mut() {
+                counts.push(u32::try_from(corners.len()).unwrap_or(u32::MAX));
+            }
+        }
+        Ok(())
     }
-    Ok(())
 }
 
 /// The fast path for binary faces that hold nothing but their corner list (what nearly every

@@ -6,7 +6,7 @@
 use std::marker::PhantomData;
 
 use super::super::error::{Invalid, Position, ReadResult};
-use super::super::text::{parse_f32, parse_i64};
+use super::super::text::{parse_f32, parse_i64, shown};
 use super::header::{Kind, Scalar};
 
 /// A cursor over the body.
@@ -22,8 +22,12 @@ pub(super) trait Source {
     fn double_coordinate(&mut self) -> ReadResult<(f64, f32)>;
     /// Reads a scalar of integer type `ty`.
     fn integer(&mut self, ty: Scalar) -> ReadResult<i64>;
+    /// Reads a scalar of any type `ty` exactly (`f64` holds every PLY number).
+    fn value(&mut self, ty: Scalar) -> ReadResult<f64>;
     /// Skips one property value (a scalar or a whole list).
     fn skip(&mut self, kind: Kind) -> ReadResult<()>;
+    /// Skips `n` values of type `item` (a list's items, its length already read).
+    fn skip_items(&mut self, item: Scalar, n: usize) -> ReadResult<()>;
     /// Binary only: the unread bytes and the file offset of their start, so the common
     /// layouts can be decoded in bulk instead of value by value. `None` for ascii.
     fn unread(&self) -> Option<(&[u8], usize)>;
@@ -35,6 +39,8 @@ pub(super) trait Source {
     fn decode_f64(bytes: &[u8]) -> f64;
     /// Binary only: decodes an integer scalar at the start of `bytes`.
     fn decode_int(ty: Scalar, bytes: &[u8]) -> i64;
+    /// Binary only: decodes a scalar of any type at the start of `bytes`, exactly.
+    fn decode_value(ty: Scalar, bytes: &[u8]) -> f64;
 }
 
 /// The error for a binary body that ends before `needed` bytes at file offset `at`.
@@ -132,6 +138,11 @@ impl<O: Order> Source for Binary<'_, O> {
         Ok(Self::decode_int(ty, self.take(ty.size())?))
     }
 
+    #[inline]
+    fn value(&mut self, ty: Scalar) -> ReadResult<f64> {
+        Ok(Self::decode_value(ty, self.take(ty.size())?))
+    }
+
     fn skip(&mut self, kind: Kind) -> ReadResult<()> {
         match kind {
             Kind::Scalar(ty) => self.take(ty.size()).map(drop),
@@ -143,6 +154,10 @@ impl<O: Order> Source for Binary<'_, O> {
                 self.take(n.saturating_mul(item.size())).map(drop)
             }
         }
+    }
+
+    fn skip_items(&mut self, item: Scalar, n: usize) -> ReadResult<()> {
+        self.take(n.saturating_mul(item.size())).map(drop)
     }
 
     fn unread(&self) -> Option<(&[u8], usize)> {
@@ -179,6 +194,15 @@ impl<O: Order> Source for Binary<'_, O> {
             // Headers with float lists are rejected before reading; truncate if one slips by.
             Scalar::F32 => f32::from_bits(O::u32(array(b))) as i64,
             Scalar::F64 => f64::from_bits(O::u64(array(b))) as i64,
+        }
+    }
+
+    #[inline]
+    fn decode_value(ty: Scalar, b: &[u8]) -> f64 {
+        match ty {
+            Scalar::F32 => f64::from(f32::from_bits(O::u32(array(b)))),
+            Scalar::F64 => f64::from_bits(O::u64(array(b))),
+            _ => Self::decode_int(ty, b) as f64,
         }
     }
 }
@@ -245,6 +269,20 @@ impl Source for Ascii<'_> {
         parse_i64(token).map_err(|reason| Invalid::line(self.last_line, reason.to_string()))
     }
 
+    fn value(&mut self, ty: Scalar) -> ReadResult<f64> {
+        let token = self.token()?;
+        let invalid = |reason: String| Invalid::line(self.last_line, reason);
+        match ty {
+            // Straight to f32, as coordinates are: one rounding from the decimal text.
+            Scalar::F32 => parse_f32(token).map(f64::from).map_err(|r| invalid(r.to_string())),
+            // Integers written as `255.0` by some writers are taken too.
+            _ => std::str::from_utf8(token)
+                .ok()
+                .and_then(|t| t.parse::<i64>().map(|i| i as f64).ok().or_else(|| t.parse().ok()))
+                .ok_or_else(|| invalid(format!("'{}' is not a number", shown(token)))),
+        }
+    }
+
     fn skip(&mut self, kind: Kind) -> ReadResult<()> {
         match kind {
             Kind::Scalar(_) => self.token().map(drop),
@@ -256,6 +294,10 @@ impl Source for Ascii<'_> {
                 (0..n).try_for_each(|_| self.token().map(drop))
             }
         }
+    }
+
+    fn skip_items(&mut self, _item: Scalar, n: usize) -> ReadResult<()> {
+        (0..n).try_for_each(|_| self.token().map(drop))
     }
 
     fn unread(&self) -> Option<(&[u8], usize)> {
@@ -275,6 +317,10 @@ impl Source for Ascii<'_> {
     }
 
     fn decode_int(_ty: Scalar, _bytes: &[u8]) -> i64 {
+        unreachable!("ascii bodies are read token by token")
+    }
+
+    fn decode_value(_ty: Scalar, _bytes: &[u8]) -> f64 {
         unreachable!("ascii bodies are read token by token")
     }
 }
