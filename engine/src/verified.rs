@@ -9,7 +9,7 @@
 //! same host's `raw` proved it holds the right mesh, and its sealed header makes every
 //! reader's decode check the hash again.
 
-use std::io::{BufReader, BufWriter, Read, Write};
+use std::io::{BufReader, BufWriter, Read, Seek, SeekFrom, Write};
 use std::os::unix::fs::FileExt;
 use std::path::Path;
 
@@ -86,13 +86,15 @@ pub async fn spool(
     let hash = match raw {
         false => None,
         true => {
-            let (vertices, triangles) = raw_counts(&header)?;
-            let expected =
-                HEADER_BYTES as u64 + 12 * u64::from(vertices) + 12 * u64::from(triangles);
-            if expected != bytes {
+            let (vertices, triangles) = raw_mesh::header_counts(&header)?;
+            let expected = raw_mesh::arrays_end(vertices, triangles);
+            if bytes < expected {
                 let error =
                     raw_mesh::RawMeshError::Length { vertices, triangles, expected, actual: bytes };
                 return Err(error.into());
+            }
+            if bytes > expected {
+                section(&path, vertices, triangles, bytes).await?;
             }
             Some(hasher.finalize().to_hex().to_string())
         }
@@ -100,12 +102,30 @@ pub async fn spool(
     Ok(Spooled { path, bytes, hash })
 }
 
-fn raw_counts(header: &[u8]) -> Result<(u32, u32), raw_mesh::RawMeshError> {
-    if header.len() < HEADER_BYTES || &header[..4] != MAGIC {
-        return Err(raw_mesh::RawMeshError::NotRaw);
-    }
-    let word = |at: usize| u32::from_le_bytes(header[at..at + 4].try_into().expect("four bytes"));
-    Ok((word(4), word(8)))
+/// The attribute section of the spooled raw mesh at `path`, checked against its counts.
+async fn section(
+    path: &Path,
+    vertices: u32,
+    triangles: u32,
+    bytes: u64,
+) -> Result<raw_mesh::Section, SpoolError> {
+    let path = path.to_owned();
+    tokio::task::spawn_blocking(move || read_attributes(&path, vertices, triangles, bytes))
+        .await
+        .map_err(std::io::Error::other)?
+}
+
+fn read_attributes(
+    path: &Path,
+    vertices: u32,
+    triangles: u32,
+    bytes: u64,
+) -> Result<raw_mesh::Section, SpoolError> {
+    let start = raw_mesh::arrays_end(vertices, triangles);
+    let mut file = std::fs::File::open(path)?;
+    file.seek(SeekFrom::Start(start))?;
+    let mut input = BufReader::with_capacity(BUFFER_BYTES, file);
+    Ok(raw_mesh::read_section(&mut input, start, bytes, vertices, triangles)?)
 }
 
 /// Writes the verified `raw` mesh at `raw` as `format` (PLY, OBJ, OFF or STL) into a new
@@ -128,25 +148,61 @@ fn write_blocking(raw: &Path, format: MeshFileFormat, target: &Path) -> std::io:
     let mut input = BufReader::with_capacity(BUFFER_BYTES, &file);
     let mut header = [0u8; HEADER_BYTES];
     input.read_exact(&mut header)?;
-    let (vertices, triangles) = raw_counts(&header).map_err(std::io::Error::other)?;
+    let (vertices, triangles) = raw_mesh::header_counts(&header).map_err(std::io::Error::other)?;
+    let length = file.metadata()?.len();
+    let section = match length > raw_mesh::arrays_end(vertices, triangles) {
+        true => read_attributes(raw, vertices, triangles, length).map_err(std::io::Error::other)?,
+        false => raw_mesh::Section::default(),
+    };
     let mut out = BufWriter::with_capacity(BUFFER_BYTES, std::fs::File::create(target)?);
     let real = |bits: u32| f32::from_bits(bits);
     match format {
         MeshFileFormat::Ply => {
-            write!(
-                out,
-                "ply\nformat binary_little_endian 1.0\nelement vertex {vertices}\n\
-                 property float x\nproperty float y\nproperty float z\n\
-                 element face {triangles}\nproperty list uchar int vertex_indices\nend_header\n"
-            )?;
-            // The positions are already f32 LE, as binary PLY wants them.
-            std::io::copy(&mut (&mut input).take(12 * u64::from(vertices)), &mut out)?;
+            let per_vertex = ply_properties(&section, raw_mesh::Domain::Vertex);
+            let per_face = ply_properties(&section, raw_mesh::Domain::Face);
+            let corner_uv = section.attributes.iter().find(|a| {
+                a.domain == raw_mesh::Domain::Corner && a.name == "texcoord" && a.components == 2
+            });
+            writeln!(out, "ply\nformat binary_little_endian 1.0")?;
+            for texture in &section.textures {
+                writeln!(out, "comment TextureFile {texture}")?;
+            }
+            writeln!(out, "element vertex {vertices}")?;
+            writeln!(out, "property float x\nproperty float y\nproperty float z")?;
+            for (_, names, ty) in &per_vertex {
+                names.iter().try_for_each(|n| writeln!(out, "property {ty} {n}"))?;
+            }
+            writeln!(out, "element face {triangles}")?;
+            writeln!(out, "property list uchar int vertex_indices")?;
+            if corner_uv.is_some() {
+                writeln!(out, "property list uchar float texcoord")?;
+            }
+            for (_, names, ty) in &per_face {
+                names.iter().try_for_each(|n| writeln!(out, "property {ty} {n}"))?;
+            }
+            writeln!(out, "end_header")?;
+            let mut vertex_values = values_readers(raw, &per_vertex)?;
+            for _ in 0..vertices {
+                // The positions are already f32 LE, as binary PLY wants them.
+                std::io::copy(&mut (&mut input).take(12), &mut out)?;
+                copy_element(&mut vertex_values, &mut out)?;
+            }
+            let mut face_values = values_readers(raw, &per_face)?;
+            let mut uv = match corner_uv {
+                Some(a) => Some(reader_at(raw, a.offset)?),
+                None => None,
+            };
             for _ in 0..triangles {
                 let corners = three(&mut input)?;
                 out.write_all(&[3])?;
                 for corner in corners {
                     out.write_all(&corner.to_le_bytes())?;
                 }
+                if let Some(uv) = &mut uv {
+                    out.write_all(&[6])?;
+                    std::io::copy(&mut uv.take(24), &mut out)?;
+                }
+                copy_element(&mut face_values, &mut out)?;
             }
         }
         MeshFileFormat::Obj | MeshFileFormat::Off => {
@@ -214,6 +270,66 @@ fn write_blocking(raw: &Path, format: MeshFileFormat, target: &Path) -> std::io:
     }
     out.flush()?;
     Ok(out.get_ref().metadata()?.len())
+}
+
+/// A domain's attributes as PLY properties: the attribute, its property names (MeshLab's
+/// for the well-known ones), and their PLY type.
+fn ply_properties(
+    section: &raw_mesh::Section,
+    domain: raw_mesh::Domain,
+) -> Vec<(&raw_mesh::RawAttribute, Vec<String>, &'static str)> {
+    let vertex = domain == raw_mesh::Domain::Vertex;
+    section
+        .attributes
+        .iter()
+        .filter(|a| a.domain == domain)
+        .map(|a| {
+            let names: Vec<String> = match (vertex, a.name.as_str()) {
+                (true, "color") => ["red", "green", "blue", "alpha"].map(String::from).to_vec(),
+                (true, "normal") => ["nx", "ny", "nz"].map(String::from).to_vec(),
+                (true, "texcoord") => ["texture_u", "texture_v"].map(String::from).to_vec(),
+                (false, "material") => vec!["texnumber".to_owned()],
+                (_, name) if a.components == 1 => vec![name.to_owned()],
+                (_, name) => (0..a.components).map(|k| format!("{name}_{k}")).collect(),
+            };
+            let ty = match a.number_type {
+                "u8" => "uchar",
+                "i32" => "int",
+                "u32" => "uint",
+                "f64" => "double",
+                _ => "float",
+            };
+            (a, names, ty)
+        })
+        .collect()
+}
+
+/// One reader per attribute, at its first number, with the bytes an element takes.
+fn values_readers(
+    raw: &Path,
+    properties: &[(&raw_mesh::RawAttribute, Vec<String>, &'static str)],
+) -> std::io::Result<Vec<(BufReader<std::fs::File>, u64)>> {
+    properties
+        .iter()
+        .map(|(a, ..)| Ok((reader_at(raw, a.offset)?, u64::from(a.components) * a.number_bytes())))
+        .collect()
+}
+
+fn reader_at(raw: &Path, offset: u64) -> std::io::Result<BufReader<std::fs::File>> {
+    let mut file = std::fs::File::open(raw)?;
+    file.seek(SeekFrom::Start(offset))?;
+    Ok(BufReader::with_capacity(BUFFER_BYTES / 4, file))
+}
+
+/// Copies one element's numbers of every attribute, in property order (already LE).
+fn copy_element(
+    readers: &mut [(BufReader<std::fs::File>, u64)],
+    out: &mut impl Write,
+) -> std::io::Result<()> {
+    for (reader, bytes) in readers {
+        std::io::copy(&mut reader.take(*bytes), out)?;
+    }
+    Ok(())
 }
 
 fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {

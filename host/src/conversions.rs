@@ -13,6 +13,7 @@ use meshflow_api::raw_mesh;
 use meshflow_codec::pack::{self, PackError};
 use meshflow_codec::quantize::Grid;
 use meshflow_mesh::{MeshData, as_le_bytes_f32, as_le_bytes_u32};
+use meshflow_mesh::attributes::write_canonical;
 use meshflow_meshio::{self as io, Format};
 
 use crate::blobs::{BlobError, BlobStore};
@@ -234,6 +235,9 @@ pub fn raw(mesh: &MeshData) -> Vec<u8> {
     bytes.extend_from_slice(&(mesh.triangle_count() as u32).to_le_bytes());
     bytes.extend_from_slice(&as_le_bytes_f32(&mesh.positions));
     bytes.extend_from_slice(&as_le_bytes_u32(&mesh.triangles));
+    if !mesh.attributes.is_empty() {
+        write_canonical(&mesh.attributes, &mut |more| bytes.extend_from_slice(more));
+    }
     bytes
 }
 
@@ -252,6 +256,15 @@ mod tests {
         let raw = raw(&mesh);
         assert_eq!(raw_mesh::counts(&raw), Ok((4, 2)));
         assert_eq!(raw_mesh::content_hash(&raw).unwrap(), mesh.content_hash().to_hex());
+
+        let mut coloured = square();
+        let colours = vec![255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 9, 9, 9, 128];
+        let attribute = meshflow_mesh::attributes::Attribute::color(colours);
+        coloured.attributes.insert(attribute, 4, 2).unwrap();
+        let raw = raw(&coloured);
+        assert_eq!(raw_mesh::counts(&raw), Ok((4, 2)));
+        assert_eq!(raw_mesh::content_hash(&raw).unwrap(), coloured.content_hash().to_hex());
+        assert_ne!(coloured.content_hash(), mesh.content_hash());
     }
 
     #[test]

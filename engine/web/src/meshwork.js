@@ -22,6 +22,60 @@ export function parseRaw(buffer) {
   return { vertices, triangles, positions, corners };
 }
 
+const ATTRIBUTES_TAG = 'attributes-v1';
+const DOMAINS = ['vertex', 'face', 'corner'];
+const TYPES = [['u8', 1], ['i32', 4], ['u32', 4], ['f32', 4], ['f64', 8]];
+
+/** The attribute section after a `raw` mesh's arrays (what the content hash covers after
+ *  them): each attribute's domain, name, type, components and where its numbers lie, and
+ *  the byte offset of the per-vertex RGBA colours when the mesh has them. Bounds are
+ *  checked: a section that runs past the buffer is refused. */
+export function parseAttributes(buffer, vertices, triangles) {
+  let at = RAW_HEADER_BYTES + vertices * 12 + triangles * 12;
+  const found = { list: [], colorOffset: null, textures: [] };
+  if (at === buffer.byteLength) return found;
+  const view = new DataView(buffer);
+  const need = (n) => {
+    if (at + n > buffer.byteLength) throw new Error('the raw mesh\'s attributes are cut short');
+  };
+  const text = (n) => {
+    need(n);
+    const s = new TextDecoder().decode(new Uint8Array(buffer, at, n));
+    at += n;
+    return s;
+  };
+  const u32 = () => {
+    need(4);
+    const v = view.getUint32(at, true);
+    at += 4;
+    return v;
+  };
+  if (text(ATTRIBUTES_TAG.length) !== ATTRIBUTES_TAG) throw new Error('the raw mesh has trailing bytes');
+  const count = u32();
+  for (let i = 0; i < count; i += 1) {
+    need(3);
+    const [domain, type, components] = new Uint8Array(buffer, at, 3);
+    at += 3;
+    const name = text(u32());
+    need(8);
+    const numbers = Number(view.getBigUint64(at, true));
+    at += 8;
+    const [typeName, size] = TYPES[type] ?? [];
+    if (!typeName || !DOMAINS[domain]) throw new Error(`attribute ${name} has an unknown shape`);
+    need(numbers * size);
+    found.list.push({ domain: DOMAINS[domain], name, type: typeName, components, offset: at });
+    if (domain === 0 && name === 'color' && typeName === 'u8' && components === 4 && numbers === vertices * 4) {
+      found.colorOffset = at;
+    }
+    at += numbers * size;
+  }
+  for (const list of [[], [], found.textures]) {
+    const n = u32();
+    for (let i = 0; i < n; i += 1) list.push(text(u32()));
+  }
+  return found;
+}
+
 /** Area-weighted vertex normals (what three.js's computeVertexNormals gives). */
 export function vertexNormals(positions, corners) {
   const normals = new Float32Array(positions.length);

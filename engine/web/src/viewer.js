@@ -43,6 +43,8 @@ function decode(buffer, onBoundary) {
           vertices, triangles, normals: data.normals, sphere: data.sphere,
           positions: new Float32Array(data.buffer, 12, vertices * 3),
           corners: new Uint32Array(data.buffer, 12 + vertices * 12, triangles * 3),
+          colors: data.colorOffset === null ? null : new Uint8Array(data.buffer, data.colorOffset, vertices * 4),
+          attributes: data.attributes,
         });
         return;
       }
@@ -150,8 +152,10 @@ export class Viewer {
         pageToFrameMs: performance.now().toFixed(0),
         shown: label,
         vertices: mesh.vertices,
+        vertexColors: mesh.colors ? 'yes' : 'no',
       });
-      this.status.textContent = `${label}: ${mesh.vertices.toLocaleString('en')} vertices, ${mesh.triangles.toLocaleString('en')} triangles; first frame ${firstFrameMs.toFixed(0)} ms after asking`;
+      const carries = mesh.attributes.length ? `; carries ${mesh.attributes.join(', ')}` : '';
+      this.status.textContent = `${label}: ${mesh.vertices.toLocaleString('en')} vertices, ${mesh.triangles.toLocaleString('en')} triangles${carries}; first frame ${firstFrameMs.toFixed(0)} ms after asking`;
     }
   }
 
@@ -175,8 +179,11 @@ export class Viewer {
     geometry.setAttribute('normal', new THREE.BufferAttribute(mesh.normals, 3));
     geometry.setIndex(new THREE.BufferAttribute(mesh.corners, 1));
     geometry.boundingSphere = new THREE.Sphere(new THREE.Vector3(...mesh.sphere.center), mesh.sphere.radius);
+    // A mesh's own vertex colours (RGBA bytes, normalised) replace the slot's tint.
+    if (mesh.colors) geometry.setAttribute('color', new THREE.BufferAttribute(mesh.colors, 4, true));
     const surface = new THREE.Mesh(geometry, new THREE.MeshStandardMaterial({
-      color: slot === 'before' ? 0xb0b8c8 : 0x9cc3a8, side: THREE.DoubleSide, roughness: 0.7, metalness: 0.05,
+      color: mesh.colors ? 0xffffff : slot === 'before' ? 0xb0b8c8 : 0x9cc3a8, vertexColors: Boolean(mesh.colors),
+      side: THREE.DoubleSide, roughness: 0.7, metalness: 0.05,
       polygonOffset: true, polygonOffsetFactor: 1, polygonOffsetUnits: 1,
     }));
     const scene = new THREE.Scene();

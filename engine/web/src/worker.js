@@ -2,19 +2,22 @@
 // never holds the page's main thread. Buffers move both ways as transferables (no copies):
 //
 //   in:  { id, buffer }
-//   out: { id, kind: 'mesh', buffer, normals, vertices, triangles, sphere }  (first frame)
+//   out: { id, kind: 'mesh', buffer, normals, vertices, triangles, sphere,
+//          colorOffset, attributes }                                    (first frame)
 //        { id, kind: 'boundary', pairs }                                      (then holes)
 //        { id, kind: 'error', message }
 
-import { parseRaw, vertexNormals, boundingSphere, boundaryEdges } from './meshwork.js';
+import { parseRaw, parseAttributes, vertexNormals, boundingSphere, boundaryEdges } from './meshwork.js';
 
 self.onmessage = ({ data: { id, buffer } }) => {
   let mesh;
   let normals;
   let sphere;
   let corners;
+  let attributes;
   try {
     mesh = parseRaw(buffer);
+    attributes = parseAttributes(buffer, mesh.vertices, mesh.triangles);
     normals = vertexNormals(mesh.positions, mesh.corners);
     sphere = boundingSphere(mesh.positions);
     // The worker's own copy of the corners: the buffer goes to the page before the holes
@@ -26,6 +29,8 @@ self.onmessage = ({ data: { id, buffer } }) => {
   }
   self.postMessage({
     id, kind: 'mesh', buffer, normals, sphere, vertices: mesh.vertices, triangles: mesh.triangles,
+    colorOffset: attributes.colorOffset,
+    attributes: attributes.list.map(({ domain, name, type, components }) => `${domain} ${name} (${components} × ${type})`),
   }, [buffer, normals.buffer]);
   const pairs = boundaryEdges(mesh.vertices, corners);
   self.postMessage({ id, kind: 'boundary', pairs }, [pairs.buffer]);

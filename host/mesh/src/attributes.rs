@@ -551,25 +551,33 @@ pub enum AttributeError {
     MaterialName { what: &'static str, name: String },
 }
 
-/// Feeds the canonical bytes of the attributes to a hash (see `MeshData::content_hash`).
-pub(crate) fn hash_into(attributes: &Attributes, hasher: &mut blake3::Hasher) {
-    let string = |hasher: &mut blake3::Hasher, s: &str| {
-        hasher.update(&(s.len() as u32).to_le_bytes());
-        hasher.update(s.as_bytes());
+/// The canonical bytes of the attributes: what the content hash covers after positions and
+/// triangles, and what a `raw` mesh carries after its arrays. `"attributes-v1"`, the count
+/// (u32 LE), then per attribute in canonical order its domain, number type and component
+/// count (a byte each, in [`Domain`] and [`NumberType::ALL`] order), its name (u32 LE length,
+/// bytes), its number count (u64 LE) and numbers (LE); then the material names, libraries
+/// and textures, each a u32 LE count of length-prefixed strings.
+pub fn write_canonical(attributes: &Attributes, out: &mut impl FnMut(&[u8])) {
+    let string = |out: &mut dyn FnMut(&[u8]), s: &str| {
+        out(&(s.len() as u32).to_le_bytes());
+        out(s.as_bytes());
     };
-    hasher.update(b"attributes-v1");
-    hasher.update(&(attributes.list.len() as u32).to_le_bytes());
+    out(CANONICAL_TAG);
+    out(&(attributes.list.len() as u32).to_le_bytes());
     for a in &attributes.list {
-        hasher.update(&[a.domain as u8, a.values.number_type() as u8, a.components]);
-        string(hasher, &a.name);
-        hasher.update(&(a.values.len() as u64).to_le_bytes());
-        hasher.update(&a.values.to_le_bytes());
+        out(&[a.domain as u8, a.values.number_type() as u8, a.components]);
+        string(out, &a.name);
+        out(&(a.values.len() as u64).to_le_bytes());
+        out(&a.values.to_le_bytes());
     }
     let m = &attributes.materials;
     for list in [&m.names, &m.libraries, &m.textures] {
-        hasher.update(&(list.len() as u32).to_le_bytes());
+        out(&(list.len() as u32).to_le_bytes());
         for s in list {
-            string(hasher, s);
+            string(out, s);
         }
     }
 }
+
+/// What the canonical attribute bytes start with.
+pub const CANONICAL_TAG: &[u8] = b"attributes-v1";

@@ -79,7 +79,9 @@ impl MeshData {
         hasher.update(as_le_bytes_f32(&self.positions).as_ref());
         hasher.update(as_le_bytes_u32(&self.triangles).as_ref());
         if !self.attributes.is_empty() {
-            crate::attributes::hash_into(&self.attributes, &mut hasher);
+            crate::attributes::write_canonical(&self.attributes, &mut |bytes| {
+                hasher.update(bytes);
+            });
         }
         ContentHash(*hasher.finalize().as_bytes())
     }
