@@ -390,7 +390,9 @@ impl Planner {
             if element.count > 0 && !usable_name(name, &what, dropped) {
                 continue;
             }
-            if Attribute::required_shape(domain, name).is_some() || reserved(domain, name) {
+            // A `texnumber` that indexes no textures stays the number it is.
+            let taken = reserved(domain, name) && name != TEXNUMBER;
+            if Attribute::required_shape(domain, name).is_some() || taken {
                 if element.count > 0 {
                     dropped.add(format!("{what} (a name meshflow reads as something else)"));
                 }
