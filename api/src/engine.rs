@@ -264,6 +264,9 @@ pub struct InputRecord {
     /// as the first host to load it found: the result has none of it.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub not_kept: Vec<String>,
+    /// What the mesh carries beyond positions and triangles (`vertex color (4 × u8)`, …).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub attributes: Vec<String>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -338,6 +341,9 @@ pub struct StepRecord {
     pub vertices: Option<u64>,
     pub triangles: Option<u64>,
     pub edits: Option<u64>,
+    /// What the step's output carries beyond positions and triangles.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub attributes: Vec<String>,
     /// The step's edit log (`.mfc`): the producer's estimate when the step is answered (logs
     /// are encoded after), its real size once the producer has written it.
     pub correction_bytes: Option<u64>,
@@ -505,6 +511,7 @@ mod tests {
             vertices: Some(1839),
             triangles: Some(3674),
             edits: Some(1839),
+            attributes: Vec::new(),
             correction_bytes: Some(152),
             correction_estimated: false,
             correction_estimate_bytes: Some(300),

@@ -242,6 +242,9 @@ pub struct SessionStatus {
     /// What the input file held that a mesh does not keep (colours, normals, …), once loaded.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub not_kept: Vec<String>,
+    /// What the mesh carries beyond positions and triangles (`vertex color (4 × u8)`, …).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub attributes: Vec<String>,
     /// The step exponents of the session's grid, when it keeps one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub grid: Option<[i32; 3]>,
@@ -342,6 +345,9 @@ pub struct FilterResult {
     pub vertices: usize,
     pub triangles: usize,
     pub edits: usize,
+    /// What the mesh carries beyond positions and triangles (`vertex color (4 × u8)`, …).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub attributes: Vec<String>,
     /// The plugin's run, from instantiation to its result.
     pub compute_ms: f64,
     /// The time the run waited for a free run slot on the host before that.

@@ -474,6 +474,7 @@ mod tests {
             triangles: 1,
             grid: None,
             not_kept: Vec::new(),
+            attributes: Vec::new(),
         });
         let cluster = Cluster(vec![other, used]);
         let downloads = Downloads::default();

@@ -203,6 +203,7 @@ mod tests {
             triangles: 1,
             grid: None,
             not_kept: Vec::new(),
+            attributes: Vec::new(),
         });
         record.steps = outputs
             .iter()

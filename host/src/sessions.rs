@@ -189,6 +189,7 @@ impl Sessions {
             load_ms: session.times.load_ms,
             input_bytes: session.times.input_bytes,
             not_kept: session.times.not_kept.clone(),
+            attributes: current.map(|c| c.mesh.attributes.describe()).unwrap_or_default(),
             grid: session.grid.and_then(|g| match g.spacing() {
                 Spacing::Binary(exponents) => Some(exponents),
                 Spacing::Decimal(_) => None,

@@ -381,6 +381,7 @@ pub async fn run(host: &Host, id: &str, request: RunRequest) -> Result<RunResult
         vertices: next.mesh.vertex_count(),
         triangles: next.mesh.triangle_count(),
         edits,
+        attributes: next.mesh.attributes.describe(),
         compute_ms,
         queue_ms,
         report: output.report,

@@ -393,7 +393,15 @@ fn print_summary(record: &RunRecord, output: Option<&Path>) {
         out!("warning: {warning}");
     }
     for dropped in record.input.iter().flat_map(|input| &input.not_kept) {
-        out!("warning: the input's {dropped} is not kept: the result has only the mesh");
+        out!("warning: the input's {dropped} was not kept");
+    }
+    let last_filter = record.steps.iter().rev().find(|s| s.kind == "filter");
+    let carried: &[String] = match last_filter {
+        Some(step) => &step.attributes,
+        None => record.input.as_ref().map_or(&[], |input| &input.attributes),
+    };
+    if record.result.is_some() && !carried.is_empty() {
+        out!("the result carries {}", carried.join(", "));
     }
     if let Some(path) = output {
         out!("wrote {}", path.display());

@@ -1,6 +1,7 @@
 //! The input broadcast (DESIGN §5): the run's input goes to every host of the plan at once;
 //! a host that fails to load it has its tasks moved to other hosts, which load it in turn.
 
+use super::words::bounded_words;
 use std::collections::BTreeSet;
 use std::sync::Arc;
 use std::time::Instant;
@@ -94,22 +95,15 @@ pub(super) async fn broadcast(
     Ok(Loaded { current, replicas })
 }
 
-/// What a record keeps of a host's list of what the input held beyond the mesh: a file
-/// names a few attributes, each in a few words.
-const MAX_NOT_KEPT: usize = 32;
-const MAX_NOT_KEPT_CHARS: usize = 200;
-
-/// A host's words, kept short, so a lying host cannot swell the record.
-fn bounded(not_kept: &[String]) -> Vec<String> {
-    (not_kept.iter().take(MAX_NOT_KEPT))
-        .map(|what| what.chars().take(MAX_NOT_KEPT_CHARS).collect())
-        .collect()
-}
 
 /// The input as the first host to load it tells it, which the record keeps.
 fn input_loaded(run: &Run, url: &str, status: &meshflow_api::host::SessionStatus) -> Current {
     let current = Current::loaded(url, status);
-    let record = InputRecord { not_kept: bounded(&status.not_kept), ..current.input_record(url) };
+    let record = InputRecord {
+        not_kept: bounded_words(&status.not_kept),
+        attributes: bounded_words(&status.attributes),
+        ..current.input_record(url)
+    };
     run.update("input", |r| {
         let json = json!(record);
         r.input = Some(record);
@@ -140,17 +134,4 @@ fn replace(
     }
     let after = plan.hosts();
     Ok(after.into_iter().filter(|h| !before.iter().any(|b| Arc::ptr_eq(b, h))).collect())
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn a_hosts_list_of_what_the_input_held_is_bounded() {
-        let lying: Vec<String> = (0..1000).map(|_| "é".repeat(10_000)).collect();
-        let kept = super::bounded(&lying);
-        assert_eq!(kept.len(), super::MAX_NOT_KEPT);
-        assert!(kept.iter().all(|what| what.chars().count() == super::MAX_NOT_KEPT_CHARS));
-        let honest = vec!["vertex colour (red, green, blue)".to_owned()];
-        assert_eq!(super::bounded(&honest), honest);
-    }
 }

@@ -64,6 +64,7 @@ impl Current {
             triangles: self.triangles,
             grid: self.grid,
             not_kept: Vec::new(),
+            attributes: Vec::new(),
         }
     }
 

@@ -30,6 +30,7 @@ mod session;
 mod step_record;
 mod task;
 mod verify;
+mod words;
 
 use std::collections::VecDeque;
 use std::sync::Arc;

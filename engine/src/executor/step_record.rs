@@ -2,6 +2,7 @@
 //! task (host, times, input) and what the host answered (a filter's mesh or a check's
 //! value).
 
+use super::words::bounded_words;
 use std::sync::Arc;
 
 use meshflow_api::host::{FilterResult, RunResult};
@@ -92,6 +93,7 @@ impl Ran<'_> {
             vertices: filter.map(|f| f.vertices as u64),
             triangles: filter.map(|f| f.triangles as u64),
             edits: filter.map(|f| f.edits as u64),
+            attributes: filter.map(|f| bounded_words(&f.attributes)).unwrap_or_default(),
             correction_bytes: filter.map(|f| f.correction.bytes),
             correction_estimated: filter.is_some(),
             correction_estimate_bytes: None,

@@ -240,6 +240,7 @@ mod tests {
             vertices: 10,
             triangles: 16,
             edits: 10,
+            attributes: Vec::new(),
             compute_ms: 1.5,
             queue_ms: 0.0,
             report: String::new(),
@@ -366,6 +367,7 @@ mod tests {
             load_ms: None,
             input_bytes: None,
             not_kept: Vec::new(),
+            attributes: Vec::new(),
         };
         assert_eq!(loaded(&status(&hash('a'), 4), None), Ok(()));
         assert_eq!(loaded(&status(&hash('a'), 4), Some(&hash('a'))), Ok(()));

@@ -125,6 +125,8 @@ export class RunView {
       // What the file held beyond the mesh, which neither the steps nor the result keep.
       r.input?.not_kept?.length > 0 && el('ul', { className: 'warnings', testid: 'input-not-kept' },
         r.input.not_kept.map((what) => el('li', {}, `Not kept from the input file: ${what}`))),
+      r.input?.attributes?.length > 0 && el('p', { className: 'note', testid: 'input-attributes' },
+        `The input carries ${r.input.attributes.join(', ')}.`),
       r.broadcast && el('p', { className: 'note' }, `Input loaded on ${r.broadcast.hosts.length} host(s) in ${ms(r.broadcast.ms)}: `,
         r.broadcast.hosts.map((h) => `${h.host} (${bytes(h.bytes)}, ${ms(h.download_ms)} download, ${ms(h.load_ms)} load)`).join('; ')),
       this.stepTable(steps),
@@ -158,8 +160,12 @@ export class RunView {
         note.textContent = error.message;
       }
     };
+    // The last filter's output is the result; a run of checks only gives back its input.
+    const last = r.steps.filter((s) => s && s.kind === 'filter').at(-1);
+    const carried = (last ? last.attributes : r.input?.attributes) ?? [];
     return el('div', { className: 'result' },
       `Result: ${r.result.vertices.toLocaleString('en')} vertices, ${r.result.triangles.toLocaleString('en')} triangles, hash ${r.result.hash.slice(0, 12)}… `,
+      carried.length > 0 && el('span', { className: 'note', testid: 'result-attributes' }, `carries ${carried.join(', ')} `),
       el('button', { testid: 'show-result', onclick: () => this.show('result', this.path('result')) }, 'view result'),
       ' Download: ', FORMATS.map((f) => el('button', { testid: `download-${f}`, onclick: () => get(f) }, f.toUpperCase())),
       ' ', note);
