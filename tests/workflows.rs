@@ -600,3 +600,56 @@ fn raw_of(mesh: &meshflow_mesh::MeshData) -> Vec<u8> {
     raw.extend(mesh.triangles.iter().flat_map(|v| v.to_le_bytes()));
     raw
 }
+
+/// A scan whose every vertex has its own colour (its index in red, green and blue) and a
+/// quality: the repair keeps both through every way a result travels. Vertices that
+/// survive keep their values bit for bit and their order; new ones come after them.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn colours_and_quality_survive_the_repair_by_corrections_replays_and_full_meshes() {
+    use meshflow_mesh::attributes::{Attribute, Domain, Values};
+    let cluster = Cluster::start(SPREAD).await;
+    let mut mesh = Input::scan(6_000, 7).mesh;
+    let n = mesh.vertex_count();
+    let colour = |v: usize| [(v >> 16) as u8, (v >> 8) as u8, v as u8, 255];
+    let quality: Vec<f32> = (0..n).map(|v| (v as f32).sqrt()).collect();
+    mesh.attributes.insert(Attribute::color((0..n).flat_map(colour).collect()), n, mesh.triangle_count()).unwrap();
+    mesh.attributes.insert(Attribute::quality(quality.clone()), n, mesh.triangle_count()).unwrap();
+    let mut bytes = Vec::new();
+    meshflow_meshio::write_to(&mut bytes, &mesh, meshflow_meshio::Format::Ply).unwrap();
+    let input = Input { name: "coloured.ply", bytes, mesh };
+    assert_eq!(
+        meshflow_meshio::load_bytes(&input.bytes, meshflow_meshio::Format::Ply, "c.ply").unwrap(),
+        input.mesh,
+        "PLY keeps colour and quality"
+    );
+    let workflow = example("repair");
+    let expected = locally(&workflow, &input);
+    run_in_modes(&cluster, &workflow, &input, &expected, &["auto", "correction", "replay", "full"])
+        .await;
+
+    let id = cluster.submit(&workflow, &cluster.upload(&input).await).await;
+    let record = cluster.finished(&id).await;
+    let result = cluster.result(&id).await;
+    let Some(Values::U8(colours)) = result.attributes.get(Domain::Vertex, "color").map(|a| a.values.clone()) else {
+        panic!("the result lost its colours: {:?}", result.attributes.describe());
+    };
+    let Some(Values::F32(kept_quality)) = result.attributes.get(Domain::Vertex, "quality").map(|a| a.values.clone()) else {
+        panic!("the result lost its quality");
+    };
+    // A survivor's colour names its input vertex and its quality is that vertex's, bit for
+    // bit; a vertex the repair made has a blend of its parents' values.
+    let survivors: Vec<usize> = colours
+        .chunks_exact(4)
+        .zip(&kept_quality)
+        .filter_map(|(c, q)| {
+            let index = (usize::from(c[0]) << 16) | (usize::from(c[1]) << 8) | usize::from(c[2]);
+            (index < n && q.to_bits() == quality[index].to_bits()).then_some(index)
+        })
+        .collect();
+    assert!(survivors.windows(2).all(|w| w[0] < w[1]), "survivors keep their order");
+    let survivors = survivors.len();
+    assert!(survivors > n * 9 / 10, "{survivors} of {n} input vertices recognised");
+    assert!(survivors < result.vertex_count(), "fill-holes made vertices");
+    let carried = record["steps"].as_array().unwrap().last().unwrap()["attributes"].to_string();
+    assert!(carried.contains("vertex color") && carried.contains("vertex quality"), "{carried}");
+}
