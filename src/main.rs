@@ -70,10 +70,15 @@ enum Command {
         input: PathBuf,
         #[arg(short, long)]
         output: PathBuf,
+        /// Refuse (write nothing) when the output's format cannot hold an attribute of
+        /// the mesh, instead of warning and saving without it.
+        #[arg(long)]
+        strict: bool,
         #[arg(long)]
         json: bool,
     },
-    /// Print vertex and triangle counts and the bounding box of a mesh.
+    /// Print vertex and triangle counts, the bounding box and the attributes of a mesh, and
+    /// what its file held that meshflow does not keep.
     Info {
         input: PathBuf,
         #[arg(long)]
@@ -129,7 +134,9 @@ fn main() -> ExitCode {
         Command::Pack { input, output, quantize, json } => {
             commands::pack::pack(&input, &output, quantize, json)
         }
-        Command::Unpack { input, output, json } => commands::pack::unpack(&input, &output, json),
+        Command::Unpack { input, output, strict, json } => {
+            commands::pack::unpack(&input, &output, strict, json)
+        }
         Command::Host(args) => commands::host::run(args),
         Command::Plugin(command) => commands::plugin::run(command),
         Command::Engine(args) => commands::engine::run(args),

@@ -636,49 +636,215 @@ fn run_takes_a_plugin_for_its_embedded_hosts() {
     assert_eq!(record["steps"][0]["plugin"], digest.as_str(), "{record:#}");
 }
 
-/// A coloured scan: `info` names what meshflow does not keep, `apply` warns before it
-/// drops it, and `hash` says why two such files may hash the same (issue 35).
+/// A coloured scan with double coordinates: `info` lists what it carries and names what
+/// meshflow does not keep (the doubles' precision), `apply` keeps the colours and quality
+/// and warns about the rest, and `hash` tells two colourings apart (issue 35).
 #[test]
-fn what_a_file_holds_beyond_the_mesh_is_named_not_dropped_silently() {
+fn what_a_file_holds_beyond_the_mesh_is_kept_or_named_not_dropped_silently() {
     let dir = tempfile::tempdir().unwrap();
     let scan = dir.path().join("coloured.ply");
-    std::fs::write(
-        &scan,
-        "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n\
+    let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n\
          property double z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n\
          property float quality\nelement face 1\nproperty list uchar int vertex_indices\n\
-         end_header\n0.1 0 0 255 0 0 1\n1 0 0 0 255 0 1\n0 1 0 0 0 255 1\n3 0 1 2\n",
-    )
-    .unwrap();
+         end_header\n0.1 0 0 255 0 0 1\n1 0 0 0 255 0 1\n0 1 0 0 0 255 1\n3 0 1 2\n";
+    std::fs::write(&scan, text).unwrap();
     let scan = scan.display().to_string();
     let info = json(&ok(&["info", &scan, "--json"]));
-    let not_kept: Vec<&str> =
-        info["not_kept"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
-    assert_eq!(not_kept[..2], ["vertex colour (red, green, blue)", "vertex property 'quality'"]);
-    assert!(not_kept[2].starts_with("double coordinates, rounded to float"), "{not_kept:?}");
+    assert_eq!(
+        info["attributes"],
+        serde_json::json!(["vertex color (4 × u8)", "vertex quality (1 × f32)"])
+    );
+    let not_kept = info["not_kept"].as_array().unwrap();
+    assert_eq!(not_kept.len(), 1, "{not_kept:?}");
+    assert!(not_kept[0].as_str().unwrap().starts_with("double coordinates, rounded to float"));
+    let text_info = ok(&["info", &scan]);
+    assert!(text_info.contains("attribute: vertex color (4 × u8)\n"), "{text_info}");
 
     let out = dir.path().join("out.ply").display().to_string();
     let applied = meshflow(&["apply", "remove-degenerate-triangles", &scan, "-o", &out]);
     let stderr = String::from_utf8_lossy(&applied.stderr);
     assert!(applied.status.success(), "{stderr}");
-    assert!(stderr.contains("not kept: vertex colour (red, green, blue)"), "{stderr}");
-    let plain = json(&ok(&["info", &out, "--json"]));
-    assert_eq!(plain["not_kept"], serde_json::json!([]), "the output holds only the mesh");
+    assert!(stderr.contains("not kept: double coordinates"), "{stderr}");
+    let kept = json(&ok(&["info", &out, "--json"]));
+    assert_eq!(kept["attributes"], info["attributes"]);
+    assert_eq!(kept["not_kept"], serde_json::json!([]), "the output holds all it has");
     let hashed = meshflow(&["hash", &scan]);
-    assert!(
-        String::from_utf8_lossy(&hashed.stderr).contains("not kept: vertex property 'quality'")
-    );
+    assert!(String::from_utf8_lossy(&hashed.stderr).contains("not kept: double coordinates"));
 
-    // Through the engine and its hosts: the run record says it, and so does `run`.
+    // One colour differs: another hash. The saved PLY hashes as the mesh it was made from.
+    let recoloured = dir.path().join("recoloured.ply");
+    std::fs::write(&recoloured, text.replace("0 1 0 0 0 255 1", "0 1 0 0 0 254 1")).unwrap();
+    let recoloured = recoloured.display().to_string();
+    assert_ne!(ok(&["hash", &scan]), ok(&["hash", &recoloured]));
+    let copy = dir.path().join("copy.ply").display().to_string();
+    ok(&["apply", "remove-degenerate-triangles", &out, "-o", &copy]);
+    assert_eq!(ok(&["hash", &out]), ok(&["hash", &copy]));
+
+    // Through the engine and its hosts: the run record says what was not kept, and so
+    // does `run`.
     let workflow = dir.path().join("w.json");
     std::fs::write(&workflow, r#"{"steps": [{"run": "remove-degenerate-triangles"}]}"#).unwrap();
     let report = dir.path().join("run.json");
     let (workflow, report_path) = (workflow.display().to_string(), report.display().to_string());
     let ran = ok(&["run", &workflow, &scan, "-o", &out, "--report", &report_path]);
     let record = json(&std::fs::read_to_string(&report).unwrap());
-    let recorded = &record["input"]["not_kept"];
-    assert_eq!(recorded[0], "vertex colour (red, green, blue)", "{record:#}");
-    assert_eq!(recorded[1], "vertex property 'quality'", "{record:#}");
-    let warning = "warning: the input's vertex colour (red, green, blue) is not kept";
-    assert!(ran.contains(warning), "{ran}");
+    let recorded = record["input"]["not_kept"].as_array().unwrap();
+    assert_eq!(recorded.len(), 1, "{record:#}");
+    assert!(recorded[0].as_str().unwrap().starts_with("double coordinates"), "{record:#}");
+    assert!(ran.contains("warning: the input's double coordinates"), "{ran}");
+}
+
+/// Saving a coloured mesh as STL warns, naming what is left out; `--strict` refuses and
+/// writes nothing, in every command that saves a mesh.
+#[test]
+fn saving_a_coloured_mesh_as_stl_warns_and_strict_refuses() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).display().to_string();
+    let scan = path("coloured.ply");
+    std::fs::write(
+        &scan,
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+         property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n\
+         element face 1\nproperty list uchar int vertex_indices\nend_header\n\
+         0 0 0 255 0 0\n1 0 0 0 255 0\n0 1 0 0 0 255\n3 0 1 2\n",
+    )
+    .unwrap();
+    let stl = path("out.stl");
+    let saved = meshflow(&["apply", "remove-degenerate-triangles", &scan, "-o", &stl]);
+    let stderr = String::from_utf8_lossy(&saved.stderr);
+    assert!(saved.status.success(), "{stderr}");
+    let warning =
+        format!("warning: {stl}: STL cannot hold vertex color (4 × u8); saved without it");
+    assert!(stderr.contains(&warning), "{stderr}");
+    assert!(Path::new(&stl).exists());
+
+    let refused = path("refused.stl");
+    let edits = path("step.mfc");
+    let error = failure(&[
+        "apply",
+        "remove-degenerate-triangles",
+        &scan,
+        "-o",
+        &refused,
+        "--strict",
+        "--correction",
+        &edits,
+    ]);
+    assert!(error.contains("STL cannot hold vertex color (4 × u8)"), "{error}");
+    assert!(error.contains("nothing was written"), "{error}");
+    assert!(!Path::new(&refused).exists());
+    assert!(!Path::new(&edits).exists(), "a refused apply writes no correction either");
+    // A format that holds the colours is fine with --strict.
+    let ply = path("out.ply");
+    ok(&[
+        "apply",
+        "remove-degenerate-triangles",
+        &scan,
+        "-o",
+        &ply,
+        "--strict",
+        "--correction",
+        &edits,
+    ]);
+
+    let error = failure(&["correction", "apply", &scan, &edits, "-o", &refused, "--strict"]);
+    assert!(error.contains("STL cannot hold vertex color"), "{error}");
+    assert!(!Path::new(&refused).exists());
+    let off = path("corrected.off");
+    ok(&["correction", "apply", &scan, &edits, "-o", &off, "--strict"]);
+
+    let packed = path("coloured.mfm");
+    ok(&["pack", &scan, "-o", &packed]);
+    let error = failure(&["unpack", &packed, "-o", &refused, "--strict"]);
+    assert!(error.contains("STL cannot hold vertex color"), "{error}");
+    assert!(!Path::new(&refused).exists());
+    let unpacked = meshflow(&["unpack", &packed, "-o", &stl]);
+    assert!(String::from_utf8_lossy(&unpacked.stderr).contains("STL cannot hold vertex color"));
+}
+
+/// The cases of issue 35 through `apply`: a scan's flags and quality, a PLY's normals and
+/// colours through smoothing, and a textured OBJ whose coordinates, library and texture
+/// come along.
+#[test]
+fn apply_keeps_what_scans_and_textured_meshes_carry() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).display().to_string();
+    // Two triangles and a separate small one, each vertex with flags and quality.
+    let scan = path("scan.ply");
+    std::fs::write(
+        &scan,
+        "ply\nformat ascii 1.0\nelement vertex 7\nproperty float x\nproperty float y\n\
+         property float z\nproperty uchar flags\nproperty float quality\nelement face 3\n\
+         property list uchar int vertex_indices\nend_header\n\
+         0 0 0 1 0.5\n4 0 0 2 0.25\n4 4 0 3 0.125\n0 4 0 4 1\n9 9 9 5 2\n9.1 9 9 6 3\n9 9.1 9 7 4\n\
+         3 0 1 2\n3 0 2 3\n3 4 5 6\n",
+    )
+    .unwrap();
+    let cleaned = path("cleaned.ply");
+    ok(&["apply", "remove-smallest-components", &scan, "-o", &cleaned]);
+    let info = json(&ok(&["info", &cleaned, "--json"]));
+    assert_eq!(
+        info["attributes"],
+        serde_json::json!(["vertex flags (1 × u8)", "vertex quality (1 × f32)"]),
+        "{info}"
+    );
+
+    // Normals and colours, smoothed: both still there.
+    let shaded = path("shaded.ply");
+    std::fs::write(
+        &shaded,
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+         property float z\nproperty float nx\nproperty float ny\nproperty float nz\n\
+         property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 2\n\
+         property list uchar int vertex_indices\nend_header\n\
+         0 0 0 0 0 1 255 0 0\n1 0 0 0 0 1 0 255 0\n1 1 0.2 0 0 1 0 0 255\n0 1 0 0 0 1 9 9 9\n\
+         3 0 1 2\n3 0 2 3\n",
+    )
+    .unwrap();
+    let smooth = path("smooth.ply");
+    ok(&["apply", "laplacian-smoothing", &shaded, "-o", &smooth]);
+    let info = json(&ok(&["info", &smooth, "--json"]));
+    assert_eq!(
+        info["attributes"],
+        serde_json::json!(["vertex color (4 × u8)", "vertex normal (3 × f32)"]),
+        "{info}"
+    );
+
+    // A textured OBJ: more texture coordinates than vertices, a library and its PNG.
+    let input = dir.path().join("in");
+    let output = dir.path().join("out");
+    std::fs::create_dir_all(&input).unwrap();
+    std::fs::create_dir_all(&output).unwrap();
+    std::fs::write(
+        input.join("model.obj"),
+        "mtllib model.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\n\
+         vt 0 1\nvt 0.5 0.5\nusemtl skin\nf 1/1 2/2 3/3\nf 1/5 3/3 4/4\n",
+    )
+    .unwrap();
+    std::fs::write(input.join("model.mtl"), "newmtl skin\nmap_Kd skin.png\n").unwrap();
+    std::fs::write(input.join("skin.png"), b"\x89PNG\r\n\x1a\n").unwrap();
+    let model = input.join("model.obj").display().to_string();
+    let result = output.join("result.obj");
+    let result_path = result.display().to_string();
+    ok(&["apply", "remove-degenerate-triangles", &model, "-o", &result_path, "--strict"]);
+    let written = std::fs::read_to_string(&result).unwrap();
+    assert!(written.contains("mtllib model.mtl\n"), "{written}");
+    assert!(written.contains("vt 0.5 0.5\n"), "{written}");
+    assert!(written.contains("usemtl skin\n"), "{written}");
+    assert!(written.contains("f 1/1 2/2 3/3\n"), "{written}");
+    assert_eq!(std::fs::read(output.join("skin.png")).unwrap(), b"\x89PNG\r\n\x1a\n");
+    assert!(output.join("model.mtl").exists());
+    let info = json(&ok(&["info", &result_path, "--json"]));
+    assert_eq!(
+        info["attributes"],
+        serde_json::json!([
+            "face material (1 × u32)",
+            "corner texcoord (2 × f32)",
+            "materials: skin",
+            "material libraries: model.mtl",
+            "textures: skin.png"
+        ]),
+        "{info}"
+    );
+    assert_eq!(ok(&["hash", &model]), ok(&["hash", &result_path]));
 }

@@ -7,7 +7,6 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use clap::Args;
 use meshflow_codec::{correction, quantize, replay};
-use meshflow_meshio as io;
 use meshflow_runtime::ServiceKind;
 
 use super::{millis, parse_params};
@@ -19,9 +18,14 @@ pub struct ApplyArgs {
     service: String,
     /// Input mesh (OBJ, PLY, OFF, STL).
     input: PathBuf,
-    /// Output mesh (PLY, OBJ, OFF, by extension); written atomically.
+    /// Output mesh (PLY, OBJ, OFF, by extension); written atomically. The material
+    /// libraries and textures the mesh names are copied beside it.
     #[arg(short, long)]
     output: PathBuf,
+    /// Refuse (write nothing) when the output's format cannot hold an attribute of the
+    /// mesh (colours in STL, quality in OBJ, …), instead of warning and saving without it.
+    #[arg(long)]
+    strict: bool,
     /// A parameter, NAME=VALUE; repeatable.
     #[arg(long = "param", value_name = "NAME=VALUE")]
     params: Vec<String>,
@@ -81,7 +85,7 @@ pub fn run(args: &ApplyArgs) -> anyhow::Result<()> {
     let result = &result;
 
     let started = Instant::now();
-    io::save(&args.output, result).with_context(|| format!("writing {}", args.output.display()))?;
+    super::pack::save_mesh_from(&args.output, result, args.strict, Some(&args.input))?;
     let save_time = started.elapsed();
 
     let started = Instant::now();

@@ -14,7 +14,7 @@ use meshflow_mesh::MeshData;
 use meshflow_mesh::store::OpKind;
 
 use super::millis;
-use super::pack::{load_mesh, save_mesh};
+use super::pack::{load_mesh, save_mesh_from};
 use crate::PluginArgs;
 
 #[derive(Subcommand)]
@@ -30,6 +30,10 @@ pub enum CorrectionCommand {
         /// The result mesh (by extension; .mfm packs it); written atomically.
         #[arg(short, long)]
         output: PathBuf,
+        /// Refuse (write nothing) when the output's format cannot hold an attribute of
+        /// the result, instead of warning and saving without it.
+        #[arg(long)]
+        strict: bool,
         #[command(flatten)]
         plugins: PluginArgs,
         #[arg(long)]
@@ -46,8 +50,8 @@ pub enum CorrectionCommand {
 
 pub fn run(command: &CorrectionCommand) -> anyhow::Result<()> {
     match command {
-        CorrectionCommand::Apply { base, correction, output, plugins, json } => {
-            apply(base, correction, output, plugins, *json)
+        CorrectionCommand::Apply { base, correction, output, strict, plugins, json } => {
+            apply(base, correction, output, *strict, plugins, *json)
         }
         CorrectionCommand::Inspect { correction, json } => inspect(correction, *json),
     }
@@ -61,6 +65,7 @@ fn apply(
     base: &Path,
     correction: &Path,
     output: &Path,
+    strict: bool,
     plugins: &PluginArgs,
     json: bool,
 ) -> anyhow::Result<()> {
@@ -74,7 +79,7 @@ fn apply(
     }
     .with_context(|| format!("applying {}", correction.display()))?;
     let apply_time = started.elapsed();
-    save_mesh(output, &result)?;
+    save_mesh_from(output, &result, strict, Some(base))?;
     if json {
         let summary = serde_json::json!({
             "base_hash": mesh.content_hash().to_hex(),

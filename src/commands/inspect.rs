@@ -5,8 +5,8 @@ use std::path::Path;
 
 use meshflow_meshio as io;
 
-/// The hash covers positions and triangles only: what the file held beyond them is named
-/// on stderr, since two files differing there hash the same.
+/// The hash covers positions, triangles and the attributes the mesh keeps; what the file
+/// held beyond them is named on stderr, since two files differing only there hash the same.
 pub fn hash(input: &Path) -> anyhow::Result<()> {
     let mesh = super::pack::load_mesh(input)?;
     out!("{}", mesh.content_hash());
@@ -23,6 +23,7 @@ pub fn info(input: &Path, json: bool) -> anyhow::Result<()> {
             "vertices": mesh.vertex_count(),
             "triangles": mesh.triangle_count(),
             "bbox": bbox,
+            "attributes": mesh.attributes.describe(),
             "not_kept": not_kept,
         });
         out!("{info}");
@@ -33,7 +34,10 @@ pub fn info(input: &Path, json: bool) -> anyhow::Result<()> {
             Some((lo, hi)) => out!("bbox:      {lo:?} .. {hi:?}"),
             None => out!("bbox:      (empty)"),
         }
-        // What meshflow reads of the file is positions and triangles; the rest is named.
+        for line in mesh.attributes.describe() {
+            out!("attribute: {line}");
+        }
+        // What meshflow could not keep of the file is named.
         for line in &not_kept {
             out!("not kept:  {line}");
         }

@@ -30,12 +30,14 @@ pub fn pack(input: &Path, output: &Path, quantize: Option<u32>, json: bool) -> a
     Ok(())
 }
 
-pub fn unpack(input: &Path, output: &Path, json: bool) -> anyhow::Result<()> {
+/// Unpacks `input` into a mesh file; `strict` refuses a format that cannot hold an
+/// attribute of the mesh instead of warning.
+pub fn unpack(input: &Path, output: &Path, strict: bool, json: bool) -> anyhow::Result<()> {
     let bytes = std::fs::read(input).with_context(|| format!("reading {}", input.display()))?;
     let started = Instant::now();
     let mesh = pack::decode(&bytes).with_context(|| format!("unpacking {}", input.display()))?;
     let decode_time = started.elapsed();
-    save_mesh(output, &mesh)?;
+    save_mesh_from(output, &mesh, strict, Some(input))?;
     report(json, "unpacked", &mesh, bytes.len(), decode_time, output);
     Ok(())
 }
@@ -85,12 +87,49 @@ pub fn load_mesh(path: &Path) -> anyhow::Result<MeshData> {
     Ok(loaded.mesh)
 }
 
-/// Saves a mesh atomically, packed (`.mfm`) or in the format its extension names.
+/// Saves a mesh atomically, packed (`.mfm`) or in the format its extension names, with a
+/// warning on stderr for each attribute that format cannot hold.
 pub fn save_mesh(path: &Path, mesh: &MeshData) -> anyhow::Result<()> {
+    save_mesh_from(path, mesh, false, None)
+}
+
+/// [`save_mesh`] for a mesh loaded from `source`: the material libraries and textures it
+/// names are copied from beside `source` to beside `path`. With `strict`, a format that
+/// cannot hold an attribute of the mesh is refused (nothing is written) instead of
+/// warned about.
+pub fn save_mesh_from(
+    path: &Path,
+    mesh: &MeshData,
+    strict: bool,
+    source: Option<&Path>,
+) -> anyhow::Result<()> {
     if is_packed(path) {
         return write_atomically(path, &pack::encode(mesh)?);
     }
-    io::save(path, mesh).with_context(|| format!("writing {}", path.display()))
+    let format = io::Format::from_path(path)
+        .ok_or_else(|| io::SaveError::UnknownFormat { path: path.into() })?;
+    let left_out = io::unsupported(mesh, format);
+    let name = format.display_name();
+    if strict && !left_out.is_empty() {
+        anyhow::bail!(
+            "{}: {name} cannot hold {}; nothing was written (--strict): choose a format that \
+             does (PLY holds every attribute)",
+            path.display(),
+            left_out.join(", ")
+        );
+    }
+    for what in &left_out {
+        eprintln!("warning: {}: {name} cannot hold {what}; saved without it", path.display());
+    }
+    io::save(path, mesh).with_context(|| format!("writing {}", path.display()))?;
+    if let Some(source) = source {
+        let materials = &mesh.attributes.materials;
+        let copied = io::copy_companion_files(source, path, materials)?;
+        for skipped in &copied.skipped {
+            eprintln!("warning: {}: not copied: {skipped}", path.display());
+        }
+    }
+    Ok(())
 }
 
 /// Writes `bytes` to `path` atomically (temporary file, sync, rename).
