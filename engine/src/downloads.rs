@@ -80,6 +80,8 @@ pub struct Download {
     pub file: tempfile::TempPath,
     pub bytes: u64,
     pub file_name: String,
+    /// What the mesh carries that this file does not (see [`verified::Written`]).
+    pub not_kept: Vec<String>,
 }
 
 /// Asks hosts for meshes, at most [`MAX_CONCURRENT_DOWNLOADS`] at a time.
@@ -168,7 +170,7 @@ impl Downloads {
         // A slot before the request: disk and connections stay bounded by the slots.
         let _slot = self.slots.acquire().await.expect("the semaphore is never closed");
         let host = writer.base_url().to_owned();
-        let (file, bytes) =
+        let verified::Written { path: file, bytes, not_kept } =
             tokio::time::timeout(DOWNLOAD_FETCH_TIMEOUT, self.verified(&writer, source, format))
                 .await
                 .unwrap_or_else(|_| {
@@ -177,7 +179,7 @@ impl Downloads {
                     Err(DownloadError::Fetch { host, error })
                 })?;
         let file_name = format!("{stem}-{}.{}", source.label, format.extension());
-        Ok(Download { file, bytes, file_name })
+        Ok(Download { file, bytes, file_name, not_kept })
     }
 
     /// The mesh as `format`, on disk, its hash checked: the host's `raw` answer hashed as it
@@ -188,7 +190,7 @@ impl Downloads {
         writer: &HostClient,
         source: &Source,
         format: MeshFileFormat,
-    ) -> Result<(tempfile::TempPath, u64), DownloadError> {
+    ) -> Result<verified::Written, DownloadError> {
         let host = writer.base_url().to_owned();
         let raw = self.spooled(writer, source, MeshFileFormat::Raw).await?;
         let actual = raw.hash.clone().expect("a raw answer is hashed");
@@ -197,10 +199,13 @@ impl Downloads {
             return Err(DownloadError::HashMismatch { host, expected, actual });
         }
         match format {
-            MeshFileFormat::Raw => Ok((raw.path, raw.bytes)),
+            MeshFileFormat::Raw => {
+                Ok(verified::Written { path: raw.path, bytes: raw.bytes, not_kept: Vec::new() })
+            }
             MeshFileFormat::Mfm => {
                 let packed = self.spooled(writer, source, format).await?;
-                Ok((packed.path, packed.bytes))
+                let (path, bytes) = (packed.path, packed.bytes);
+                Ok(verified::Written { path, bytes, not_kept: Vec::new() })
             }
             _ => verified::write_format(&raw.path, format, &self.dir)
                 .await

@@ -128,22 +128,66 @@ fn read_attributes(
     Ok(raw_mesh::read_section(&mut input, start, bytes, vertices, triangles)?)
 }
 
+/// A file written here from a verified `raw` mesh.
+pub struct Written {
+    pub path: tempfile::TempPath,
+    pub bytes: u64,
+    /// What the mesh carries that the file does not (`vertex color (4 x u8)`): PLY keeps
+    /// every attribute and the texture names; OBJ, OFF and STL as the engine writes them keep
+    /// positions and triangles only.
+    pub not_kept: Vec<String>,
+}
+
 /// Writes the verified `raw` mesh at `raw` as `format` (PLY, OBJ, OFF or STL) into a new
-/// file under `dir`, on a blocking thread, in bounded memory; its size.
+/// file under `dir`, on a blocking thread, in bounded memory.
 pub async fn write_format(
     raw: &Path,
     format: MeshFileFormat,
     dir: &Path,
-) -> std::io::Result<(tempfile::TempPath, u64)> {
+) -> std::io::Result<Written> {
     let out = tempfile::Builder::new().prefix(".download-").tempfile_in(dir)?.into_temp_path();
     let (raw, target) = (raw.to_owned(), out.to_path_buf());
-    let bytes = tokio::task::spawn_blocking(move || write_blocking(&raw, format, &target))
-        .await
-        .map_err(std::io::Error::other)??;
-    Ok((out, bytes))
+    let (bytes, not_kept) =
+        tokio::task::spawn_blocking(move || write_blocking(&raw, format, &target))
+            .await
+            .map_err(std::io::Error::other)??;
+    Ok(Written { path: out, bytes, not_kept })
 }
 
-fn write_blocking(raw: &Path, format: MeshFileFormat, target: &Path) -> std::io::Result<u64> {
+/// What `format`, as written here, leaves out of a mesh with `section`.
+fn not_kept(section: &raw_mesh::Section, format: MeshFileFormat) -> Vec<String> {
+    let mut left: Vec<String> = match format {
+        MeshFileFormat::Ply => Vec::new(),
+        _ => section
+            .attributes
+            .iter()
+            .map(|a| {
+                let domain = match a.domain {
+                    raw_mesh::Domain::Vertex => "vertex",
+                    raw_mesh::Domain::Face => "face",
+                    raw_mesh::Domain::Corner => "corner",
+                };
+                format!("{domain} {} ({} x {})", a.name, a.components, a.number_type)
+            })
+            .collect(),
+    };
+    if !section.materials.is_empty() {
+        left.push(format!("materials {}", section.materials.join(", ")));
+    }
+    if !section.libraries.is_empty() {
+        left.push(format!("material libraries {}", section.libraries.join(", ")));
+    }
+    if format != MeshFileFormat::Ply && !section.textures.is_empty() {
+        left.push(format!("textures {}", section.textures.join(", ")));
+    }
+    left
+}
+
+fn write_blocking(
+    raw: &Path,
+    format: MeshFileFormat,
+    target: &Path,
+) -> std::io::Result<(u64, Vec<String>)> {
     let file = std::fs::File::open(raw)?;
     let mut input = BufReader::with_capacity(BUFFER_BYTES, &file);
     let mut header = [0u8; HEADER_BYTES];
@@ -269,7 +313,7 @@ fn write_blocking(raw: &Path, format: MeshFileFormat, target: &Path) -> std::io:
         }
     }
     out.flush()?;
-    Ok(out.get_ref().metadata()?.len())
+    Ok((out.get_ref().metadata()?.len(), not_kept(&section, format)))
 }
 
 /// A domain's attributes as PLY properties: the attribute, its property names (MeshLab's
@@ -364,6 +408,50 @@ mod tests {
         raw.extend([0u32, 1, 2].iter().flat_map(|v| v.to_le_bytes()));
         let hash = raw_mesh::content_hash(&raw).unwrap();
         (raw, hash)
+    }
+
+    /// A triangle with a colour and a quality per vertex, as a host's `raw` answer has them.
+    fn coloured_triangle() -> Vec<u8> {
+        let (mut raw, _) = triangle(0.0);
+        raw.extend(raw_mesh::ATTRIBUTES_TAG);
+        raw.extend(2u32.to_le_bytes());
+        raw.extend([0, 0, 4]);
+        raw.extend(5u32.to_le_bytes());
+        raw.extend(b"color");
+        raw.extend(12u64.to_le_bytes());
+        raw.extend([255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 128]);
+        raw.extend([0, 3, 1]);
+        raw.extend(7u32.to_le_bytes());
+        raw.extend(b"quality");
+        raw.extend(3u64.to_le_bytes());
+        raw.extend([0.5f32, 1.5, -2.0].iter().flat_map(|v| v.to_le_bytes()));
+        for _ in 0..3 {
+            raw.extend(0u32.to_le_bytes());
+        }
+        raw
+    }
+
+    #[tokio::test]
+    async fn ply_keeps_a_meshs_attributes_and_other_formats_say_what_they_leave_out() {
+        let dir = tempfile::tempdir().unwrap();
+        let raw = dir.path().join("mesh.raw");
+        std::fs::write(&raw, coloured_triangle()).unwrap();
+        let ply = write_format(&raw, MeshFileFormat::Ply, dir.path()).await.unwrap();
+        assert!(ply.not_kept.is_empty(), "{:?}", ply.not_kept);
+        let bytes = std::fs::read(&ply.path).unwrap();
+        let end = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+        let header = String::from_utf8_lossy(&bytes[..end]);
+        for line in ["property uchar red", "property uchar alpha", "property float quality"] {
+            assert!(header.contains(line), "{header}");
+        }
+        // Each vertex: x y z, then red green blue alpha, then quality.
+        let second = &bytes[end + 20..end + 40];
+        assert_eq!(second[..4], 1f32.to_le_bytes());
+        assert_eq!(second[12..16], [0, 255, 0, 255]);
+        assert_eq!(second[16..], 1.5f32.to_le_bytes());
+
+        let obj = write_format(&raw, MeshFileFormat::Obj, dir.path()).await.unwrap();
+        assert_eq!(obj.not_kept, ["vertex color (4 x u8)", "vertex quality (1 x f32)"]);
     }
 
     struct One(String);

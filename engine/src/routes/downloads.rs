@@ -12,6 +12,11 @@ use meshflow_api::host::MeshFileFormat;
 use serde::Deserialize;
 
 use super::error::ApiResult;
+
+/// Names what a downloaded file leaves out of the mesh it was written from.
+const NOT_KEPT_HEADER: &str = "x-meshflow-not-kept";
+/// A header line stays short whatever the mesh holds.
+const MAX_NOT_KEPT_HEADER_CHARS: usize = 2000;
 use super::runs::find;
 use crate::downloads::{DownloadError, Which};
 use crate::engine::Engine;
@@ -75,6 +80,15 @@ async fn mesh(
         (header::CONTENT_DISPOSITION, format!("attachment; filename=\"{}\"", download.file_name)),
         (header::CONTENT_LENGTH, download.bytes.to_string()),
     ];
+    // What the mesh carries that this format, as written, leaves out; header-safe text only.
+    let not_kept: String = download
+        .not_kept
+        .join("; ")
+        .chars()
+        .map(|c| if c.is_ascii_graphic() || c == ' ' { c } else { '?' })
+        .take(MAX_NOT_KEPT_HEADER_CHARS)
+        .collect();
+    let not_kept = (!not_kept.is_empty()).then(|| [(NOT_KEPT_HEADER, not_kept)]);
     // Checked already; streamed from its file, which goes once the stream ends.
     let file = tokio::fs::File::open(&download.file).await.map_err(super::error::internal)?;
     let spool = download.file;
@@ -82,5 +96,5 @@ async fn mesh(
         let _kept = &spool;
         chunk
     });
-    Ok((headers, axum::body::Body::from_stream(stream)).into_response())
+    Ok((headers, not_kept, axum::body::Body::from_stream(stream)).into_response())
 }

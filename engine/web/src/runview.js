@@ -39,7 +39,8 @@ export async function download(path) {
   const disposition = response.headers.get('Content-Disposition') ?? '';
   const name = /filename="([^"]+)"/.exec(disposition)?.[1] ?? 'mesh';
   saveBlob(await response.blob(), name);
-  return name;
+  const notKept = response.headers.get('x-meshflow-not-kept');
+  return notKept ? `${name}, without ${notKept} (download PLY or MFM to keep them)` : name;
 }
 
 export class RunView {
