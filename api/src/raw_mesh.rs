@@ -198,8 +198,8 @@ impl<R: std::io::Read> SectionReader<'_, R> {
     fn skip(&mut self, n: u64) -> Result<(), RawMeshError> {
         self.room(n)?;
         let mut limited = <&mut R as std::io::Read>::take(&mut *self.input, n);
-        let skipped = std::io::copy(&mut limited, &mut std::io::sink())
-            .map_err(|e| bad(e.to_string()))?;
+        let skipped =
+            std::io::copy(&mut limited, &mut std::io::sink()).map_err(|e| bad(e.to_string()))?;
         if skipped != n {
             return Err(bad("it is cut short"));
         }
@@ -214,7 +214,9 @@ pub fn counts(raw: &[u8]) -> Result<(u32, u32), RawMeshError> {
     // In u64: no count in a header can overflow it.
     let expected = arrays_end(vertices, triangles);
     let actual = raw.len() as u64;
-    if actual < expected || (actual > expected && !raw[expected as usize..].starts_with(ATTRIBUTES_TAG)) {
+    if actual < expected
+        || (actual > expected && !raw[expected as usize..].starts_with(ATTRIBUTES_TAG))
+    {
         return Err(RawMeshError::Length { vertices, triangles, expected, actual });
     }
     if actual > expected {
@@ -302,8 +304,14 @@ mod tests {
         let section = read_section(&mut &raw[60..], 60, raw.len() as u64, 3, 1).unwrap();
         assert_eq!(section.attributes.len(), 1);
         let quality = &section.attributes[0];
-        assert_eq!((quality.name.as_str(), quality.number_type, quality.numbers), ("quality", "f32", 3));
-        assert_eq!(&raw[quality.offset as usize..quality.offset as usize + 4], 0.5f32.to_le_bytes());
+        assert_eq!(
+            (quality.name.as_str(), quality.number_type, quality.numbers),
+            ("quality", "f32", 3)
+        );
+        assert_eq!(
+            &raw[quality.offset as usize..quality.offset as usize + 4],
+            0.5f32.to_le_bytes()
+        );
 
         // A section that claims a value per vertex of a mesh it does not fit, or runs on.
         assert!(matches!(counts(&raw[..raw.len() - 1]), Err(RawMeshError::Attributes(_))));

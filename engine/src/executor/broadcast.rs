@@ -95,7 +95,6 @@ pub(super) async fn broadcast(
     Ok(Loaded { current, replicas })
 }
 
-
 /// The input as the first host to load it tells it, which the record keeps.
 fn input_loaded(run: &Run, url: &str, status: &meshflow_api::host::SessionStatus) -> Current {
     let current = Current::loaded(url, status);

@@ -6,7 +6,9 @@ const MAX_ENTRY_CHARS: usize = 200;
 
 /// A host's words, kept short, so a lying host cannot swell the record.
 pub(super) fn bounded_words(words: &[String]) -> Vec<String> {
-    (words.iter().take(MAX_ENTRIES)).map(|what| what.chars().take(MAX_ENTRY_CHARS).collect()).collect()
+    (words.iter().take(MAX_ENTRIES))
+        .map(|what| what.chars().take(MAX_ENTRY_CHARS).collect())
+        .collect()
 }
 
 #[cfg(test)]
