@@ -111,11 +111,14 @@ async fn the_workbench_builds_runs_shows_downloads_and_remembers_runs() {
         .run(&serde_json::json!({"steps": [{"run": "remove-degenerate-triangles"}]}), &large)
         .await;
     assert_eq!(record["status"], "completed", "{record:#}");
-    // A coloured input: its run's page says what the file held that the run does not keep.
+    // A coloured input with an element no mesh keeps: its run's page says what the input
+    // and result carry (the colours), what the file held that the run does not keep (the
+    // edges), and the viewer draws the colours.
     let coloured = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
                     property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n\
-                    element face 1\nproperty list uchar int vertex_indices\nend_header\n\
-                    0 0 0 255 0 0\n1 0 0 0 255 0\n0 1 0 0 0 255\n3 0 1 2\n";
+                    element face 1\nproperty list uchar int vertex_indices\n\
+                    element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n\
+                    0 0 0 255 0 0\n1 0 0 0 255 0\n0 1 0 0 0 255\n3 0 1 2\n0 1\n";
     let mesh = io::load_bytes(coloured.as_bytes(), io::Format::Ply, "coloured.ply").unwrap();
     let coloured = Input { name: "coloured.ply", bytes: coloured.as_bytes().to_vec(), mesh };
     let url = api.upload(&coloured).await;

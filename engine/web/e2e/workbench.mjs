@@ -456,11 +456,19 @@ async function big(page) {
   await shot(page, '11-large-result');
   writeFileSync(join(ARTEFACTS, 'first-frame.json'), JSON.stringify(figures, null, 2));
 
-  // A run on a coloured PLY says what its input held that the run does not keep.
+  // A run on a coloured PLY: what its input and result carry, what the file held that the
+  // run does not keep, and the result drawn in its own colours.
   await page.goto(`${BASE}/?run=${process.env.COLOURED_RUN}#token=${API_TOKEN}`);
   const notKept = page.getByTestId('input-not-kept');
   await notKept.waitFor({ timeout: RUN_TIMEOUT });
-  assert.match(await notKept.innerText(), /Not kept from the input file: vertex colour \(red, green, blue\)/);
+  assert.match(await notKept.innerText(), /Not kept from the input file: element 'edge' \(1 records\)/);
+  assert.match(await page.getByTestId('input-attributes').innerText(), /vertex color \(4 × u8\)/);
+  assert.match(await page.getByTestId('result-attributes').innerText(), /carries vertex color/);
+  await page.waitForFunction(() => document.querySelector('[data-testid=viewer]')?.dataset.shown === 'result', null, { timeout: RUN_TIMEOUT });
+  const viewer = await page.evaluate(() => ({ ...document.querySelector('[data-testid=viewer]').dataset }));
+  assert.equal(viewer.vertexColors, 'yes', 'the viewer draws the mesh in its colours');
+  assert.match(await page.getByTestId('viewer-status').innerText(), /carries vertex color \(4 × u8\)/);
+  await shot(page, '12-coloured-result');
 }
 
 const phases = { main, restarted, big };
