@@ -56,8 +56,12 @@ impl MeshStore {
             check_finite(p, &format!("set-positions, vertex {v}"))?;
         }
         if self.normals.is_some() {
+            // Only vertices that really move change the normals around them.
             for v in 0..self.vertex_slots() {
-                if self.is_vertex_live(v) {
+                let i = 3 * v as usize;
+                let moved =
+                    (i..i + 3).any(|k| xyz[k].to_bits() != self.mesh.positions[k].to_bits());
+                if self.is_vertex_live(v) && moved {
                     self.touch(v);
                 }
             }
