@@ -36,6 +36,7 @@
 // The generated code names this crate by its public path, which must work inside it too.
 extern crate self as meshflow_plugin_sdk;
 
+pub mod attributes;
 pub mod bindings;
 mod error;
 mod mesh;
@@ -46,6 +47,9 @@ mod service;
 pub use meshflow_topology as topology;
 pub use meshflow_topology::geometry;
 
+pub use attributes::{
+    AttributeDomain, AttributeInfo, AttributeValues, NumberType, blend_new_vertex_attributes,
+};
 pub use bindings::meshflow::geometry::types::{Value, ValueType};
 pub use error::{Error, Result};
 pub use mesh::{Mesh, REMOVED};

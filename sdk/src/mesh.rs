@@ -5,6 +5,9 @@
 //! (~100 ns) and each list element is copied (~1 ns). Every edit is recorded by the host.
 
 use crate::Result;
+use crate::attributes::{
+    AttributeDomain, AttributeInfo, AttributeValues, COLOR, NORMAL, QUALITY, TEXCOORD,
+};
 use crate::bindings::meshflow::geometry::mesh::Mesh as RawMesh;
 
 /// What [`Mesh::triangles`] shows in all three corners of a triangle removed in this run.
@@ -249,5 +252,99 @@ impl<'a> Mesh<'a> {
     /// Removes everything.
     pub fn clear(&self) -> Result<()> {
         Ok(dispatch!(self, clear())?)
+    }
+
+    // ---- attributes: whole arrays, one call each (see [`crate::attributes`]) ----------------
+
+    /// Every attribute the mesh carries, by domain, then name.
+    pub fn attributes(&self) -> Vec<AttributeInfo> {
+        dispatch!(self, attributes())
+    }
+
+    /// An attribute's numbers for every slot of its domain (`components` per element;
+    /// removed elements keep their last values), or `None` when the mesh does not carry it.
+    pub fn read_attribute(&self, domain: AttributeDomain, name: &str) -> Option<AttributeValues> {
+        // The host refuses a read only for a missing attribute (`not-applicable`).
+        dispatch!(self, read_attribute(domain, name)).ok()
+    }
+
+    /// Sets an attribute at `ids` (`components` numbers each, in order), or at every slot
+    /// of its domain when `ids` is `None`; an attribute the mesh does not carry yet is made,
+    /// the other elements at the default (opaque white for `color`, else zero). The type and
+    /// `components` must match the attribute's (and the shapes of the well-known names).
+    /// A check is refused (`read-only`).
+    pub fn set_attribute(
+        &self,
+        domain: AttributeDomain,
+        name: &str,
+        components: u8,
+        ids: Option<&[u32]>,
+        values: &AttributeValues,
+    ) -> Result<()> {
+        Ok(dispatch!(self, set_attribute(domain, name, components, ids, values))?)
+    }
+
+    /// Drops an attribute; refused when the mesh does not carry it.
+    pub fn remove_attribute(&self, domain: AttributeDomain, name: &str) -> Result<()> {
+        Ok(dispatch!(self, remove_attribute(domain, name))?)
+    }
+
+    /// RGBA per vertex slot, if the mesh has colours.
+    pub fn vertex_colors(&self) -> Option<Vec<[u8; 4]>> {
+        match self.read_attribute(AttributeDomain::Vertex, COLOR)? {
+            AttributeValues::U8(v) => Some(v.as_chunks::<4>().0.to_vec()),
+            _ => None,
+        }
+    }
+
+    /// Sets colours at `ids` (every vertex slot when `None`).
+    pub fn set_vertex_colors(&self, ids: Option<&[u32]>, rgba: &[[u8; 4]]) -> Result<()> {
+        let values = AttributeValues::U8(rgba.as_flattened().to_vec());
+        self.set_attribute(AttributeDomain::Vertex, COLOR, 4, ids, &values)
+    }
+
+    /// Quality per vertex slot, if the mesh has it.
+    pub fn quality(&self) -> Option<Vec<f32>> {
+        match self.read_attribute(AttributeDomain::Vertex, QUALITY)? {
+            AttributeValues::F32(v) => Some(v),
+            _ => None,
+        }
+    }
+
+    /// Sets quality at `ids` (every vertex slot when `None`); values must be finite.
+    pub fn set_quality(&self, ids: Option<&[u32]>, quality: &[f32]) -> Result<()> {
+        let values = AttributeValues::F32(quality.to_vec());
+        self.set_attribute(AttributeDomain::Vertex, QUALITY, 1, ids, &values)
+    }
+
+    /// The normal per vertex slot, if the mesh carries normals.
+    pub fn vertex_normals(&self) -> Option<Vec<[f32; 3]>> {
+        match self.read_attribute(AttributeDomain::Vertex, NORMAL)? {
+            AttributeValues::F32(v) => Some(v.as_chunks::<3>().0.to_vec()),
+            _ => None,
+        }
+    }
+
+    /// Sets normals at `ids` (every vertex slot when `None`); the host then leaves those
+    /// vertices' normals as given rather than recomputing them.
+    pub fn set_vertex_normals(&self, ids: Option<&[u32]>, normals: &[[f32; 3]]) -> Result<()> {
+        let values = AttributeValues::F32(normals.as_flattened().to_vec());
+        self.set_attribute(AttributeDomain::Vertex, NORMAL, 3, ids, &values)
+    }
+
+    /// `u v` per vertex slot, if the mesh has per-vertex texture coordinates.
+    pub fn vertex_texcoords(&self) -> Option<Vec<[f32; 2]>> {
+        match self.read_attribute(AttributeDomain::Vertex, TEXCOORD)? {
+            AttributeValues::F32(v) => Some(v.as_chunks::<2>().0.to_vec()),
+            _ => None,
+        }
+    }
+
+    /// `u v` per corner (`3 * t + k`), if the mesh has per-corner texture coordinates.
+    pub fn corner_texcoords(&self) -> Option<Vec<[f32; 2]>> {
+        match self.read_attribute(AttributeDomain::Corner, TEXCOORD)? {
+            AttributeValues::F32(v) => Some(v.as_chunks::<2>().0.to_vec()),
+            _ => None,
+        }
     }
 }

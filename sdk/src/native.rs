@@ -25,6 +25,9 @@ pub use meshflow_mesh::MeshData;
 use meshflow_mesh::calls::{Called, MeshCalls, Recorder};
 pub use meshflow_mesh::store::Op;
 
+use meshflow_mesh::attributes::{self as model, Domain, Values};
+
+use crate::attributes::{AttributeDomain, AttributeInfo, AttributeValues, NumberType};
 use crate::bindings::meshflow::geometry::types::{
     EditError, EditErrorKind, Param, ParamInfo, ServiceKind, Value,
 };
@@ -79,8 +82,10 @@ pub fn run(
     let native =
         NativeMesh { calls: RefCell::new(Recorder::new(mesh, info.kind == ServiceKind::Check)) };
     let outcome = crate::run(services, name, Mesh::native(&native), resolved).map_err(Error)?;
-    let (mesh, edits) = native.calls.into_inner().finish();
-    Ok(Outcome { mesh, edits, report: outcome.report, value: outcome.value })
+    let recorder = native.calls.into_inner();
+    let report = meshflow_mesh::calls::with_defaulted_note(outcome.report, recorder.store());
+    let (mesh, edits) = recorder.finish();
+    Ok(Outcome { mesh, edits, report, value: outcome.value })
 }
 
 /// Refuses what a host refuses: a value of another type (an integer passes for a real),
@@ -254,5 +259,78 @@ impl NativeMesh {
     }
     pub fn clear(&self) -> Edit<()> {
         self.call(|m| m.clear())
+    }
+    pub fn attributes(&self) -> Vec<AttributeInfo> {
+        self.read(|m| m.attributes()).into_iter().map(info_to_wit).collect()
+    }
+    pub fn read_attribute(&self, domain: AttributeDomain, name: &str) -> Edit<AttributeValues> {
+        self.read(|m| m.read_attribute(domain_from_wit(domain), name))
+            .map(values_to_wit)
+            .map_err(to_wit)
+    }
+    pub fn set_attribute(
+        &self,
+        domain: AttributeDomain,
+        name: &str,
+        components: u8,
+        ids: Option<&[u32]>,
+        values: &AttributeValues,
+    ) -> Edit<()> {
+        let (domain, ids, values) =
+            (domain_from_wit(domain), ids.map(<[u32]>::to_vec), values_from_wit(values));
+        self.call(|m| m.set_attribute(domain, name.to_owned(), components, ids, values))
+    }
+    pub fn remove_attribute(&self, domain: AttributeDomain, name: &str) -> Edit<()> {
+        self.call(|m| m.remove_attribute(domain_from_wit(domain), name.to_owned()))
+    }
+}
+
+// The WIT's attribute types and the model's, one to one (the runtime has the same at its
+// own bindings' edge).
+
+fn domain_from_wit(domain: AttributeDomain) -> Domain {
+    match domain {
+        AttributeDomain::Vertex => Domain::Vertex,
+        AttributeDomain::Face => Domain::Face,
+        AttributeDomain::Corner => Domain::Corner,
+    }
+}
+
+fn info_to_wit(info: meshflow_mesh::calls::AttributeInfo) -> AttributeInfo {
+    AttributeInfo {
+        domain: match info.domain {
+            Domain::Vertex => AttributeDomain::Vertex,
+            Domain::Face => AttributeDomain::Face,
+            Domain::Corner => AttributeDomain::Corner,
+        },
+        name: info.name,
+        components: info.components,
+        number_type: match info.number_type {
+            model::NumberType::U8 => NumberType::U8,
+            model::NumberType::I32 => NumberType::S32,
+            model::NumberType::U32 => NumberType::U32,
+            model::NumberType::F32 => NumberType::F32,
+            model::NumberType::F64 => NumberType::F64,
+        },
+    }
+}
+
+fn values_from_wit(values: &AttributeValues) -> Values {
+    match values {
+        AttributeValues::U8(v) => Values::U8(v.clone()),
+        AttributeValues::S32(v) => Values::I32(v.clone()),
+        AttributeValues::U32(v) => Values::U32(v.clone()),
+        AttributeValues::F32(v) => Values::F32(v.clone()),
+        AttributeValues::F64(v) => Values::F64(v.clone()),
+    }
+}
+
+fn values_to_wit(values: Values) -> AttributeValues {
+    match values {
+        Values::U8(v) => AttributeValues::U8(v),
+        Values::I32(v) => AttributeValues::S32(v),
+        Values::U32(v) => AttributeValues::U32(v),
+        Values::F32(v) => AttributeValues::F32(v),
+        Values::F64(v) => AttributeValues::F64(v),
     }
 }

@@ -8,6 +8,10 @@
 //! [`MeshStore::apply`]. Refusals are [`EditError`]s of the store; [`wit_edit_error!`]
 //! writes the conversion to a WIT binding's own `edit-error`.
 //!
+//! Attributes are read and written whole, one at a time ([`MeshCalls::read_attribute`],
+//! [`MeshCalls::set_attribute`]); a step whose `add-vertices` left vertices at their
+//! defaults says so in its report ([`defaulted_vertices_note`]).
+//!
 //! The bulk reads (`positions`, `triangles`) are not here: an embedder serves them from
 //! [`MeshStore::positions`] and [`MeshStore::triangles`] as cheaply as it can (the runtime
 //! lowers them into the guest without a copy).
@@ -28,7 +32,17 @@ use std::convert::Infallible;
 use std::sync::Arc;
 
 use crate::MeshData;
+use crate::attributes::{COLOR, Domain, NORMAL, NumberType, TEXCOORD, Values};
 use crate::store::{Affine, EditError, EditErrorKind, MeshStore, Op, OpKind};
+
+/// One attribute as the WIT's `attribute-info` lists it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct AttributeInfo {
+    pub domain: Domain,
+    pub name: String,
+    pub components: u8,
+    pub number_type: NumberType,
+}
 
 /// What an edit call gives: `Err` stops the run (the embedder's [`MeshCalls::Stop`]), an
 /// inner `Err` is a refused edit the guest sees.
@@ -104,6 +118,35 @@ pub trait MeshCalls {
     }
     fn is_triangle_live(&self, triangle: u32) -> bool {
         self.store().is_triangle_live(triangle)
+    }
+
+    /// Every attribute, in canonical order (domain, then name).
+    fn attributes(&self) -> Vec<AttributeInfo> {
+        // The shared mesh is dropped before the next edit, which so finds the store's copy
+        // unshared.
+        let mesh = self.store().shared_slots();
+        mesh.attributes
+            .iter()
+            .map(|a| AttributeInfo {
+                domain: a.domain,
+                name: a.name.clone(),
+                components: a.components,
+                number_type: a.values.number_type(),
+            })
+            .collect()
+    }
+
+    /// One attribute's values for every slot of its domain; `NotApplicable` when the mesh
+    /// does not carry it.
+    fn read_attribute(&self, domain: Domain, name: &str) -> Result<Values, EditError> {
+        let mesh = self.store().shared_slots();
+        match mesh.attributes.get(domain, name) {
+            Some(a) => Ok(a.values.clone()),
+            None => Err(EditError::not_applicable(format!(
+                "read-attribute: the mesh has no {} attribute {name:?}",
+                domain.name()
+            ))),
+        }
     }
 
     // ---- edits: each the op it records and the values it is charged --------------------
@@ -200,6 +243,58 @@ pub trait MeshCalls {
     }
     fn clear(&mut self) -> Called<(), Self::Stop> {
         self.edit_unit(Op::Clear, 1)
+    }
+    /// Charged as the ids and the numbers it carries.
+    fn set_attribute(
+        &mut self,
+        domain: Domain,
+        name: String,
+        components: u8,
+        ids: Option<Vec<u32>>,
+        values: Values,
+    ) -> Called<(), Self::Stop> {
+        let n = ids.as_ref().map_or(0, Vec::len) + values.len();
+        self.edit_unit(Op::SetAttribute { domain, name, components, ids, values }, n)
+    }
+    fn remove_attribute(&mut self, domain: Domain, name: String) -> Called<(), Self::Stop> {
+        self.edit_unit(Op::RemoveAttribute { domain, name }, 1)
+    }
+}
+
+/// The line a step's report gains when `add-vertices` left vertices at their attribute
+/// defaults (the service set none of their values): `3 new vertices took default colour,
+/// quality: the service gave none`. Normals are not named, as the store recomputes them.
+/// `None` when every new vertex got values, or the mesh carries no vertex attribute.
+pub fn defaulted_vertices_note(store: &MeshStore) -> Option<String> {
+    let count = store.defaulted_vertex_count();
+    if count == 0 {
+        return None;
+    }
+    let mesh = store.shared_slots();
+    let names: Vec<&str> = mesh
+        .attributes
+        .iter()
+        .filter(|a| a.domain == Domain::Vertex && a.name != NORMAL)
+        .map(|a| match a.name.as_str() {
+            COLOR => "colour",
+            TEXCOORD => "texture coordinate",
+            name => name,
+        })
+        .collect();
+    if names.is_empty() {
+        return None;
+    }
+    let vertices = if count == 1 { "vertex" } else { "vertices" };
+    Some(format!("{count} new {vertices} took default {}: the service gave none", names.join(", ")))
+}
+
+/// `report` with the [`defaulted_vertices_note`] of `store` on a line of its own, where
+/// there is one.
+pub fn with_defaulted_note(report: String, store: &MeshStore) -> String {
+    match defaulted_vertices_note(store) {
+        None => report,
+        Some(note) if report.is_empty() => note,
+        Some(note) => format!("{report}\n{note}"),
     }
 }
 
@@ -330,6 +425,91 @@ mod tests {
         let refused = check.remove_triangle(0).expect("not charged").unwrap_err();
         assert_eq!(refused.kind, EditErrorKind::ReadOnly);
         assert_eq!(refused.message, "remove-triangles refused: a check may not edit the mesh");
+    }
+
+    #[test]
+    fn attributes_are_read_and_set_in_bulk_and_a_check_may_only_read() {
+        let mut calls = Recorder::new(triangle(), false);
+        assert!(calls.attributes().is_empty());
+        let missing = calls.read_attribute(Domain::Vertex, "quality").unwrap_err();
+        assert_eq!(missing.kind, EditErrorKind::NotApplicable);
+        let Ok(set) = calls.set_attribute(
+            Domain::Vertex,
+            "quality".into(),
+            1,
+            None,
+            Values::F32(vec![0.5, 1.0, 2.0]),
+        );
+        set.unwrap();
+        let Ok(set) = calls.set_attribute(
+            Domain::Vertex,
+            "quality".into(),
+            1,
+            Some(vec![2]),
+            Values::F32(vec![4.0]),
+        );
+        set.unwrap();
+        let info = AttributeInfo {
+            domain: Domain::Vertex,
+            name: "quality".into(),
+            components: 1,
+            number_type: NumberType::F32,
+        };
+        assert_eq!(calls.attributes(), vec![info]);
+        assert_eq!(
+            calls.read_attribute(Domain::Vertex, "quality"),
+            Ok(Values::F32(vec![0.5, 1.0, 4.0]))
+        );
+        let Ok(wrong) = calls.set_attribute(
+            Domain::Vertex,
+            "quality".into(),
+            1,
+            None,
+            Values::U8(vec![1, 2, 3]),
+        );
+        assert_eq!(wrong.unwrap_err().kind, EditErrorKind::InvalidArgument);
+        let (mesh, _) = calls.finish();
+
+        let mut check = Recorder::new(mesh, true);
+        assert_eq!(check.read_attribute(Domain::Vertex, "quality").unwrap().len(), 3);
+        let Ok(refused) = check.set_attribute(
+            Domain::Vertex,
+            "quality".into(),
+            1,
+            None,
+            Values::F32(vec![0.0; 3]),
+        );
+        let refused = refused.unwrap_err();
+        assert_eq!(refused.kind, EditErrorKind::ReadOnly);
+        assert_eq!(refused.message, "set-attribute refused: a check may not edit the mesh");
+        let Ok(refused) = check.remove_attribute(Domain::Vertex, "quality".into());
+        assert_eq!(refused.unwrap_err().kind, EditErrorKind::ReadOnly);
+    }
+
+    #[test]
+    fn vertices_left_at_their_defaults_are_noted_in_the_report() {
+        let mut mesh = triangle();
+        mesh.attributes.insert(crate::attributes::Attribute::color(vec![9; 12]), 3, 1).unwrap();
+        mesh.attributes.insert(crate::attributes::Attribute::quality(vec![1.0; 3]), 3, 1).unwrap();
+        let mut calls = Recorder::new(mesh, false);
+        assert_eq!(defaulted_vertices_note(calls.store()), None);
+        let Ok(first) = calls.add_vertices(vec![1.0, 1.0, 0.0, 2.0, 2.0, 0.0, 3.0, 3.0, 0.0]);
+        assert_eq!(first, Ok(3));
+        assert_eq!(
+            with_defaulted_note("added 3".into(), calls.store()),
+            "added 3\n3 new vertices took default colour, quality: the service gave none"
+        );
+        // Values given to two of them leave one at the defaults.
+        let Ok(set) = calls.set_attribute(
+            Domain::Vertex,
+            "color".into(),
+            4,
+            Some(vec![3, 4]),
+            Values::U8(vec![1; 8]),
+        );
+        set.unwrap();
+        let note = defaulted_vertices_note(calls.store()).unwrap();
+        assert_eq!(note, "1 new vertex took default colour, quality: the service gave none");
     }
 
     #[test]

@@ -12,11 +12,81 @@ wasmtime::component::bindgen!({
 });
 
 pub use exports::meshflow::geometry::service::{Param, ServiceInfo};
+pub use meshflow::geometry::mesh::{AttributeDomain, AttributeInfo, AttributeValues, NumberType};
 pub use meshflow::geometry::types::{
     EditError, EditErrorKind, ParamInfo, ServiceKind, Value, ValueType,
 };
 
+use meshflow_mesh::attributes::{self as model, Domain, Values};
+use meshflow_mesh::calls;
 use meshflow_params as params;
+
+impl From<AttributeDomain> for Domain {
+    fn from(domain: AttributeDomain) -> Self {
+        match domain {
+            AttributeDomain::Vertex => Domain::Vertex,
+            AttributeDomain::Face => Domain::Face,
+            AttributeDomain::Corner => Domain::Corner,
+        }
+    }
+}
+
+impl From<Domain> for AttributeDomain {
+    fn from(domain: Domain) -> Self {
+        match domain {
+            Domain::Vertex => AttributeDomain::Vertex,
+            Domain::Face => AttributeDomain::Face,
+            Domain::Corner => AttributeDomain::Corner,
+        }
+    }
+}
+
+impl From<model::NumberType> for NumberType {
+    fn from(ty: model::NumberType) -> Self {
+        match ty {
+            model::NumberType::U8 => NumberType::U8,
+            model::NumberType::I32 => NumberType::S32,
+            model::NumberType::U32 => NumberType::U32,
+            model::NumberType::F32 => NumberType::F32,
+            model::NumberType::F64 => NumberType::F64,
+        }
+    }
+}
+
+impl From<calls::AttributeInfo> for AttributeInfo {
+    fn from(info: calls::AttributeInfo) -> Self {
+        AttributeInfo {
+            domain: info.domain.into(),
+            name: info.name,
+            components: info.components,
+            number_type: info.number_type.into(),
+        }
+    }
+}
+
+impl From<AttributeValues> for Values {
+    fn from(values: AttributeValues) -> Self {
+        match values {
+            AttributeValues::U8(v) => Values::U8(v),
+            AttributeValues::S32(v) => Values::I32(v),
+            AttributeValues::U32(v) => Values::U32(v),
+            AttributeValues::F32(v) => Values::F32(v),
+            AttributeValues::F64(v) => Values::F64(v),
+        }
+    }
+}
+
+impl From<Values> for AttributeValues {
+    fn from(values: Values) -> Self {
+        match values {
+            Values::U8(v) => AttributeValues::U8(v),
+            Values::I32(v) => AttributeValues::S32(v),
+            Values::U32(v) => AttributeValues::U32(v),
+            Values::F32(v) => AttributeValues::F32(v),
+            Values::F64(v) => AttributeValues::F64(v),
+        }
+    }
+}
 
 impl From<ServiceInfo> for params::ServiceInfo {
     fn from(info: ServiceInfo) -> Self {

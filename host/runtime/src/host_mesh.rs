@@ -7,7 +7,7 @@
 use wasmtime::component::Resource;
 
 use super::bindings::meshflow::geometry::mesh::{Host, HostMesh};
-use super::bindings::{EditError, EditErrorKind};
+use super::bindings::{AttributeDomain, AttributeInfo, AttributeValues, EditError, EditErrorKind};
 use super::state::{MeshHandle, RunState};
 use meshflow_mesh::calls::{Called, MeshCalls};
 use meshflow_mesh::store::{MeshStore, OpKind};
@@ -237,6 +237,40 @@ impl HostMesh for RunState {
 
     fn clear(&mut self, _: Resource<MeshHandle>) -> EditResult<()> {
         wit(MeshCalls::clear(self))
+    }
+
+    fn attributes(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<Vec<AttributeInfo>> {
+        Ok(MeshCalls::attributes(self).into_iter().map(Into::into).collect())
+    }
+
+    fn read_attribute(
+        &mut self,
+        _: Resource<MeshHandle>,
+        domain: AttributeDomain,
+        name: String,
+    ) -> EditResult<AttributeValues> {
+        Ok(MeshCalls::read_attribute(self, domain.into(), &name).map(Into::into).map_err(to_wit))
+    }
+
+    fn set_attribute(
+        &mut self,
+        _: Resource<MeshHandle>,
+        domain: AttributeDomain,
+        name: String,
+        components: u8,
+        ids: Option<Vec<u32>>,
+        values: AttributeValues,
+    ) -> EditResult<()> {
+        wit(MeshCalls::set_attribute(self, domain.into(), name, components, ids, values.into()))
+    }
+
+    fn remove_attribute(
+        &mut self,
+        _: Resource<MeshHandle>,
+        domain: AttributeDomain,
+        name: String,
+    ) -> EditResult<()> {
+        wit(MeshCalls::remove_attribute(self, domain.into(), name))
     }
 
     fn drop(&mut self, handle: Resource<MeshHandle>) -> wasmtime::Result<()> {

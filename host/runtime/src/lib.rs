@@ -202,12 +202,13 @@ impl Runtime {
         let value = outcome.value.map(Value::from);
         meshflow_params::check_result(info, value.as_ref())
             .map_err(|problem| RunError::BadResult { service: service.to_owned(), problem })?;
+        let report = meshflow_mesh::calls::with_defaulted_note(outcome.report, &state.mesh);
         let (edited, log) = state.mesh.finish();
         Ok(RunOutput {
             mesh: (!is_check).then_some(edited),
             log,
             value,
-            report: outcome.report,
+            report,
             stdout: captured(&state.stdout),
             stderr: captured(&state.stderr),
             duration: started.elapsed(),
@@ -234,6 +235,9 @@ impl Runtime {
     ) -> Result<(R, RunState), RunError> {
         let input_elements = (mesh.positions.len() + mesh.triangles.len()) as u64;
         let budget = BASE_EDIT_BUDGET + EDIT_BUDGET_PER_INPUT_ELEMENT * input_elements;
+        // A `set-attribute` may carry the largest attribute the mesh could hold whole (four
+        // f64 per corner, as the input's triangles count them): on top of the mesh's allowance.
+        let attribute_bytes = 4 * 8 * mesh.triangles.len().max(mesh.positions.len() / 3);
         let state = RunState::new(
             MeshStore::new(mesh),
             Arc::clone(&self.connectivity),
@@ -243,7 +247,8 @@ impl Runtime {
         );
         let mut store = Store::new(&self.engine, state);
         store.limiter(|s| &mut s.memory);
-        store.set_hostcall_fuel(BASE_HOSTCALL_BYTES + 8 * input_elements as usize);
+        store
+            .set_hostcall_fuel(BASE_HOSTCALL_BYTES + 8 * input_elements as usize + attribute_bytes);
         store.set_epoch_deadline(ticks(self.limits.deadline));
         store.epoch_deadline_trap();
         if let Some(fuel) = self.limits.fuel {

@@ -119,6 +119,18 @@ extern void __wasm_import_meshflow_geometry_mesh_method_mesh_transform(int32_t, 
 __attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.clear")))
 extern void __wasm_import_meshflow_geometry_mesh_method_mesh_clear(int32_t, uint8_t *);
 
+__attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.attributes")))
+extern void __wasm_import_meshflow_geometry_mesh_method_mesh_attributes(int32_t, uint8_t *);
+
+__attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.read-attribute")))
+extern void __wasm_import_meshflow_geometry_mesh_method_mesh_read_attribute(int32_t, int32_t, uint8_t *, size_t, uint8_t *);
+
+__attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.set-attribute")))
+extern void __wasm_import_meshflow_geometry_mesh_method_mesh_set_attribute(int32_t, int32_t, uint8_t *, size_t, int32_t, int32_t, uint8_t *, size_t, int32_t, uint8_t *, size_t, uint8_t *);
+
+__attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.remove-attribute")))
+extern void __wasm_import_meshflow_geometry_mesh_method_mesh_remove_attribute(int32_t, int32_t, uint8_t *, size_t, uint8_t *);
+
 // Exported Functions from `meshflow:geometry/service@0.1.0`
 
 __attribute__((__weak__, __export_name__("cabi_post_meshflow:geometry/service@0.1.0#describe")))
@@ -333,25 +345,24 @@ void meshflow_geometry_mesh_edit_error_free(meshflow_geometry_mesh_edit_error_t 
   meshflow_geometry_types_edit_error_free(ptr);
 }
 
-__attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[resource-drop]mesh")))
-extern void __wasm_import_meshflow_geometry_mesh_mesh_drop(int32_t handle);
-
-void meshflow_geometry_mesh_mesh_drop_own(meshflow_geometry_mesh_own_mesh_t handle) {
-  __wasm_import_meshflow_geometry_mesh_mesh_drop(handle.__handle);
+void meshflow_geometry_mesh_attribute_info_free(meshflow_geometry_mesh_attribute_info_t *ptr) {
+  plugin_string_free(&ptr->name);
 }
 
-void meshflow_geometry_mesh_mesh_drop_borrow(meshflow_geometry_mesh_borrow_mesh_t handle) {
-  __wasm_import_meshflow_geometry_mesh_mesh_drop(handle.__handle);
-}
-
-meshflow_geometry_mesh_borrow_mesh_t meshflow_geometry_mesh_borrow_mesh(meshflow_geometry_mesh_own_mesh_t arg) {
-  return (meshflow_geometry_mesh_borrow_mesh_t) { arg.__handle };
-}
-
-void plugin_list_f32_free(plugin_list_f32_t *ptr) {
+void plugin_list_u8_free(plugin_list_u8_t *ptr) {
   size_t list_len = ptr->len;
   if (list_len > 0) {
-    float *list_ptr = ptr->ptr;
+    uint8_t *list_ptr = ptr->ptr;
+    for (size_t i = 0; i < list_len; i++) {
+    }
+    free(list_ptr);
+  }
+}
+
+void plugin_list_s32_free(plugin_list_s32_t *ptr) {
+  size_t list_len = ptr->len;
+  if (list_len > 0) {
+    int32_t *list_ptr = ptr->ptr;
     for (size_t i = 0; i < list_len; i++) {
     }
     free(list_ptr);
@@ -368,14 +379,64 @@ void plugin_list_u32_free(plugin_list_u32_t *ptr) {
   }
 }
 
-void plugin_list_u8_free(plugin_list_u8_t *ptr) {
+void plugin_list_f32_free(plugin_list_f32_t *ptr) {
   size_t list_len = ptr->len;
   if (list_len > 0) {
-    uint8_t *list_ptr = ptr->ptr;
+    float *list_ptr = ptr->ptr;
     for (size_t i = 0; i < list_len; i++) {
     }
     free(list_ptr);
   }
+}
+
+void plugin_list_f64_free(plugin_list_f64_t *ptr) {
+  size_t list_len = ptr->len;
+  if (list_len > 0) {
+    double *list_ptr = ptr->ptr;
+    for (size_t i = 0; i < list_len; i++) {
+    }
+    free(list_ptr);
+  }
+}
+
+void meshflow_geometry_mesh_attribute_values_free(meshflow_geometry_mesh_attribute_values_t *ptr) {
+  switch ((int32_t) ptr->tag) {
+    case 0: {
+      plugin_list_u8_free(&ptr->val.u8);
+      break;
+    }
+    case 1: {
+      plugin_list_s32_free(&ptr->val.s32);
+      break;
+    }
+    case 2: {
+      plugin_list_u32_free(&ptr->val.u32);
+      break;
+    }
+    case 3: {
+      plugin_list_f32_free(&ptr->val.f32);
+      break;
+    }
+    case 4: {
+      plugin_list_f64_free(&ptr->val.f64);
+      break;
+    }
+  }
+}
+
+__attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[resource-drop]mesh")))
+extern void __wasm_import_meshflow_geometry_mesh_mesh_drop(int32_t handle);
+
+void meshflow_geometry_mesh_mesh_drop_own(meshflow_geometry_mesh_own_mesh_t handle) {
+  __wasm_import_meshflow_geometry_mesh_mesh_drop(handle.__handle);
+}
+
+void meshflow_geometry_mesh_mesh_drop_borrow(meshflow_geometry_mesh_borrow_mesh_t handle) {
+  __wasm_import_meshflow_geometry_mesh_mesh_drop(handle.__handle);
+}
+
+meshflow_geometry_mesh_borrow_mesh_t meshflow_geometry_mesh_borrow_mesh(meshflow_geometry_mesh_own_mesh_t arg) {
+  return (meshflow_geometry_mesh_borrow_mesh_t) { arg.__handle };
 }
 
 void meshflow_geometry_mesh_result_tuple3_f32_f32_f32_edit_error_free(meshflow_geometry_mesh_result_tuple3_f32_f32_f32_edit_error_t *ptr) {
@@ -403,6 +464,31 @@ void meshflow_geometry_mesh_result_void_edit_error_free(meshflow_geometry_mesh_r
   if (!ptr->is_err) {
   } else {
     meshflow_geometry_mesh_edit_error_free(&ptr->val.err);
+  }
+}
+
+void meshflow_geometry_mesh_list_attribute_info_free(meshflow_geometry_mesh_list_attribute_info_t *ptr) {
+  size_t list_len = ptr->len;
+  if (list_len > 0) {
+    meshflow_geometry_mesh_attribute_info_t *list_ptr = ptr->ptr;
+    for (size_t i = 0; i < list_len; i++) {
+      meshflow_geometry_mesh_attribute_info_free(&list_ptr[i]);
+    }
+    free(list_ptr);
+  }
+}
+
+void meshflow_geometry_mesh_result_attribute_values_edit_error_free(meshflow_geometry_mesh_result_attribute_values_edit_error_t *ptr) {
+  if (!ptr->is_err) {
+    meshflow_geometry_mesh_attribute_values_free(&ptr->val.ok);
+  } else {
+    meshflow_geometry_mesh_edit_error_free(&ptr->val.err);
+  }
+}
+
+void plugin_option_list_u32_free(plugin_option_list_u32_t *ptr) {
+  if (ptr->is_some) {
+    plugin_list_u32_free(&ptr->val);
   }
 }
 
@@ -1288,6 +1374,182 @@ bool meshflow_geometry_mesh_method_mesh_clear(meshflow_geometry_mesh_borrow_mesh
   uint8_t ret_area[(4*sizeof(void*))];
   uint8_t *ptr = (uint8_t *) &ret_area;
   __wasm_import_meshflow_geometry_mesh_method_mesh_clear((self).__handle, ptr);
+  meshflow_geometry_mesh_result_void_edit_error_t result;
+  switch ((int32_t) *((uint8_t*) (ptr + 0))) {
+    case 0: {
+      result.is_err = false;
+      break;
+    }
+    case 1: {
+      result.is_err = true;
+      result.val.err = (meshflow_geometry_types_edit_error_t) {
+        (meshflow_geometry_types_edit_error_kind_t) (int32_t) *((uint8_t*) (ptr + sizeof(void*))),
+        (plugin_string_t) (plugin_string_t) { (uint8_t*)(*((uint8_t **) (ptr + (2*sizeof(void*))))), (*((size_t*) (ptr + (3*sizeof(void*))))) },
+      };
+      break;
+    }
+  }
+  if (!result.is_err) {
+    return 1;
+  } else {
+    *err = result.val.err;
+    return 0;
+  }
+}
+
+void meshflow_geometry_mesh_method_mesh_attributes(meshflow_geometry_mesh_borrow_mesh_t self, meshflow_geometry_mesh_list_attribute_info_t *ret) {
+  __attribute__((__aligned__(sizeof(void*))))
+  uint8_t ret_area[(2*sizeof(void*))];
+  uint8_t *ptr = (uint8_t *) &ret_area;
+  __wasm_import_meshflow_geometry_mesh_method_mesh_attributes((self).__handle, ptr);
+  *ret = (meshflow_geometry_mesh_list_attribute_info_t) { (meshflow_geometry_mesh_attribute_info_t*)(*((uint8_t **) (ptr + 0))), (*((size_t*) (ptr + sizeof(void*)))) };
+}
+
+bool meshflow_geometry_mesh_method_mesh_read_attribute(meshflow_geometry_mesh_borrow_mesh_t self, meshflow_geometry_mesh_attribute_domain_t domain, plugin_string_t *name, meshflow_geometry_mesh_attribute_values_t *ret, meshflow_geometry_mesh_edit_error_t *err) {
+  __attribute__((__aligned__(sizeof(void*))))
+  uint8_t ret_area[(4*sizeof(void*))];
+  uint8_t *ptr = (uint8_t *) &ret_area;
+  __wasm_import_meshflow_geometry_mesh_method_mesh_read_attribute((self).__handle, (int32_t) domain, (uint8_t *) (*name).ptr, (*name).len, ptr);
+  meshflow_geometry_mesh_result_attribute_values_edit_error_t result;
+  switch ((int32_t) *((uint8_t*) (ptr + 0))) {
+    case 0: {
+      result.is_err = false;
+      meshflow_geometry_mesh_attribute_values_t variant;
+      variant.tag = (int32_t) *((uint8_t*) (ptr + sizeof(void*)));
+      switch ((int32_t) variant.tag) {
+        case 0: {
+          variant.val.u8 = (plugin_list_u8_t) { (uint8_t*)(*((uint8_t **) (ptr + (2*sizeof(void*))))), (*((size_t*) (ptr + (3*sizeof(void*))))) };
+          break;
+        }
+        case 1: {
+          variant.val.s32 = (plugin_list_s32_t) { (int32_t*)(*((uint8_t **) (ptr + (2*sizeof(void*))))), (*((size_t*) (ptr + (3*sizeof(void*))))) };
+          break;
+        }
+        case 2: {
+          variant.val.u32 = (plugin_list_u32_t) { (uint32_t*)(*((uint8_t **) (ptr + (2*sizeof(void*))))), (*((size_t*) (ptr + (3*sizeof(void*))))) };
+          break;
+        }
+        case 3: {
+          variant.val.f32 = (plugin_list_f32_t) { (float*)(*((uint8_t **) (ptr + (2*sizeof(void*))))), (*((size_t*) (ptr + (3*sizeof(void*))))) };
+          break;
+        }
+        case 4: {
+          variant.val.f64 = (plugin_list_f64_t) { (double*)(*((uint8_t **) (ptr + (2*sizeof(void*))))), (*((size_t*) (ptr + (3*sizeof(void*))))) };
+          break;
+        }
+      }
+
+      result.val.ok = variant;
+      break;
+    }
+    case 1: {
+      result.is_err = true;
+      result.val.err = (meshflow_geometry_types_edit_error_t) {
+        (meshflow_geometry_types_edit_error_kind_t) (int32_t) *((uint8_t*) (ptr + sizeof(void*))),
+        (plugin_string_t) (plugin_string_t) { (uint8_t*)(*((uint8_t **) (ptr + (2*sizeof(void*))))), (*((size_t*) (ptr + (3*sizeof(void*))))) },
+      };
+      break;
+    }
+  }
+  if (!result.is_err) {
+    *ret = result.val.ok;
+    return 1;
+  } else {
+    *err = result.val.err;
+    return 0;
+  }
+}
+
+bool meshflow_geometry_mesh_method_mesh_set_attribute(meshflow_geometry_mesh_borrow_mesh_t self, meshflow_geometry_mesh_attribute_domain_t domain, plugin_string_t *name, uint8_t components, plugin_list_u32_t *maybe_ids, meshflow_geometry_mesh_attribute_values_t *values, meshflow_geometry_mesh_edit_error_t *err) {
+  __attribute__((__aligned__(sizeof(void*))))
+  uint8_t ret_area[(4*sizeof(void*))];
+  plugin_option_list_u32_t ids;
+  ids.is_some = maybe_ids != NULL;if (maybe_ids) {
+    ids.val = *maybe_ids;
+  }
+  int32_t option;
+  uint8_t * option1;
+  size_t option2;
+  if ((ids).is_some) {
+    const plugin_list_u32_t *payload0 = &(ids).val;
+    option = 1;
+    option1 = (uint8_t *) (*payload0).ptr;
+    option2 = (*payload0).len;
+  } else {
+    option = 0;
+    option1 = 0;
+    option2 = 0;
+  }
+  int32_t variant;
+  uint8_t * variant8;
+  size_t variant9;
+  switch ((int32_t) (*values).tag) {
+    case 0: {
+      const plugin_list_u8_t *payload3 = &(*values).val.u8;
+      variant = 0;
+      variant8 = (uint8_t *) (*payload3).ptr;
+      variant9 = (*payload3).len;
+      break;
+    }
+    case 1: {
+      const plugin_list_s32_t *payload4 = &(*values).val.s32;
+      variant = 1;
+      variant8 = (uint8_t *) (*payload4).ptr;
+      variant9 = (*payload4).len;
+      break;
+    }
+    case 2: {
+      const plugin_list_u32_t *payload5 = &(*values).val.u32;
+      variant = 2;
+      variant8 = (uint8_t *) (*payload5).ptr;
+      variant9 = (*payload5).len;
+      break;
+    }
+    case 3: {
+      const plugin_list_f32_t *payload6 = &(*values).val.f32;
+      variant = 3;
+      variant8 = (uint8_t *) (*payload6).ptr;
+      variant9 = (*payload6).len;
+      break;
+    }
+    case 4: {
+      const plugin_list_f64_t *payload7 = &(*values).val.f64;
+      variant = 4;
+      variant8 = (uint8_t *) (*payload7).ptr;
+      variant9 = (*payload7).len;
+      break;
+    }
+  }
+  uint8_t *ptr = (uint8_t *) &ret_area;
+  __wasm_import_meshflow_geometry_mesh_method_mesh_set_attribute((self).__handle, (int32_t) domain, (uint8_t *) (*name).ptr, (*name).len, (int32_t) (components), option, option1, option2, variant, variant8, variant9, ptr);
+  meshflow_geometry_mesh_result_void_edit_error_t result;
+  switch ((int32_t) *((uint8_t*) (ptr + 0))) {
+    case 0: {
+      result.is_err = false;
+      break;
+    }
+    case 1: {
+      result.is_err = true;
+      result.val.err = (meshflow_geometry_types_edit_error_t) {
+        (meshflow_geometry_types_edit_error_kind_t) (int32_t) *((uint8_t*) (ptr + sizeof(void*))),
+        (plugin_string_t) (plugin_string_t) { (uint8_t*)(*((uint8_t **) (ptr + (2*sizeof(void*))))), (*((size_t*) (ptr + (3*sizeof(void*))))) },
+      };
+      break;
+    }
+  }
+  if (!result.is_err) {
+    return 1;
+  } else {
+    *err = result.val.err;
+    return 0;
+  }
+}
+
+bool meshflow_geometry_mesh_method_mesh_remove_attribute(meshflow_geometry_mesh_borrow_mesh_t self, meshflow_geometry_mesh_attribute_domain_t domain, plugin_string_t *name, meshflow_geometry_mesh_edit_error_t *err) {
+  __attribute__((__aligned__(sizeof(void*))))
+  uint8_t ret_area[(4*sizeof(void*))];
+  uint8_t *ptr = (uint8_t *) &ret_area;
+  __wasm_import_meshflow_geometry_mesh_method_mesh_remove_attribute((self).__handle, (int32_t) domain, (uint8_t *) (*name).ptr, (*name).len, ptr);
   meshflow_geometry_mesh_result_void_edit_error_t result;
   switch ((int32_t) *((uint8_t*) (ptr + 0))) {
     case 0: {

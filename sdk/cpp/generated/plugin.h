@@ -132,18 +132,48 @@ typedef struct meshflow_geometry_types_edit_error_t {
 
 typedef meshflow_geometry_types_edit_error_t meshflow_geometry_mesh_edit_error_t;
 
-typedef struct meshflow_geometry_mesh_own_mesh_t {
-  int32_t __handle;
-} meshflow_geometry_mesh_own_mesh_t;
+// The elements an attribute has one value for.
+typedef uint8_t meshflow_geometry_mesh_attribute_domain_t;
 
-typedef struct meshflow_geometry_mesh_borrow_mesh_t {
-  int32_t __handle;
-} meshflow_geometry_mesh_borrow_mesh_t;
+// One value per vertex slot.
+#define MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_DOMAIN_VERTEX 0
+// One value per triangle slot.
+#define MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_DOMAIN_FACE 1
+// One value per triangle corner: corner `3 * t + k` is corner `k` of triangle `t`
+// (what a textured mesh needs where a vertex lies on a seam).
+#define MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_DOMAIN_CORNER 2
+
+// The type an attribute keeps its numbers in.
+typedef uint8_t meshflow_geometry_mesh_number_type_t;
+
+#define MESHFLOW_GEOMETRY_MESH_NUMBER_TYPE_U8 0
+#define MESHFLOW_GEOMETRY_MESH_NUMBER_TYPE_S32 1
+#define MESHFLOW_GEOMETRY_MESH_NUMBER_TYPE_U32 2
+#define MESHFLOW_GEOMETRY_MESH_NUMBER_TYPE_F32 3
+#define MESHFLOW_GEOMETRY_MESH_NUMBER_TYPE_F64 4
+
+// An attribute as `attributes` lists it.
+typedef struct meshflow_geometry_mesh_attribute_info_t {
+  meshflow_geometry_mesh_attribute_domain_t   domain;
+  // `color` (4 × u8, RGBA), `normal` (3 × f32), `quality` (1 × f32), `texcoord`
+  // (2 × f32, per vertex or corner), `material` (per face, 1 × u32, an index into the
+  // file's material names), or any other name a file or a plugin gave: 1 to 64
+  // letters, digits, `_`, `-` or `.`.
+  plugin_string_t   name;
+  // Numbers per element, 1 to 4.
+  uint8_t   components;
+  meshflow_geometry_mesh_number_type_t   number_type;
+} meshflow_geometry_mesh_attribute_info_t;
 
 typedef struct {
-  float *ptr;
+  uint8_t *ptr;
   size_t len;
-} plugin_list_f32_t;
+} plugin_list_u8_t;
+
+typedef struct {
+  int32_t *ptr;
+  size_t len;
+} plugin_list_s32_t;
 
 typedef struct {
   uint32_t *ptr;
@@ -151,9 +181,41 @@ typedef struct {
 } plugin_list_u32_t;
 
 typedef struct {
-  uint8_t *ptr;
+  float *ptr;
   size_t len;
-} plugin_list_u8_t;
+} plugin_list_f32_t;
+
+typedef struct {
+  double *ptr;
+  size_t len;
+} plugin_list_f64_t;
+
+// An attribute's numbers, `components` per element, element after element, in the
+// attribute's own type. Floats must be finite.
+typedef struct meshflow_geometry_mesh_attribute_values_t {
+  uint8_t tag;
+  union {
+    plugin_list_u8_t     u8;
+    plugin_list_s32_t     s32;
+    plugin_list_u32_t     u32;
+    plugin_list_f32_t     f32;
+    plugin_list_f64_t     f64;
+  } val;
+} meshflow_geometry_mesh_attribute_values_t;
+
+#define MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_VALUES_U8 0
+#define MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_VALUES_S32 1
+#define MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_VALUES_U32 2
+#define MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_VALUES_F32 3
+#define MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_VALUES_F64 4
+
+typedef struct meshflow_geometry_mesh_own_mesh_t {
+  int32_t __handle;
+} meshflow_geometry_mesh_own_mesh_t;
+
+typedef struct meshflow_geometry_mesh_borrow_mesh_t {
+  int32_t __handle;
+} meshflow_geometry_mesh_borrow_mesh_t;
 
 typedef struct {
   float f0;
@@ -197,6 +259,24 @@ typedef struct {
     meshflow_geometry_mesh_edit_error_t err;
   } val;
 } meshflow_geometry_mesh_result_void_edit_error_t;
+
+typedef struct {
+  meshflow_geometry_mesh_attribute_info_t *ptr;
+  size_t len;
+} meshflow_geometry_mesh_list_attribute_info_t;
+
+typedef struct {
+  bool is_err;
+  union {
+    meshflow_geometry_mesh_attribute_values_t ok;
+    meshflow_geometry_mesh_edit_error_t err;
+  } val;
+} meshflow_geometry_mesh_result_attribute_values_edit_error_t;
+
+typedef struct {
+  bool is_some;
+  plugin_list_u32_t val;
+} plugin_option_list_u32_t;
 
 typedef meshflow_geometry_types_service_info_t exports_meshflow_geometry_service_service_info_t;
 
@@ -320,6 +400,33 @@ extern bool meshflow_geometry_mesh_method_mesh_transform_component(meshflow_geom
 extern bool meshflow_geometry_mesh_method_mesh_transform(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_f32_t *matrix, meshflow_geometry_mesh_edit_error_t *err);
 // Removes every vertex and triangle.
 extern bool meshflow_geometry_mesh_method_mesh_clear(meshflow_geometry_mesh_borrow_mesh_t self, meshflow_geometry_mesh_edit_error_t *err);
+// ---- attributes: what the mesh carries beyond positions and triangles. Read and
+// written in bulk, one attribute at a time (a call and a copy of its values). The
+// host keeps them through every edit: a vertex or corner a split makes is
+// interpolated from its parents, a collapse keeps the survivor's values, moved
+// vertices keep theirs, and normals are recomputed as the run ends where the
+// geometry around a vertex changed, unless the run set them. A vertex from
+// `add-vertex(es)` gets the default (opaque white for `color`, else zero) until the
+// run sets it, and the step's report says how many kept it. -------------------------
+// Every attribute of the mesh, by domain, then name. Empty for a mesh with none
+// (the call is then all a service pays).
+extern void meshflow_geometry_mesh_method_mesh_attributes(meshflow_geometry_mesh_borrow_mesh_t self, meshflow_geometry_mesh_list_attribute_info_t *ret);
+// The values of one attribute for every slot of its domain (`components` numbers
+// each; `vertex-slots`, `triangle-slots` or `3 * triangle-slots` elements): removed
+// elements keep their last values, new ones hold what they were given. A name the
+// mesh does not carry is `not-applicable`.
+extern bool meshflow_geometry_mesh_method_mesh_read_attribute(meshflow_geometry_mesh_borrow_mesh_t self, meshflow_geometry_mesh_attribute_domain_t domain, plugin_string_t *name, meshflow_geometry_mesh_attribute_values_t *ret, meshflow_geometry_mesh_edit_error_t *err);
+// Sets an attribute at `ids` (vertex, triangle or corner ids, live ones; values for
+// `ids[i]` are numbers `components * i ..`), or at every slot of its domain when
+// `ids` is `none` (values for removed slots too, which they keep). An attribute the
+// mesh does not carry yet is made, every other element at the default. The values'
+// type and `components` must match the attribute's, and the well-known names' shapes
+// (see `attribute-info`); a mesh holds at most 32 attributes. Setting `normal`
+// keeps those vertices' normals from being recomputed. Checks get `read-only`.
+// Cost: one call, a copy of the values; charged as `len(ids) + len(values)` edits.
+extern bool meshflow_geometry_mesh_method_mesh_set_attribute(meshflow_geometry_mesh_borrow_mesh_t self, meshflow_geometry_mesh_attribute_domain_t domain, plugin_string_t *name, uint8_t components, plugin_list_u32_t *maybe_ids, meshflow_geometry_mesh_attribute_values_t *values, meshflow_geometry_mesh_edit_error_t *err);
+// Drops an attribute (`not-applicable` if the mesh has none of that name).
+extern bool meshflow_geometry_mesh_method_mesh_remove_attribute(meshflow_geometry_mesh_borrow_mesh_t self, meshflow_geometry_mesh_attribute_domain_t domain, plugin_string_t *name, meshflow_geometry_mesh_edit_error_t *err);
 
 // Exported Functions from `meshflow:geometry/service@0.1.0`
 void exports_meshflow_geometry_service_describe(exports_meshflow_geometry_service_list_service_info_t *ret);
@@ -351,17 +458,25 @@ void meshflow_geometry_types_edit_error_free(meshflow_geometry_types_edit_error_
 
 void meshflow_geometry_mesh_edit_error_free(meshflow_geometry_mesh_edit_error_t *ptr);
 
+void meshflow_geometry_mesh_attribute_info_free(meshflow_geometry_mesh_attribute_info_t *ptr);
+
+void plugin_list_u8_free(plugin_list_u8_t *ptr);
+
+void plugin_list_s32_free(plugin_list_s32_t *ptr);
+
+void plugin_list_u32_free(plugin_list_u32_t *ptr);
+
+void plugin_list_f32_free(plugin_list_f32_t *ptr);
+
+void plugin_list_f64_free(plugin_list_f64_t *ptr);
+
+void meshflow_geometry_mesh_attribute_values_free(meshflow_geometry_mesh_attribute_values_t *ptr);
+
 extern void meshflow_geometry_mesh_mesh_drop_own(meshflow_geometry_mesh_own_mesh_t handle);
 
 extern void meshflow_geometry_mesh_mesh_drop_borrow(meshflow_geometry_mesh_borrow_mesh_t handle);
 
 extern meshflow_geometry_mesh_borrow_mesh_t meshflow_geometry_mesh_borrow_mesh(meshflow_geometry_mesh_own_mesh_t handle);
-
-void plugin_list_f32_free(plugin_list_f32_t *ptr);
-
-void plugin_list_u32_free(plugin_list_u32_t *ptr);
-
-void plugin_list_u8_free(plugin_list_u8_t *ptr);
 
 void meshflow_geometry_mesh_result_tuple3_f32_f32_f32_edit_error_free(meshflow_geometry_mesh_result_tuple3_f32_f32_f32_edit_error_t *ptr);
 
@@ -370,6 +485,12 @@ void meshflow_geometry_mesh_result_tuple3_u32_u32_u32_edit_error_free(meshflow_g
 void meshflow_geometry_mesh_result_u32_edit_error_free(meshflow_geometry_mesh_result_u32_edit_error_t *ptr);
 
 void meshflow_geometry_mesh_result_void_edit_error_free(meshflow_geometry_mesh_result_void_edit_error_t *ptr);
+
+void meshflow_geometry_mesh_list_attribute_info_free(meshflow_geometry_mesh_list_attribute_info_t *ptr);
+
+void meshflow_geometry_mesh_result_attribute_values_edit_error_free(meshflow_geometry_mesh_result_attribute_values_edit_error_t *ptr);
+
+void plugin_option_list_u32_free(plugin_option_list_u32_t *ptr);
 
 void exports_meshflow_geometry_service_service_info_free(exports_meshflow_geometry_service_service_info_t *ptr);
 

@@ -29,6 +29,7 @@ extern "C" {
 #endif
 
 #include <array>
+#include <concepts>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -159,6 +160,29 @@ List list_of(std::span<const T> items) {
     return List{const_cast<T*>(items.data()), items.size()};
 }
 
+// A string argument, borrowed for the call (an import does not free its arguments).
+inline plugin_string_t borrowed(std::string_view s) {
+    return plugin_string_t{reinterpret_cast<uint8_t*>(const_cast<char*>(s.data())), s.size()};
+}
+
+template <class T>
+std::vector<T> copy_list(const T* ptr, size_t len) {
+    return len ? std::vector<T>(ptr, ptr + len) : std::vector<T>{};
+}
+
+// The bindings' attribute values as vectors (copied; the caller frees the C values).
+inline std::variant<std::vector<uint8_t>, std::vector<int32_t>, std::vector<uint32_t>,
+                    std::vector<float>, std::vector<double>>
+values_from_c(const meshflow_geometry_mesh_attribute_values_t& v) {
+    switch (v.tag) {
+        case MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_VALUES_U8: return copy_list(v.val.u8.ptr, v.val.u8.len);
+        case MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_VALUES_S32: return copy_list(v.val.s32.ptr, v.val.s32.len);
+        case MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_VALUES_U32: return copy_list(v.val.u32.ptr, v.val.u32.len);
+        case MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_VALUES_F32: return copy_list(v.val.f32.ptr, v.val.f32.len);
+        default: return copy_list(v.val.f64.ptr, v.val.f64.len);
+    }
+}
+
 }  // namespace detail
 
 // ---- values and parameters ------------------------------------------------------------------
@@ -284,6 +308,35 @@ private:
     std::unique_ptr<T, Free> data_;
     size_t size_ = 0;
 };
+
+// ---- attributes: what a mesh carries beyond positions and triangles --------------------------
+
+// The elements an attribute has one value for (the WIT's attribute-domain, in its order).
+enum class Domain : uint8_t { Vertex, Face, Corner };
+// The type an attribute keeps its numbers in (the WIT's number-type, in its order).
+enum class NumberType : uint8_t { U8, S32, U32, F32, F64 };
+
+// The well-known names: colour (4 × u8, RGBA), normal (3 × f32, recomputed by the host where
+// the geometry changed unless the run set it), quality (1 × f32), texture coordinate
+// (2 × f32, per vertex or corner), material (per face, 1 × u32).
+inline constexpr std::string_view COLOR = "color";
+inline constexpr std::string_view NORMAL = "normal";
+inline constexpr std::string_view QUALITY = "quality";
+inline constexpr std::string_view TEXCOORD = "texcoord";
+inline constexpr std::string_view MATERIAL = "material";
+
+// One attribute as Mesh::attributes() lists it.
+struct AttributeInfo {
+    Domain domain;
+    std::string name;
+    uint8_t components;  // numbers per element, 1 to 4
+    NumberType type;
+};
+
+// An attribute's numbers, `components` per element, in its own type; the variant's index is
+// its NumberType.
+using AttributeValues = std::variant<std::vector<uint8_t>, std::vector<int32_t>,
+                                     std::vector<uint32_t>, std::vector<float>, std::vector<double>>;
 
 // The half-edge from corner `k` (0, 1, 2) of triangle `t` to corner `(k + 1) % 3`: the edge
 // ids that split_edge, swap_edge, collapse_edge and extend_edge take.
@@ -491,7 +544,152 @@ public:
     // Removes every vertex and triangle.
     Result<> clear() const { return unit(meshflow_geometry_mesh_method_mesh_clear(raw_, &error_)); }
 
+    // ---- attributes, whole arrays (one call and one copy each). The host keeps them through
+    // every edit (splits interpolate, collapses keep the survivor's); vertices from
+    // add_vertices take the defaults (opaque white, else zero) unless the run sets them, and
+    // the step's report says so.
+
+    // Every attribute of the mesh, by domain, then name.
+    std::vector<AttributeInfo> attributes() const {
+        meshflow_geometry_mesh_list_attribute_info_t list;
+        meshflow_geometry_mesh_method_mesh_attributes(raw_, &list);
+        std::vector<AttributeInfo> out;
+        out.reserve(list.len);
+        for (size_t i = 0; i < list.len; ++i) {
+            auto& a = list.ptr[i];
+            out.push_back({Domain(a.domain), detail::to_string(a.name), a.components,
+                           NumberType(a.number_type)});
+        }
+        meshflow_geometry_mesh_list_attribute_info_free(&list);
+        return out;
+    }
+    // An attribute's numbers for every slot of its domain (removed elements keep their last
+    // values); nullopt when the mesh does not carry it.
+    std::optional<AttributeValues> read_attribute(Domain domain, std::string_view name) const {
+        meshflow_geometry_mesh_attribute_values_t v;
+        auto n = detail::borrowed(name);
+        if (!meshflow_geometry_mesh_method_mesh_read_attribute(raw_, uint8_t(domain), &n, &v, &error_)) {
+            meshflow_geometry_mesh_edit_error_free(&error_);
+            return std::nullopt;
+        }
+        auto out = detail::values_from_c(v);
+        meshflow_geometry_mesh_attribute_values_free(&v);
+        return out;
+    }
+    // Sets an attribute at `ids` (`components` numbers each, in order), or at every slot of
+    // its domain when `ids` is nullopt; an attribute the mesh does not carry yet is made, the
+    // other elements at the default. The type and `components` must match the attribute's
+    // (and the well-known names' shapes). A check gets a read-only error.
+    Result<> set_attribute(Domain domain, std::string_view name, uint8_t components,
+                           std::optional<std::span<const uint32_t>> ids,
+                           std::span<const uint8_t> values) const {
+        return set(domain, name, components, ids, MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_VALUES_U8, values);
+    }
+    Result<> set_attribute(Domain domain, std::string_view name, uint8_t components,
+                           std::optional<std::span<const uint32_t>> ids,
+                           std::span<const int32_t> values) const {
+        return set(domain, name, components, ids, MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_VALUES_S32, values);
+    }
+    Result<> set_attribute(Domain domain, std::string_view name, uint8_t components,
+                           std::optional<std::span<const uint32_t>> ids,
+                           std::span<const uint32_t> values) const {
+        return set(domain, name, components, ids, MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_VALUES_U32, values);
+    }
+    Result<> set_attribute(Domain domain, std::string_view name, uint8_t components,
+                           std::optional<std::span<const uint32_t>> ids,
+                           std::span<const float> values) const {
+        return set(domain, name, components, ids, MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_VALUES_F32, values);
+    }
+    Result<> set_attribute(Domain domain, std::string_view name, uint8_t components,
+                           std::optional<std::span<const uint32_t>> ids,
+                           std::span<const double> values) const {
+        return set(domain, name, components, ids, MESHFLOW_GEOMETRY_MESH_ATTRIBUTE_VALUES_F64, values);
+    }
+    // The values read_attribute gives (a template only so that a vector picks its span).
+    template <class V>
+        requires std::same_as<V, AttributeValues>
+    Result<> set_attribute(Domain domain, std::string_view name, uint8_t components,
+                           std::optional<std::span<const uint32_t>> ids, const V& values) const {
+        return std::visit(
+            [&](const auto& v) {
+                using T = typename std::decay_t<decltype(v)>::value_type;
+                return set_attribute(domain, name, components, ids, std::span<const T>(v));
+            },
+            values);
+    }
+    // Drops an attribute; an error when the mesh does not carry it.
+    Result<> remove_attribute(Domain domain, std::string_view name) const {
+        auto n = detail::borrowed(name);
+        return unit(meshflow_geometry_mesh_method_mesh_remove_attribute(raw_, uint8_t(domain), &n, &error_));
+    }
+
+    // RGBA per vertex slot, if the mesh has colours.
+    std::optional<std::vector<std::array<uint8_t, 4>>> vertex_colors() const {
+        return grouped<uint8_t, 4>(Domain::Vertex, COLOR);
+    }
+    // Sets colours at `ids` (every vertex slot when nullopt).
+    Result<> set_vertex_colors(std::optional<std::span<const uint32_t>> ids,
+                               std::span<const std::array<uint8_t, 4>> rgba) const {
+        return set_attribute(Domain::Vertex, COLOR, 4, ids,
+                             std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(rgba.data()), 4 * rgba.size()));
+    }
+    // Quality per vertex slot, if the mesh has it.
+    std::optional<std::vector<float>> quality() const {
+        auto v = read_attribute(Domain::Vertex, QUALITY);
+        if (!v || v->index() != size_t(NumberType::F32)) return std::nullopt;
+        return std::get<std::vector<float>>(std::move(*v));
+    }
+    // Sets quality at `ids` (every vertex slot when nullopt); values must be finite.
+    Result<> set_quality(std::optional<std::span<const uint32_t>> ids, std::span<const float> q) const {
+        return set_attribute(Domain::Vertex, QUALITY, 1, ids, q);
+    }
+    // The normal per vertex slot, if the mesh carries normals.
+    std::optional<std::vector<std::array<float, 3>>> vertex_normals() const {
+        return grouped<float, 3>(Domain::Vertex, NORMAL);
+    }
+    // Sets normals at `ids`; the host then keeps them rather than recomputing them.
+    Result<> set_vertex_normals(std::optional<std::span<const uint32_t>> ids,
+                                std::span<const std::array<float, 3>> normals) const {
+        return set_attribute(Domain::Vertex, NORMAL, 3, ids,
+                             std::span<const float>(reinterpret_cast<const float*>(normals.data()), 3 * normals.size()));
+    }
+    // u v per vertex slot, if the mesh has per-vertex texture coordinates.
+    std::optional<std::vector<std::array<float, 2>>> vertex_texcoords() const {
+        return grouped<float, 2>(Domain::Vertex, TEXCOORD);
+    }
+    // u v per corner (3t + k), if the mesh has per-corner texture coordinates.
+    std::optional<std::vector<std::array<float, 2>>> corner_texcoords() const {
+        return grouped<float, 2>(Domain::Corner, TEXCOORD);
+    }
+
 private:
+    template <class T>
+    Result<> set(Domain domain, std::string_view name, uint8_t components,
+                 std::optional<std::span<const uint32_t>> ids, uint8_t tag,
+                 std::span<const T> values) const {
+        auto n = detail::borrowed(name);
+        plugin_list_u32_t id_list{};
+        if (ids) id_list = detail::list_of<plugin_list_u32_t>(*ids);
+        meshflow_geometry_mesh_attribute_values_t v{};
+        v.tag = tag;
+        // Every list of the union is {ptr, len}: write it through the u8 member's layout.
+        v.val.u8 = plugin_list_u8_t{reinterpret_cast<uint8_t*>(const_cast<T*>(values.data())),
+                                    values.size()};
+        return unit(meshflow_geometry_mesh_method_mesh_set_attribute(
+            raw_, uint8_t(domain), &n, components, ids ? &id_list : nullptr, &v, &error_));
+    }
+    // An attribute of N numbers of T per element, grouped; nullopt if absent or of another shape.
+    template <class T, size_t N>
+    std::optional<std::vector<std::array<T, N>>> grouped(Domain domain, std::string_view name) const {
+        auto v = read_attribute(domain, name);
+        if (!v) return std::nullopt;
+        auto* flat = std::get_if<std::vector<T>>(&*v);
+        if (!flat || flat->size() % N != 0) return std::nullopt;
+        std::vector<std::array<T, N>> out(flat->size() / N);
+        if (!flat->empty()) std::memcpy(out.data(), flat->data(), flat->size() * sizeof(T));
+        return out;
+    }
+
     std::unexpected<Error> failed() const { return std::unexpected(detail::edit_error(error_)); }
     Result<> unit(bool ok) const {
         if (ok) return {};

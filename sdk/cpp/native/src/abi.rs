@@ -144,6 +144,37 @@ pub struct Tuple3U32 {
     pub f2: u32,
 }
 
+/// `meshflow_geometry_mesh_attribute_info_t`.
+#[repr(C)]
+pub struct AttributeInfo {
+    pub domain: u8,
+    pub name: Str,
+    pub components: u8,
+    pub number_type: u8,
+}
+
+/// `meshflow_geometry_mesh_attribute_values_t`: a tag and a union of `{ptr, len}` lists,
+/// which all share one layout, so the list is kept untyped and read by its tag.
+#[repr(C)]
+pub struct AttributeValues {
+    pub tag: u8,
+    pub list: List<std::ffi::c_void>,
+}
+
+/// The tags of [`AttributeValues`] and the codes of `number-type`, in the WIT's order.
+pub const NUMBER_U8: u8 = 0;
+pub const NUMBER_S32: u8 = 1;
+pub const NUMBER_U32: u8 = 2;
+pub const NUMBER_F32: u8 = 3;
+pub const NUMBER_F64: u8 = 4;
+
+/// `plugin_option_list_u32_t`.
+#[repr(C)]
+pub struct OptionListU32 {
+    pub is_some: bool,
+    pub val: List<u32>,
+}
+
 /// The `{bool is_err; union {T ok; E err;}}` results of `plugin.h`.
 #[repr(C)]
 pub struct CResult<T, E> {

@@ -6,11 +6,14 @@ use std::convert::Infallible;
 use std::sync::atomic::{AtomicI32, Ordering};
 use std::sync::{Mutex, MutexGuard};
 
+use meshflow_mesh::attributes::{Domain, NumberType, Values};
 use meshflow_mesh::calls::{Called, MeshCalls, Recorder};
 use meshflow_mesh::store::EditErrorKind;
 
 use crate::abi::{
-    EditError, Handle, List, Tuple3F32, Tuple3U32, c_copy, c_string, shielded, slice, trap,
+    AttributeInfo, AttributeValues, EditError, Handle, List, NUMBER_F32, NUMBER_F64, NUMBER_S32,
+    NUMBER_U8, NUMBER_U32, Str, Tuple3F32, Tuple3U32, c_copy, c_list, c_string, read_str, shielded,
+    slice, trap,
 };
 
 /// The meshes of the runs in progress, by handle. A run registers its recorder for the
@@ -639,6 +642,159 @@ pub unsafe extern "C" fn meshflow_geometry_mesh_method_mesh_clear(
 ) -> bool {
     // SAFETY: the caller's promise.
     unsafe { edit_unit("clear", mesh, err, |m| m.clear()) }
+}
+
+// ---- attributes ----------------------------------------------------------------------------
+
+fn domain_arg(call: &str, domain: u8) -> Domain {
+    match domain {
+        0 => Domain::Vertex,
+        1 => Domain::Face,
+        2 => Domain::Corner,
+        _ => trap(&format!("{call}: attribute domain {domain} is none of the WIT's")),
+    }
+}
+
+fn domain_code(domain: Domain) -> u8 {
+    match domain {
+        Domain::Vertex => 0,
+        Domain::Face => 1,
+        Domain::Corner => 2,
+    }
+}
+
+fn number_code(ty: NumberType) -> u8 {
+    match ty {
+        NumberType::U8 => NUMBER_U8,
+        NumberType::I32 => NUMBER_S32,
+        NumberType::U32 => NUMBER_U32,
+        NumberType::F32 => NUMBER_F32,
+        NumberType::F64 => NUMBER_F64,
+    }
+}
+
+/// A string argument's text.
+///
+/// # Safety
+/// `name` is null (a trap) or a valid string.
+unsafe fn string_arg(call: &str, name: *const Str) -> String {
+    // SAFETY: checked for null; then the caller's promise.
+    match unsafe { name.as_ref().and_then(|s| read_str(s)) } {
+        Some(text) => text,
+        None => trap(&format!("{call}: a null string")),
+    }
+}
+
+/// The values of an `attribute-values` argument, copied.
+///
+/// # Safety
+/// `values` is null (a trap) or a valid variant whose list is readable.
+unsafe fn values_arg(call: &str, values: *const AttributeValues) -> Values {
+    // SAFETY: checked for null; each arm reads the list as its tag says it was written.
+    unsafe {
+        let Some(values) = values.as_ref() else { trap(&format!("{call}: null values")) };
+        let (ptr, len) = (values.list.ptr, values.list.len);
+        let copied = match values.tag {
+            NUMBER_U8 => slice(ptr.cast::<u8>(), len).map(|v| Values::U8(v.to_vec())),
+            NUMBER_S32 => slice(ptr.cast::<i32>(), len).map(|v| Values::I32(v.to_vec())),
+            NUMBER_U32 => slice(ptr.cast::<u32>(), len).map(|v| Values::U32(v.to_vec())),
+            NUMBER_F32 => slice(ptr.cast::<f32>(), len).map(|v| Values::F32(v.to_vec())),
+            NUMBER_F64 => slice(ptr.cast::<f64>(), len).map(|v| Values::F64(v.to_vec())),
+            tag => trap(&format!("{call}: attribute values of tag {tag}, none of the WIT's")),
+        };
+        copied.unwrap_or_else(|| trap(&format!("{call}: a null list")))
+    }
+}
+
+/// Values as the bindings' variant, its list `malloc`ed.
+fn c_values(values: &Values) -> AttributeValues {
+    fn untyped<T>(list: List<T>) -> List<std::ffi::c_void> {
+        List { ptr: list.ptr.cast(), len: list.len }
+    }
+    let list = match values {
+        Values::U8(v) => untyped(c_copy(v)),
+        Values::I32(v) => untyped(c_copy(v)),
+        Values::U32(v) => untyped(c_copy(v)),
+        Values::F32(v) => untyped(c_copy(v)),
+        Values::F64(v) => untyped(c_copy(v)),
+    };
+    AttributeValues { tag: number_code(values.number_type()), list }
+}
+
+/// # Safety
+/// `ret` is writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn meshflow_geometry_mesh_method_mesh_attributes(
+    mesh: Handle,
+    ret: *mut List<AttributeInfo>,
+) {
+    let list = read("attributes", mesh, |m| {
+        let infos = m.attributes().into_iter().map(|a| AttributeInfo {
+            domain: domain_code(a.domain),
+            name: c_string(&a.name),
+            components: a.components,
+            number_type: number_code(a.number_type),
+        });
+        c_list(infos.collect())
+    });
+    // SAFETY: the caller's promise.
+    unsafe { put("attributes", ret, list) }
+}
+
+/// # Safety
+/// `name` is readable; `ret` and `err` are writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn meshflow_geometry_mesh_method_mesh_read_attribute(
+    mesh: Handle,
+    domain: u8,
+    name: *const Str,
+    ret: *mut AttributeValues,
+    err: *mut EditError,
+) -> bool {
+    let call = "read-attribute";
+    let (domain, name) = (domain_arg(call, domain), unsafe { string_arg(call, name) });
+    let result = read(call, mesh, |m| m.read_attribute(domain, &name).map(|v| c_values(&v)));
+    // SAFETY: the caller's promise.
+    unsafe { answer(call, result, ret, err) }
+}
+
+/// # Safety
+/// `name` and `values` are readable, `maybe_ids` null (none) or readable; `err` writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn meshflow_geometry_mesh_method_mesh_set_attribute(
+    mesh: Handle,
+    domain: u8,
+    name: *const Str,
+    components: u8,
+    maybe_ids: *const List<u32>,
+    values: *const AttributeValues,
+    err: *mut EditError,
+) -> bool {
+    let call = "set-attribute";
+    // SAFETY: the caller's promise.
+    unsafe {
+        let (domain, name) = (domain_arg(call, domain), string_arg(call, name));
+        let ids = (!maybe_ids.is_null()).then(|| list_arg(call, maybe_ids));
+        let values = values_arg(call, values);
+        edit_unit(call, mesh, err, |m| m.set_attribute(domain, name, components, ids, values))
+    }
+}
+
+/// # Safety
+/// `name` is readable; `err` is writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn meshflow_geometry_mesh_method_mesh_remove_attribute(
+    mesh: Handle,
+    domain: u8,
+    name: *const Str,
+    err: *mut EditError,
+) -> bool {
+    let call = "remove-attribute";
+    // SAFETY: the caller's promise.
+    unsafe {
+        let (domain, name) = (domain_arg(call, domain), string_arg(call, name));
+        edit_unit(call, mesh, err, |m| m.remove_attribute(domain, name))
+    }
 }
 
 // ---- the resource itself ------------------------------------------------------------------

@@ -4,9 +4,9 @@
 //! caller. Every pointer is a valid value of its type, or null (then nothing happens).
 
 use crate::abi::{
-    CResult, CResultVoid, CValue, EditError, List, OptionF64, OptionValue, OptionValueType,
-    Outcome, Param, ParamInfo, ServiceInfo, Str, TAG_TEXT, Tuple3F32, Tuple3U32, c_free,
-    free_string, trap,
+    AttributeInfo, AttributeValues, CResult, CResultVoid, CValue, EditError, List, OptionF64,
+    OptionListU32, OptionValue, OptionValueType, Outcome, Param, ParamInfo, ServiceInfo, Str,
+    TAG_TEXT, Tuple3F32, Tuple3U32, c_free, free_string, trap,
 };
 
 /// The elements of a list, to free each, then the list's memory.
@@ -233,6 +233,88 @@ pub unsafe extern "C" fn plugin_list_u32_free(ptr: *mut List<u32>) {
 pub unsafe extern "C" fn plugin_list_u8_free(ptr: *mut List<u8>) {
     // SAFETY: the caller's promise; numbers own nothing.
     unsafe { free_list(ptr, |_| ()) }
+}
+
+/// # Safety
+/// `ptr` is null or a valid list.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn plugin_list_s32_free(ptr: *mut List<i32>) {
+    // SAFETY: the caller's promise; numbers own nothing.
+    unsafe { free_list(ptr, |_| ()) }
+}
+
+/// # Safety
+/// `ptr` is null or a valid list.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn plugin_list_f64_free(ptr: *mut List<f64>) {
+    // SAFETY: the caller's promise; numbers own nothing.
+    unsafe { free_list(ptr, |_| ()) }
+}
+
+/// # Safety
+/// `ptr` is null or a valid option.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn plugin_option_list_u32_free(ptr: *mut OptionListU32) {
+    // SAFETY: null is allowed; the list is written when `is_some`.
+    unsafe {
+        if let Some(option) = ptr.as_mut()
+            && option.is_some
+        {
+            plugin_list_u32_free(&mut option.val);
+        }
+    }
+}
+
+/// # Safety
+/// `ptr` is null or a valid attribute description.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn meshflow_geometry_mesh_attribute_info_free(ptr: *mut AttributeInfo) {
+    // SAFETY: null is allowed; otherwise the caller's promise.
+    if let Some(info) = unsafe { ptr.as_mut() } {
+        free_string(&mut info.name);
+    }
+}
+
+/// # Safety
+/// `ptr` is null or a valid list.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn meshflow_geometry_mesh_list_attribute_info_free(
+    ptr: *mut List<AttributeInfo>,
+) {
+    // SAFETY: the caller's promise; each element is freed as its type is.
+    unsafe { free_list(ptr, |info| meshflow_geometry_mesh_attribute_info_free(info)) }
+}
+
+/// Frees the list whatever its tag: every list of the union has the same layout and owns
+/// plain numbers.
+///
+/// # Safety
+/// `ptr` is null or a valid variant.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn meshflow_geometry_mesh_attribute_values_free(ptr: *mut AttributeValues) {
+    // SAFETY: null is allowed; otherwise the caller's promise.
+    if let Some(values) = unsafe { ptr.as_mut() } {
+        if values.list.len > 0 {
+            c_free(values.list.ptr);
+        }
+        values.list = List { ptr: std::ptr::null_mut(), len: 0 };
+    }
+}
+
+/// # Safety
+/// `ptr` is null or a valid result.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn meshflow_geometry_mesh_result_attribute_values_edit_error_free(
+    ptr: *mut CResult<AttributeValues, EditError>,
+) {
+    // SAFETY: null is allowed; the field `is_err` names is the one written.
+    unsafe {
+        match ptr.as_mut() {
+            Some(r) if r.is_err => meshflow_geometry_types_edit_error_free(&mut *r.val.err),
+            Some(r) => meshflow_geometry_mesh_attribute_values_free(&mut *r.val.ok),
+            None => {}
+        }
+    }
 }
 
 /// The error of a result, when it is one.

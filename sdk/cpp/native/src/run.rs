@@ -5,7 +5,7 @@ use std::fmt;
 use std::path::Path;
 
 use meshflow_mesh::MeshData;
-use meshflow_mesh::calls::Recorder;
+use meshflow_mesh::calls::{MeshCalls, Recorder};
 use meshflow_params::{ParamError, ServiceInfo, ServiceKind, Value, ValueType};
 
 use crate::abi::{
@@ -492,6 +492,7 @@ unsafe fn run_service(
     meshflow_params::check_result(info, value.as_ref())
         .map_err(|problem| Failure::BadResult { service: service.to_owned(), problem })?;
 
+    let report = meshflow_mesh::calls::with_defaulted_note(report, recorder.store());
     let (mesh, ops) = recorder.finish();
     let edits = ops.iter().map(|op| op.edit_count() as u64).sum();
     let op_names = ops.iter().map(|op| c_string(op.kind().name())).collect();
