@@ -3,7 +3,9 @@
 
 mod correction_common;
 
-use correction_common::{Rng, assert_round_trip, grid, random_edits, random_op, smooth};
+use correction_common::{
+    Rng, assert_round_trip, attributed, grid, random_edits, random_op, smooth,
+};
 use meshflow_codec::correction;
 use meshflow_mesh::MeshData;
 use meshflow_mesh::store::{MeshStore, Op, OpKind};
@@ -19,9 +21,11 @@ proptest! {
         h in 2u32..9,
         islands in 0u32..5,
         steps in 1usize..40,
+        with_attributes in any::<bool>(),
     ) {
         let mut rng = Rng(seed);
         let base = grid(w, h, islands, &mut rng);
+        let base = if with_attributes { attributed(base, &mut rng) } else { base };
         let mut store = MeshStore::new(base.clone());
         random_edits(&mut store, &mut rng, steps);
         let (result, log) = store.finish();
@@ -36,6 +40,8 @@ fn each_op_kind_alone_round_trips() {
         for seed in 0..20 {
             let mut rng = Rng(seed);
             let base = grid(5, 4, 2, &mut rng);
+            // Half the meshes carry attributes (one of each kind), for ops to change.
+            let base = if seed % 2 == 1 { attributed(base, &mut rng) } else { base };
             let mut store = MeshStore::new(base.clone());
             let Some(op) = random_op(kind, &store, &mut rng) else { continue };
             if store.apply(op).is_err() {

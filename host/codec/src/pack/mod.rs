@@ -5,8 +5,9 @@
 //! content hash [32] of the mesh, checked after decoding
 //! varints: vertex count, triangle count, grid (0 none; 1 binary, then the zigzagged step
 //!          exponent of each axis; 2 decimal, then the digits of each axis), connectivity
-//!          bytes, geometry bytes
-//! connectivity section | geometry section (range coded, ending exactly at the end)
+//!          bytes, geometry bytes, attribute bytes
+//! connectivity section | geometry section (range coded) | attributes section (ending
+//! exactly at the end; empty for a mesh without attributes)
 //! ```
 //!
 //! Connectivity: triangles in order, each through the open edge it completes, its third
@@ -16,7 +17,10 @@
 //! the most known triangles), each an exact f32 residual from a parallelogram prediction over
 //! already decoded neighbours, or on a mesh whose coordinates all lie on a coarse grid
 //! ([`Grid::detect`], e.g. after `--quantize`), in grid steps from the snapped prediction.
-//! The format keeps vertex and triangle order, so unpacking
+//! Attributes (colours, normals, quality, texture coordinates, any number by name, and the
+//! materials): every value exact, vertices' in the same coding order, each predicted from
+//! what was decoded before it (`attributes.rs`, `values.rs`).
+//! The format keeps vertex, triangle and corner order, so unpacking
 //! gives back the same bytes, and the content hash is verified.
 //!
 //! ```
@@ -27,10 +31,12 @@
 //! ```
 
 mod adjacency;
+mod attributes;
 mod error;
 mod open_edges;
 mod order;
 mod predict;
+mod values;
 
 pub use error::PackError;
 
@@ -45,10 +51,11 @@ use meshflow_mesh::{ContentHash, MeshData};
 use meshflow_topology::VertexTriangles;
 use order::CodingOrder;
 use predict::predict;
+use values::Geometry;
 
 const MAGIC: [u8; 4] = *b"MFM\x1a";
-/// The format version this build writes and reads.
-pub const VERSION: u16 = 4;
+/// The format version this build writes and reads (5: attributes).
+pub const VERSION: u16 = 5;
 /// Declared counts may exceed the file size by at most this factor (the adaptive models'
 /// probability floor keeps honest files above it), so a forged count cannot make the
 /// decoder allocate more than a bounded multiple of its input.
@@ -66,22 +73,37 @@ pub fn encode(mesh: &MeshData) -> Result<Vec<u8>, PackError> {
     let mut residuals = ResidualCoder::new(grid);
     let (positions, triangles) = (&mesh.positions, &mesh.triangles);
     let (mut order, mut previous) = (CodingOrder::new(&around, triangles), None);
+    // Attributes follow the vertices in the order their positions were coded.
+    let mut coded = Vec::with_capacity(if mesh.attributes.is_empty() { 0 } else { vertex_count });
     while let Some(v) = order.next() {
         let predicted = predict(v, previous, positions, order.decoded(), triangles, &around);
         let p = &positions[3 * v as usize..3 * v as usize + 3];
         residuals.write(&mut geometry, [p[0], p[1], p[2]], predicted);
         previous = Some(v);
+        if !mesh.attributes.is_empty() {
+            coded.push(v);
+        }
     }
     let geometry = geometry.finish();
-    let mut out = sealed_front(MAGIC, VERSION, 64 + connectivity.len() + geometry.len());
+    let attributes = match mesh.attributes.is_empty() {
+        true => Vec::new(),
+        false => attributes::write(
+            &mesh.attributes,
+            &Geometry::new(positions, triangles, &around, &coded),
+        ),
+    };
+    let sections = connectivity.len() + geometry.len() + attributes.len();
+    let mut out = sealed_front(MAGIC, VERSION, 64 + sections);
     out.extend_from_slice(&mesh.content_hash().0);
     put_varint(&mut out, vertex_count as u64);
     put_varint(&mut out, mesh.triangle_count() as u64);
     put_grid(&mut out, grid);
     put_varint(&mut out, connectivity.len() as u64);
     put_varint(&mut out, geometry.len() as u64);
+    put_varint(&mut out, attributes.len() as u64);
     out.extend_from_slice(&connectivity);
     out.extend_from_slice(&geometry);
+    out.extend_from_slice(&attributes);
     seal(&mut out);
     Ok(out)
 }
@@ -109,10 +131,12 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, PackError> {
         usize::try_from(r.varint()?).map_err(|_| PackError::Truncated)
     };
     let (connectivity_len, geometry_len) = (section(&mut r)?, section(&mut r)?);
+    let attributes_len = section(&mut r)?;
     let connectivity = r.take(connectivity_len)?;
     let geometry = r.take(geometry_len)?;
+    let attributes = r.take(attributes_len)?;
     if r.remaining() != 0 {
-        return Err(PackError::Malformed(format!("{} bytes after the geometry", r.remaining())));
+        return Err(PackError::Malformed(format!("{} bytes after the attributes", r.remaining())));
     }
 
     let bad_connectivity = |_| PackError::Corrupt("connectivity");
@@ -129,16 +153,23 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, PackError> {
     let mut residuals = ResidualCoder::new(grid);
     let mut positions = vec![0.0; 3 * vertex_count as usize];
     let (mut order, mut previous) = (CodingOrder::new(&around, &triangles), None);
+    let mut coded = Vec::new();
     while let Some(v) = order.next() {
         let predicted = predict(v, previous, &positions, order.decoded(), &triangles, &around);
         let p = residuals.read(&mut input, predicted).map_err(bad_geometry)?;
         positions[3 * v as usize..3 * v as usize + 3].copy_from_slice(&p);
         previous = Some(v);
+        if !attributes.is_empty() {
+            coded.push(v);
+        }
     }
     if let Some(i) = positions.iter().position(|c| !c.is_finite()) {
         return Err(PackError::Malformed(format!("vertex {} has a non-finite coordinate", i / 3)));
     }
-    let mesh = MeshData::new(positions, triangles);
+    let attributes =
+        attributes::read(attributes, &Geometry::new(&positions, &triangles, &around, &coded))?;
+    let mut mesh = MeshData::new(positions, triangles);
+    mesh.attributes = attributes;
     let found = mesh.content_hash();
     if found != expected {
         return Err(PackError::HashMismatch { expected, found });
@@ -168,8 +199,11 @@ fn validate(mesh: &MeshData) -> Result<(), PackError> {
     if let Some(i) = mesh.positions.iter().position(|c| !c.is_finite()) {
         return invalid(format!("vertex {} has a non-finite coordinate", i / 3));
     }
-    match mesh.triangles.iter().find(|&&v| v as usize >= vertices) {
-        Some(v) => invalid(format!("corner {v} is not one of the {vertices} vertices")),
-        None => Ok(()),
+    if let Some(v) = mesh.triangles.iter().find(|&&v| v as usize >= vertices) {
+        return invalid(format!("corner {v} is not one of the {vertices} vertices"));
+    }
+    match mesh.attributes.check(vertices, mesh.triangle_count()) {
+        Err(e) => invalid(e.to_string()),
+        Ok(()) => Ok(()),
     }
 }

@@ -305,3 +305,54 @@ pub fn smooth(mesh: &MeshData, lambda: f64) -> Vec<f32> {
     }
     out
 }
+
+/// `mesh` with one attribute of every domain and number type, values from `rng` (colours and
+/// quality smooth over the surface plus noise, the rest anything finite), and materials.
+pub fn attributed(mut mesh: MeshData, rng: &mut Rng) -> MeshData {
+    use meshflow_mesh::attributes::{Attribute, Materials};
+    let (v, t) = (mesh.vertex_count(), mesh.triangle_count());
+    let p = mesh.positions.clone();
+    let colour: Vec<u8> = (0..v)
+        .flat_map(|i| {
+            let wave = |k: usize, f: f32| (127.0 + 100.0 * (f * p[3 * i + k]).sin()) as i32;
+            let noise = rng.below(9) as i32 - 4;
+            [wave(0, 0.3) + noise, wave(1, 0.5) + noise, wave(2, 0.2) + noise, 255]
+                .map(|c| c.clamp(0, 255) as u8)
+        })
+        .collect();
+    let quality = (0..v).map(|i| p[3 * i] * p[3 * i + 1] + 0.01 * rng.unit()).collect();
+    let label: Vec<i32> = (0..t).map(|i| (i / 7) as i32 - rng.below(2) as i32).collect();
+    let uv: Vec<f32> = (0..3 * t)
+        .flat_map(|c| {
+            let corner = mesh.triangles[c] as usize;
+            [p[3 * corner], p[3 * corner + 1] + if rng.chance(5) { 0.5 } else { 0.0 }]
+        })
+        .collect();
+    let weight: Vec<f64> = (0..v).map(|_| f64::from(rng.unit()) * 1e-3).collect();
+    let flags: Vec<u32> = (0..t).map(|_| rng.below(4)).collect();
+    let normal: Vec<f32> = (0..v)
+        .flat_map(|i| {
+            let n = [p[3 * i].cos(), 1.0 + 0.01 * rng.unit(), p[3 * i + 1].sin()];
+            let length = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            n.map(|c| c / length)
+        })
+        .collect();
+    let a = &mut mesh.attributes;
+    a.insert(Attribute::normal(normal), v, t).unwrap();
+    a.insert(Attribute::color(colour), v, t).unwrap();
+    a.insert(Attribute::quality(quality), v, t).unwrap();
+    a.insert(Attribute::texcoord(Domain::Corner, uv), v, t).unwrap();
+    for (domain, name, components, values) in [
+        (Domain::Face, "label", 1, Values::I32(label)),
+        (Domain::Vertex, "weight", 1, Values::F64(weight)),
+        (Domain::Face, "flags", 1, Values::U32(flags)),
+    ] {
+        a.insert(Attribute { domain, name: name.into(), components, values }, v, t).unwrap();
+    }
+    a.materials = Materials {
+        names: vec!["skin".into(), "Ölfarbe".into()],
+        libraries: vec!["scan.mtl".into()],
+        textures: vec!["scan_0.png".into()],
+    };
+    mesh
+}
