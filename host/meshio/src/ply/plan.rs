@@ -2,7 +2,7 @@
 //! read, and the attributes made from the values read.
 //!
 //! Vertex `red green blue [alpha]` (or `diffuse_…`) become `color`, `nx ny nz` `normal`,
-//! `quality` `quality`, `u v` (or `s t`, `texture_u texture_v`, `texture_s texture_t`)
+//! `quality` `quality`, `texture_u texture_v` (or `u v`, `s t`, `texture_s texture_t`)
 //! `texcoord`; face `red green blue [alpha]` a face `color`, the face list `texcoord`
 //! corner texture coordinates, `texnumber` the `material` (an index into the
 //! `comment TextureFile` names, as MeshLab writes them). Every other scalar property, and
@@ -96,8 +96,10 @@ const COLOUR_NAMES: [[&str; 4]; 2] = [
     ["diffuse_red", "diffuse_green", "diffuse_blue", "diffuse_alpha"],
 ];
 const NORMAL_NAMES: [[&str; 3]; 2] = [["nx", "ny", "nz"], ["normal_x", "normal_y", "normal_z"]];
+/// In the order a reader prefers them when a file has several; the writer uses the first of
+/// each group, so an attribute named like another set's members stays what it is.
 const TEXCOORD_NAMES: [[&str; 2]; 4] =
-    [["u", "v"], ["s", "t"], ["texture_u", "texture_v"], ["texture_s", "texture_t"]];
+    [["texture_u", "texture_v"], ["u", "v"], ["s", "t"], ["texture_s", "texture_t"]];
 /// What a material index is called in the face element (MeshLab).
 pub(crate) const TEXNUMBER: &str = "texnumber";
 /// The face list of corner texture coordinates (MeshLab).
@@ -117,16 +119,39 @@ pub(crate) fn reserved(domain: Domain, name: &str) -> bool {
     }
 }
 
-/// The sets of PLY names a reader takes together as one attribute of a domain: each set,
-/// how many of its first names it needs, and the attribute it makes.
-pub(crate) fn groups(domain: Domain) -> Vec<(&'static [&'static str], usize, &'static str)> {
-    let mut groups: Vec<(&'static [&'static str], usize, &'static str)> =
-        COLOUR_NAMES.iter().map(|set| (&set[..], 3, model::COLOR)).collect();
+/// The sets of PLY names a reader takes together as one attribute of a domain, in the
+/// order it prefers them: each set, how many of its first names it needs, the
+/// attribute it makes, and whether it takes the number type.
+pub(crate) fn groups(domain: Domain) -> Vec<Group> {
+    let colour = |ty: NumberType| matches!(ty, NumberType::U8 | NumberType::F32 | NumberType::F64);
+    let any = |_: NumberType| true;
+    let mut groups: Vec<Group> = COLOUR_NAMES
+        .iter()
+        .map(|set| Group { names: &set[..], needed: 3, attribute: model::COLOR, takes: colour })
+        .collect();
     if domain == Domain::Vertex {
-        groups.extend(NORMAL_NAMES.iter().map(|set| (&set[..], 3, model::NORMAL)));
-        groups.extend(TEXCOORD_NAMES.iter().map(|set| (&set[..], 2, model::TEXCOORD)));
+        groups.extend(NORMAL_NAMES.iter().map(|set| Group {
+            names: &set[..],
+            needed: 3,
+            attribute: model::NORMAL,
+            takes: any,
+        }));
+        groups.extend(TEXCOORD_NAMES.iter().map(|set| Group {
+            names: &set[..],
+            needed: 2,
+            attribute: model::TEXCOORD,
+            takes: any,
+        }));
     }
     groups
+}
+
+/// PLY properties a reader takes together (see [`groups`]).
+pub(crate) struct Group {
+    pub names: &'static [&'static str],
+    pub needed: usize,
+    pub attribute: &'static str,
+    pub takes: fn(NumberType) -> bool,
 }
 
 /// The attributes to be made, the columns their values are read into and each property's

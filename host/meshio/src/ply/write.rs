@@ -1,6 +1,7 @@
 //! Writing PLY: `float x y z` vertices and `list uchar int vertex_indices` faces, with every
 //! attribute PLY can hold: vertex `uchar red green blue alpha`, `float nx ny nz`,
-//! `float quality`, `float texture_u texture_v`; face `uchar red green blue alpha`,
+//! `float quality`, `float texture_u texture_v` (or the other names readers know for them,
+//! when another attribute has those names); face `uchar red green blue alpha`,
 //! `int texnumber` (the material), `list uchar float texcoord` (corner texture coordinates,
 //! as MeshLab writes them); every other vertex and face attribute by its name and type (a
 //! list of its components when it has more than one); `comment TextureFile` lines, and
@@ -10,7 +11,7 @@ use std::io::{self, Write};
 
 use super::super::PlyEncoding;
 use super::super::text;
-use super::plan::{CORNER_TEXCOORD, MESHFLOW_COMMENT, TEXNUMBER, groups, reserved};
+use super::plan::{CORNER_TEXCOORD, Group, MESHFLOW_COMMENT, TEXNUMBER, groups, reserved};
 use meshflow_mesh::attributes::{self as model, Attribute, Domain, NumberType, Values};
 use meshflow_mesh::{MeshData, as_le_bytes_f32};
 
@@ -91,16 +92,14 @@ pub(crate) fn properties(mesh: &MeshData, a: &Attribute) -> Option<String> {
     let shape = (a.domain, a.name.as_str(), a.components, a.values.number_type());
     Some(match shape {
         (Domain::Vertex | Domain::Face, model::COLOR, 4, NumberType::U8) => {
-            "property uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar alpha\n"
-                .into()
+            let names = written_names(mesh, a.domain, model::COLOR)?;
+            names.iter().map(|n| format!("property uchar {n}\n")).collect()
         }
-        (Domain::Vertex, model::NORMAL, ..) => {
-            "property float nx\nproperty float ny\nproperty float nz\n".into()
+        (Domain::Vertex, model::NORMAL | model::TEXCOORD, ..) => {
+            let names = written_names(mesh, a.domain, &a.name)?;
+            names.iter().map(|n| format!("property float {n}\n")).collect()
         }
         (Domain::Vertex, model::QUALITY, ..) => "property float quality\n".into(),
-        (Domain::Vertex, model::TEXCOORD, ..) => {
-            "property float texture_u\nproperty float texture_v\n".into()
-        }
         (Domain::Corner, model::TEXCOORD, ..) => {
             format!("property list uchar float {CORNER_TEXCOORD}\n")
         }
@@ -115,13 +114,12 @@ pub(crate) fn properties(mesh: &MeshData, a: &Attribute) -> Option<String> {
             format!("property {ty} {TEXNUMBER}\n")
         }
         (domain, name, ..) => {
-            // A plain `texnumber` stays plain only where no texture makes it a material.
-            let materials = &mesh.attributes.materials;
-            let texnumber_free = name == TEXNUMBER
-                && materials.names.is_empty()
-                && materials.textures.is_empty()
-                && mesh.attributes.get(Domain::Face, model::MATERIAL).is_none();
-            if reserved(domain, name) && !texnumber_free || taken_together(mesh, domain, name) {
+            let texnumber = domain == Domain::Face && name == TEXNUMBER && a.components == 1;
+            let clash = match texnumber {
+                true => !texnumber_stays(mesh, a),
+                false => reserved(domain, name) || taken_together(mesh, domain, name),
+            };
+            if clash {
                 return None;
             }
             match a.components {
@@ -132,15 +130,58 @@ pub(crate) fn properties(mesh: &MeshData, a: &Attribute) -> Option<String> {
     })
 }
 
-/// Whether a reader would take a property of this name into another attribute: it is one
-/// of a group (`red`, `nx`, `u`) whose attribute the mesh has, or whose other members the
-/// mesh has as attributes too.
-fn taken_together(mesh: &MeshData, domain: Domain, name: &str) -> bool {
-    groups(domain).into_iter().any(|(set, needed, attribute)| {
-        set.contains(&name)
-            && (mesh.attributes.get(domain, attribute).is_some()
-                || set[..needed].iter().all(|n| mesh.attributes.get(domain, n).is_some()))
+/// The set of PLY names an attribute made of a group (colour, normal, texture coordinate)
+/// is written as: the first set, in the reader's order, that no other attribute of the
+/// domain is named like, and before which no set is complete among the other attributes
+/// (the reader would take that one). `None` when there is none.
+fn written_names(
+    mesh: &MeshData,
+    domain: Domain,
+    attribute: &str,
+) -> Option<&'static [&'static str]> {
+    let all = groups(domain);
+    let sets = all.iter().filter(|g| g.attribute == attribute);
+    for (k, group) in sets.clone().enumerate() {
+        let free = group.names.iter().all(|n| mesh.attributes.get(domain, n).is_none());
+        let earlier_complete = sets.clone().take(k).any(|g| complete(mesh, domain, g));
+        if free && !earlier_complete {
+            return Some(group.names);
+        }
+    }
+    None
+}
+
+/// Whether the mesh has every name a group needs as a one-number attribute of a type the
+/// reader takes together: written as is, they would read back as the group's attribute.
+fn complete(mesh: &MeshData, domain: Domain, group: &Group) -> bool {
+    group.names[..group.needed].iter().all(|n| {
+        mesh.attributes
+            .get(domain, n)
+            .is_some_and(|a| a.components == 1 && (group.takes)(a.values.number_type()))
     })
+}
+
+/// Whether a reader would take a property of this name into another attribute: it belongs
+/// to a set a reader would take as one (when the mesh has no such attribute yet).
+fn taken_together(mesh: &MeshData, domain: Domain, name: &str) -> bool {
+    groups(domain).iter().any(|group| {
+        group.names.contains(&name)
+            && mesh.attributes.get(domain, group.attribute).is_none()
+            && complete(mesh, domain, group)
+    })
+}
+
+/// Whether a plain `texnumber` reads back as itself: not when a reader would take it for
+/// the material index of the names or textures written with it.
+fn texnumber_stays(mesh: &MeshData, a: &Attribute) -> bool {
+    let m = &mesh.attributes.materials;
+    if mesh.attributes.get(Domain::Face, model::MATERIAL).is_some() {
+        return false;
+    }
+    let count = if m.names.is_empty() { m.textures.len() } else { m.names.len() };
+    let integer = !matches!(a.values.number_type(), NumberType::F32 | NumberType::F64);
+    let indexes = (0..a.values.len()).all(|i| (0.0..count as f64).contains(&a.values.get(i)));
+    !(integer && count > 0 && indexes)
 }
 
 /// What PLY cannot hold of the mesh, one line each.
