@@ -584,8 +584,8 @@ pub(crate) fn unsupported(mesh: &MeshData) -> Vec<String> {
     if m.libraries.is_empty() {
         lines.extend(materials(mesh, false, false, true));
     }
-    let spaced = m.libraries.iter().any(|l| l.contains(char::is_whitespace));
-    let padded = m.names.iter().any(|n| n.trim() != n);
+    let spaced = m.libraries.iter().any(|l| l.contains(|c: char| c.is_ascii_whitespace()));
+    let padded = m.names.iter().any(|n| n.trim_ascii() != n);
     if spaced || padded {
         lines.push("material or library names with spaces where OBJ cannot keep them".into());
     }

@@ -245,12 +245,14 @@ impl Planner {
     fn comments(&mut self, comments: &[String], dropped: &mut Dropped) {
         let materials = &mut self.plan.materials;
         for comment in comments {
-            let (head, rest) = comment.split_once(char::is_whitespace).unwrap_or((comment, ""));
-            let rest = rest.trim();
+            let (head, rest) =
+                comment.split_once(|c: char| c.is_ascii_whitespace()).unwrap_or((comment, ""));
+            let rest = rest.trim_ascii();
             if head.eq_ignore_ascii_case("TextureFile") {
                 self.bad_texture |= materials.add(MaterialList::Textures, rest, dropped).is_none();
             } else if head == MESHFLOW_COMMENT {
-                let (what, name) = rest.split_once(char::is_whitespace).unwrap_or((rest, ""));
+                let (what, name) =
+                    rest.split_once(|c: char| c.is_ascii_whitespace()).unwrap_or((rest, ""));
                 let list = match what {
                     "material" => MaterialList::Names,
                     "library" => MaterialList::Libraries,
@@ -259,7 +261,7 @@ impl Planner {
                 if list == MaterialList::Names {
                     self.plan.names_from_textures = false;
                 }
-                materials.add(list, name.trim(), dropped);
+                materials.add(list, name.trim_ascii(), dropped);
             }
         }
     }

@@ -193,7 +193,7 @@ pub(crate) fn unsupported(mesh: &MeshData) -> Vec<String> {
         }
     }
     let m = &mesh.attributes.materials;
-    let padded = |s: &String| s.trim() != s;
+    let padded = |s: &String| s.trim_ascii() != s;
     if [&m.names, &m.textures, &m.libraries].into_iter().flatten().any(padded) {
         lines.push("names with spaces at their ends".into());
     }
