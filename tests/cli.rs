@@ -841,8 +841,7 @@ fn apply_keeps_what_scans_and_textured_meshes_carry() {
             "face material (1 × u32)",
             "corner texcoord (2 × f32)",
             "materials: skin",
-            "material libraries: model.mtl",
-            "textures: skin.png"
+            "material libraries: model.mtl"
         ]),
         "{info}"
     );

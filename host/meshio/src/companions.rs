@@ -18,7 +18,8 @@ pub struct Companions {
     pub skipped: Vec<String>,
 }
 
-/// Copies the material libraries and textures `materials` names from beside `from_mesh` to
+/// Copies the material libraries and textures `materials` names (and, for an OBJ source,
+/// the textures its libraries name) from beside `from_mesh` to
 /// beside `to_mesh`, when `to_mesh`'s format holds them (OBJ, PLY). Only plain file names
 /// are followed (the rules of `Materials::check`: never `../x` or `a/b`); a name that is
 /// not a regular file beside `from_mesh` is skipped and named. Nothing is copied when both
@@ -42,8 +43,15 @@ pub fn copy_companion_files(
     {
         return Ok(done);
     }
+    // An OBJ's textures are named in its libraries, read here beside the source.
+    let (library_textures, notes) = match Format::from_path(from_mesh) {
+        Some(Format::Obj) => crate::obj::library_textures(&from_dir, &materials.libraries),
+        _ => (Vec::new(), Vec::new()),
+    };
+    done.skipped.extend(notes);
     let names = (materials.libraries.iter().map(|n| (MaterialList::Libraries, n)))
-        .chain(materials.textures.iter().map(|n| (MaterialList::Textures, n)));
+        .chain(materials.textures.iter().map(|n| (MaterialList::Textures, n)))
+        .chain(library_textures.iter().map(|n| (MaterialList::Textures, n)));
     let mut seen = Vec::new();
     for (list, name) in names {
         if seen.contains(&name) {

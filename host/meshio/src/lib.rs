@@ -127,20 +127,13 @@ pub fn load_as_reporting(path: &Path, format: Format) -> Result<Loaded, LoadErro
     // One read of the whole file: every reader works on a byte slice, which is the fastest
     // way to parse and lets binary readers check counts against the remaining size.
     let bytes = std::fs::read(path).map_err(|cause| LoadError::Io { name: name.clone(), cause })?;
-    let mut loaded = load_bytes_reporting(&bytes, format, &name)?;
-    // An OBJ's textures are named in its material libraries, beside it.
-    if format == Format::Obj && !loaded.mesh.attributes.materials.libraries.is_empty() {
-        let dir = match path.parent() {
-            Some(dir) if !dir.as_os_str().is_empty() => dir,
-            _ => Path::new("."),
-        };
-        obj::read_libraries(dir, &mut loaded);
-    }
-    Ok(loaded)
+    // The mesh is what the file holds, wherever it lies: an OBJ's libraries are named, and
+    // the textures they name are found when the libraries are copied (see
+    // `copy_companion_files`), so a mesh loaded from a path hashes as one loaded from bytes.
+    load_bytes_reporting(&bytes, format, &name)
 }
 
-/// Decodes a mesh held in memory; `name` is what error messages call it. An OBJ's material
-/// libraries are named, but the textures they name are not known (see [`load_reporting`]).
+/// Decodes a mesh held in memory; `name` is what error messages call it.
 pub fn load_bytes(bytes: &[u8], format: Format, name: &str) -> Result<MeshData, LoadError> {
     load_bytes_reporting(bytes, format, name).map(|loaded| loaded.mesh)
 }

@@ -6,8 +6,9 @@
 //! vertex its own, one `vt` per `v` in the same order (then per vertex). Normals are per
 //! vertex: a vertex whose corners name different normals gets their mean, and the load says
 //! so. `usemtl` gives each face a `material`; faces before any `usemtl` use one named
-//! `default`. The textures a library names are read from the library beside the file
-//! (see [`read_libraries`]); a file read from memory has none.
+//! `default`. The textures a library names are not part of the mesh (a mesh is what the file
+//! holds, wherever it lies): they are read from the libraries when those are copied beside
+//! a saved mesh (see [`library_textures`]).
 //!
 //! Parsed here rather than with `tobj`: tobj renumbers vertices per object in the order faces
 //! first use them and drops unreferenced ones, which would change raw scans and break
@@ -512,16 +513,16 @@ fn per_vertex(
     own.then(|| values.to_vec())
 }
 
-/// Reads the material libraries named by `mesh` from `dir` (the OBJ file's folder) for the
-/// textures they name (`map_Kd` and the other maps): only plain file names, each checked;
-/// a missing library is named in `dropped`.
-pub(crate) fn read_libraries(dir: &Path, loaded: &mut Loaded) {
+/// The textures (`map_Kd` and the other maps) the material `libraries` beside an OBJ in
+/// `dir` name: only plain file names, each checked; what could not be read or was refused
+/// is named in the second list.
+pub(crate) fn library_textures(dir: &Path, libraries: &[String]) -> (Vec<String>, Vec<String>) {
     /// A material library larger than this is not read (they are a few KB).
     const MAX_LIBRARY_BYTES: u64 = 4 << 20;
-    let mut names =
-        MaterialNames { materials: std::mem::take(&mut loaded.mesh.attributes.materials) };
-    let libraries = names.materials.libraries.clone();
+    let mut names = MaterialNames { materials: meshflow_mesh::attributes::Materials::default() };
+    let mut notes = Dropped::default();
     for library in libraries {
+        let library = library.clone();
         if !acceptable(MaterialList::Libraries, &library) {
             continue;
         }
@@ -530,16 +531,13 @@ pub(crate) fn read_libraries(dir: &Path, loaded: &mut Loaded) {
         let text = match size {
             Some(size) if size <= MAX_LIBRARY_BYTES => std::fs::read(&path).ok(),
             Some(_) => {
-                loaded.dropped.add(format!("material library '{library}': too large to read"));
+                notes.add(format!("material library '{library}': too large to read"));
                 continue;
             }
             None => None,
         };
         let Some(text) = text else {
-            loaded.dropped.add(format!(
-                "material library '{library}': not beside the file, so its textures are not known"
-            ));
-            continue;
+            continue; // the copy names it as missing
         };
         for (_, line) in text::lines(&text) {
             let mut tokens = text::tokens(line);
@@ -550,11 +548,11 @@ pub(crate) fn read_libraries(dir: &Path, loaded: &mut Loaded) {
             // Options (`-s 1 1 1`, `-bm 0.5`) come first; the file name is last.
             if let (true, Some(file)) = (is_map, tokens.last()) {
                 let file = String::from_utf8_lossy(file);
-                names.add(MaterialList::Textures, &file, &mut loaded.dropped);
+                names.add(MaterialList::Textures, &file, &mut notes);
             }
         }
     }
-    loaded.mesh.attributes.materials = names.materials;
+    (names.materials.textures, notes.lines())
 }
 
 /// What OBJ cannot hold of the mesh.
