@@ -171,7 +171,13 @@ impl Values {
 
     /// Number `i`, exactly.
     pub fn get(&self, i: usize) -> f64 {
-        each_values!(self, v => f64::from(v[i]))
+        match self {
+            Values::U8(v) => f64::from(v[i]),
+            Values::I32(v) => f64::from(v[i]),
+            Values::U32(v) => f64::from(v[i]),
+            Values::F32(v) => f64::from(v[i]),
+            Values::F64(v) => v[i],
+        }
     }
 
     /// Sets number `i` to `x` rounded to the type (see [`NumberType`]).
@@ -330,15 +336,15 @@ impl Attribute {
                 components: self.components,
             });
         }
-        if let Some((ty, components)) = Self::required_shape(self.domain, &self.name) {
-            if ty != self.values.number_type() || components != self.components {
-                return Err(AttributeError::Shape {
-                    domain: self.domain,
-                    name: self.name.clone(),
-                    expected: format!("{components} × {}", ty.name()),
-                    got: format!("{} × {}", self.components, self.values.number_type().name()),
-                });
-            }
+        if let Some((ty, components)) = Self::required_shape(self.domain, &self.name)
+            && (ty != self.values.number_type() || components != self.components)
+        {
+            return Err(AttributeError::Shape {
+                domain: self.domain,
+                name: self.name.clone(),
+                expected: format!("{components} × {}", ty.name()),
+                got: format!("{} × {}", self.components, self.values.number_type().name()),
+            });
         }
         let expected = elements * usize::from(self.components);
         if self.values.len() != expected {

@@ -155,12 +155,12 @@ mod tests {
         assert_eq!(a.content_hash().0, *v1.finalize().as_bytes());
 
         let mut red = a.clone();
-        red.attributes.insert(Attribute::color(vec![255, 0, 0, 255].repeat(3)), 3, 1).unwrap();
+        red.attributes.insert(Attribute::color([255, 0, 0, 255].repeat(3)), 3, 1).unwrap();
         let mut redder = red.clone();
         redder
             .attributes
             .insert(
-                Attribute::color([vec![254, 0, 0, 255], vec![255, 0, 0, 255].repeat(2)].concat()),
+                Attribute::color([[254, 0, 0, 255].to_vec(), [255, 0, 0, 255].repeat(2)].concat()),
                 3,
                 1,
             )

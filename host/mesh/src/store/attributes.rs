@@ -48,10 +48,8 @@ impl NormalTracking {
 impl MeshStore {
     /// Marks a vertex whose neighbourhood changed (see the module notes on normals).
     pub(super) fn touch(&mut self, vertex: u32) {
-        if let Some(t) = &mut self.normals {
-            if let Some(slot) = t.touched.get_mut(vertex as usize) {
-                *slot = true;
-            }
+        if let Some(slot) = self.normals.as_mut().and_then(|t| t.touched.get_mut(vertex as usize)) {
+            *slot = true;
         }
     }
 
@@ -184,14 +182,14 @@ impl MeshStore {
                 "{what}: {components} components; an attribute has 1 to {MAX_COMPONENTS}"
             )));
         }
-        if let Some((ty, n)) = Attribute::required_shape(domain, name) {
-            if (ty, n) != (values.number_type(), components) {
-                return Err(EditError::argument(format!(
-                    "{what}: must be {n} × {}, got {components} × {}",
-                    ty.name(),
-                    values.number_type().name()
-                )));
-            }
+        if let Some((ty, n)) = Attribute::required_shape(domain, name)
+            && (ty, n) != (values.number_type(), components)
+        {
+            return Err(EditError::argument(format!(
+                "{what}: must be {n} × {}, got {components} × {}",
+                ty.name(),
+                values.number_type().name()
+            )));
         }
         let slots = self.slots_of(domain);
         let elements = match ids {
