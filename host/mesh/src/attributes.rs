@@ -382,8 +382,10 @@ impl Materials {
         self.names.is_empty() && self.libraries.is_empty() && self.textures.is_empty()
     }
 
-    /// Checks every list's length and every name (file names must stay beside the mesh:
-    /// no directories, no `..`).
+    /// Checks every list's length and every name. File names stay in the mesh's folder or
+    /// below it (`skin.png`, `textures/skin.png`): relative, `/`-separated, no empty, `.` or
+    /// `..` part, no `\` or `:` (no Windows paths or drives), so no writer that copies
+    /// them can be led outside.
     pub fn check(&self) -> Result<(), AttributeError> {
         for (what, list) in
             [("material", &self.names), ("library", &self.libraries), ("texture", &self.textures)]
@@ -396,7 +398,7 @@ impl Materials {
                 let bad = name.is_empty()
                     || name.len() > 4 * MAX_NAME_BYTES
                     || name.chars().any(char::is_control)
-                    || (is_file && (name.contains(['/', '\\']) || name == ".." || name == "."));
+                    || (is_file && !stays_below(name));
                 if bad {
                     return Err(AttributeError::MaterialName {
                         what,
@@ -407,6 +409,11 @@ impl Materials {
         }
         Ok(())
     }
+}
+
+/// Whether a relative file name stays in its folder or below it.
+fn stays_below(name: &str) -> bool {
+    !name.contains(['\\', ':']) && name.split('/').all(|part| !matches!(part, "" | "." | ".."))
 }
 
 /// Every attribute of a mesh, in canonical order (domain, then name), and its materials.

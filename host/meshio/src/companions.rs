@@ -60,7 +60,7 @@ pub fn copy_companion_files(
         seen.push(name);
         if !acceptable(list, name) {
             let shown: String = name.chars().take(80).collect();
-            done.skipped.push(format!("{shown:?}: not a plain file name; it is never followed"));
+            done.skipped.push(format!("{shown:?}: leaves the mesh's folder; it is never followed"));
             continue;
         }
         let source = from_dir.join(name);
@@ -69,6 +69,13 @@ pub fn copy_companion_files(
             continue;
         }
         let target = to_dir.join(name);
+        if let Some(folder) = target.parent() {
+            std::fs::create_dir_all(folder).map_err(|cause| SaveError::Io {
+                name: folder.display().to_string(),
+                action: "creating the folder failed",
+                cause,
+            })?;
+        }
         atomic::write_file(&target, |out| {
             let mut file = std::fs::File::open(&source)?;
             std::io::copy(&mut file, out).map(drop)

@@ -98,7 +98,7 @@ impl MaterialNames {
         if !acceptable(list, name) {
             let reason = match list {
                 MaterialList::Names => "empty, too long or with control characters",
-                _ => "not a plain file name beside the mesh; it is never followed",
+                _ => "a name that leaves the mesh's folder; it is never followed",
             };
             dropped.add(format!("{what} {shown:?} ({reason})"));
             return None;
@@ -209,11 +209,23 @@ mod tests {
         let mut dropped = Dropped::default();
         assert_eq!(names.add(MaterialList::Textures, "skin.png", &mut dropped), Some(0));
         assert_eq!(names.add(MaterialList::Textures, "skin.png", &mut dropped), Some(0));
-        for bad in ["../../etc/passwd", "a/b.png", "..", "c:\\x.png", "a\u{7}"] {
+        for bad in [
+            "../../etc/passwd",
+            "a/../../b.png",
+            "/etc/passwd",
+            "a//b",
+            "..",
+            "c:\\x.png",
+            "a\u{7}",
+        ] {
             assert_eq!(names.add(MaterialList::Textures, bad, &mut dropped), None, "{bad}");
         }
-        assert_eq!(names.materials.textures, ["skin.png"]);
-        assert!(dropped.attributes[0].starts_with("texture \"../../etc/passwd\" (not a plain"));
+        // Below the mesh's folder is fine: textures often sit in a folder of their own.
+        assert_eq!(names.add(MaterialList::Textures, "textures/b.png", &mut dropped), Some(1));
+        assert_eq!(names.materials.textures, ["skin.png", "textures/b.png"]);
+        assert!(
+            dropped.attributes[0].starts_with("texture \"../../etc/passwd\" (a name that leaves")
+        );
         // Material names may hold spaces, but no control characters.
         assert_eq!(names.add(MaterialList::Names, "my skin", &mut dropped), Some(0));
     }
