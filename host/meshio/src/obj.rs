@@ -311,14 +311,7 @@ impl Reader {
         let count = self.texcoords.len() / 2;
         let corners = std::mem::take(&mut self.corner_texcoords);
         let what = format!("texture coordinates ({count} 'vt')");
-        if let Some(line) = self.bad_texcoord {
-            dropped.add(format!("{what}: line {line} is not numbers"));
-            return;
-        }
-        let Some(indices) = checked(corners, count, &what, dropped) else {
-            if count > 0 {
-                dropped.add(format!("{what}: no face uses them"));
-            }
+        let Some(indices) = used(self.bad_texcoord, corners, count, &what, dropped) else {
             return;
         };
         if let Some(uv) =
@@ -345,14 +338,7 @@ impl Reader {
         let count = self.normals.len() / 3;
         let corners = std::mem::take(&mut self.corner_normals);
         let what = format!("normals ({count} 'vn')");
-        if let Some(line) = self.bad_normal {
-            dropped.add(format!("{what}: line {line} is not numbers"));
-            return;
-        }
-        let Some(indices) = checked(corners, count, &what, dropped) else {
-            if count > 0 {
-                dropped.add(format!("{what}: no face uses them"));
-            }
+        let Some(indices) = used(self.bad_normal, corners, count, &what, dropped) else {
             return;
         };
         if let Some(xyz) =
@@ -497,6 +483,26 @@ fn checked(
         return None;
     }
     Some(corners.corners)
+}
+
+/// The corners' indices into `count` values (`vt` or `vn`), or `None` with what was wrong
+/// named in `dropped`: a line of them that was not numbers, or no face using them.
+fn used(
+    bad_line: Option<usize>,
+    corners: CornerIndices,
+    count: usize,
+    what: &str,
+    dropped: &mut Dropped,
+) -> Option<Vec<u32>> {
+    if let Some(line) = bad_line {
+        dropped.add(format!("{what}: line {line} is not numbers"));
+        return None;
+    }
+    let indices = checked(corners, count, what, dropped);
+    if indices.is_none() && count > 0 {
+        dropped.add(format!("{what}: no face uses them"));
+    }
+    indices
 }
 
 /// The values per vertex when the file gives one per vertex in vertex order and every
