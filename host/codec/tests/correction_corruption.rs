@@ -2,16 +2,17 @@
 
 mod correction_common;
 
-use correction_common::{Rng, grid, random_edits, smooth};
+use correction_common::{Rng, attributed, grid, random_edits, smooth};
 use meshflow_codec::correction::{self, CorrectionError};
 use meshflow_mesh::MeshData;
 use meshflow_mesh::store::{MeshStore, Op};
 use proptest::prelude::*;
 
-/// A small correction with ops of many kinds, and its base.
+/// A small correction with ops of many kinds, and its base (with attributes for odd seeds).
 fn sample(seed: u64) -> (MeshData, Vec<u8>) {
     let mut rng = Rng(seed);
     let base = grid(4, 4, 2, &mut rng);
+    let base = if seed % 2 == 1 { attributed(base, &mut rng) } else { base };
     let mut store = MeshStore::new(base.clone());
     random_edits(&mut store, &mut rng, 12);
     let (result, log) = store.finish();

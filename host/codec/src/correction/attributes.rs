@@ -1,20 +1,79 @@
-//! Attribute ops in a correction. Values travel as their own bits (a colour is a byte, a
-//! quality four), each number type in its own adaptive byte models, so repeated bytes
-//! (an alpha of 255, the high bytes of similar floats) cost little.
+//! Attribute ops in a correction.
 //!
-//! ops section: domain, number type, components, name (length, bytes), whether ids follow.
-//! ids section: the ids. geometry section: the values' little-endian bytes.
+//! ops section: domain, name (length, bytes); for a `set-attribute` also the number type,
+//! components, whether ids follow, the predictor and the decorrelated components. ids
+//! section: the ids. geometry section: the values, each an exact residual from its
+//! prediction ([`numbers`](super::coding::numbers), models kept per number type and
+//! component count across the correction's ops). The encoder picks the predictor whose
+//! residuals are smallest:
+//! - the element's value before the op (a filter that adjusts a quality);
+//! - the value before it in the op (new vertices blended from their neighbours come in the
+//!   order they were made, close together);
+//! - for a set of every vertex slot, a packed mesh's predictors with the vertices in id order
+//!   (`pack/values.rs`): the mean of the new values of its neighbours with lower ids, their
+//!   parallelograms, the geometry's normal (a quality or colour computed from the surface,
+//!   normals a service computed);
+//! - zero.
 
-use meshflow_mesh::attributes::{Domain, MAX_NAME_BYTES, NumberType, Values};
+use meshflow_mesh::MeshData;
+use meshflow_mesh::attributes::{Attribute, Domain, MAX_NAME_BYTES, NumberType, Values};
 use meshflow_mesh::store::{MeshStore, Op, OpKind};
+use meshflow_topology::VertexTriangles;
 
 use super::coding::model::AdaptiveModel;
+use super::coding::numbers::{
+    Costs, MAX_COMPONENTS, Number, ValueModels, adjusted, difference, zigzag,
+};
 use super::coding::stream::{CorruptStream, SymbolReader, SymbolWriter};
 use super::lists::IdListCoder;
+use crate::pack::values::{Geometry, Predictions, Predictor as MeshPredictor};
 
 const DOMAINS: [Domain; 3] = [Domain::Vertex, Domain::Face, Domain::Corner];
-/// The widest number is eight bytes, each position with its own model.
-const MAX_NUMBER_BYTES: usize = 8;
+/// Values the encoder's choice of predictor looks at, at most.
+const SAMPLE: usize = 1 << 16;
+
+/// What predicts a `set-attribute`'s values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Predictor {
+    /// The element's value before the op.
+    Current,
+    Previous,
+    Zero,
+    /// For a set of every vertex slot: a packed mesh's predictor, the vertices in id order.
+    Mesh(MeshPredictor),
+}
+
+/// The packed mesh's predictors a set of every vertex may use, after the three of its own.
+const MESH_PREDICTORS: [MeshPredictor; 4] = [
+    MeshPredictor::Neighbours,
+    MeshPredictor::Parallelogram,
+    MeshPredictor::Normal,
+    MeshPredictor::AngleNormal,
+];
+
+impl Predictor {
+    fn symbol(self) -> usize {
+        match self {
+            Predictor::Current => 0,
+            Predictor::Previous => 1,
+            Predictor::Zero => 2,
+            Predictor::Mesh(p) => {
+                3 + MESH_PREDICTORS.iter().position(|&q| q == p).expect("only these")
+            }
+        }
+    }
+
+    fn from_symbol(symbol: usize) -> Self {
+        match symbol {
+            0 => Predictor::Current,
+            1 => Predictor::Previous,
+            2 => Predictor::Zero,
+            s => Predictor::Mesh(MESH_PREDICTORS[s - 3]),
+        }
+    }
+}
+
+const PREDICTOR_SYMBOLS: usize = 3 + MESH_PREDICTORS.len();
 
 pub(super) struct AttributeCoder {
     domain: AdaptiveModel,
@@ -22,8 +81,11 @@ pub(super) struct AttributeCoder {
     components: AdaptiveModel,
     name_byte: AdaptiveModel,
     has_ids: AdaptiveModel,
-    /// Per number type, per byte of a number.
-    bytes: Vec<[AdaptiveModel; MAX_NUMBER_BYTES]>,
+    predictor: AdaptiveModel,
+    /// Bits 1 to 3 of the decorrelation mask, shifted down.
+    decorrelate: AdaptiveModel,
+    /// Per number type and component count, created when first used.
+    values: Vec<Option<ValueModels>>,
 }
 
 impl AttributeCoder {
@@ -31,13 +93,12 @@ impl AttributeCoder {
         Self {
             domain: AdaptiveModel::new(DOMAINS.len()),
             number_type: AdaptiveModel::new(NumberType::ALL.len()),
-            components: AdaptiveModel::new(5),
+            components: AdaptiveModel::new(MAX_COMPONENTS + 1),
             name_byte: AdaptiveModel::new(256),
             has_ids: AdaptiveModel::new(2),
-            bytes: NumberType::ALL
-                .iter()
-                .map(|_| std::array::from_fn(|_| AdaptiveModel::new(256)))
-                .collect(),
+            predictor: AdaptiveModel::new(PREDICTOR_SYMBOLS),
+            decorrelate: AdaptiveModel::new(8),
+            values: (0..NumberType::ALL.len() * MAX_COMPONENTS).map(|_| None).collect(),
         }
     }
 
@@ -64,15 +125,22 @@ impl AttributeCoder {
         Ok((domain, String::from_utf8(bytes).map_err(|_| CorruptStream)?))
     }
 
-    /// Codes a `set-attribute` or `remove-attribute` (any other op is not this coder's).
+    /// The models of `ty` with `components`, fresh the first time.
+    fn models<T: Number>(&mut self, ty: NumberType, components: usize) -> &mut ValueModels {
+        let slot = type_index(ty) * MAX_COMPONENTS + components - 1;
+        self.values[slot].get_or_insert_with(|| ValueModels::new::<T>(components, 0))
+    }
+
+    /// Codes a `set-attribute` or `remove-attribute` (any other op is not this coder's)
+    /// against `store`, the state before it.
     pub(super) fn write(
         &mut self,
-        ops: &mut SymbolWriter,
-        ids_out: &mut SymbolWriter,
-        geometry: &mut SymbolWriter,
+        out: [&mut SymbolWriter; 3],
         lists: &mut IdListCoder,
+        store: &MeshStore,
         op: &Op,
     ) {
+        let [ops, ids_out, geometry] = out;
         match op {
             Op::RemoveAttribute { domain, name } => self.header(ops, *domain, name),
             Op::SetAttribute { domain, name, components, ids, values } => {
@@ -84,11 +152,30 @@ impl AttributeCoder {
                 if let Some(ids) = ids {
                     lists.write(ids_out, ids);
                 }
-                let models = &mut self.bytes[type_index(ty)];
-                for number in values.to_le_bytes().chunks_exact(ty.size()) {
-                    for (model, &b) in models.iter_mut().zip(number) {
-                        geometry.symbol(model, usize::from(b));
-                    }
+                let n = usize::from(*components);
+                if !(1..=MAX_COMPONENTS).contains(&n) || values.len() % n != 0 {
+                    return; // the store refuses it
+                }
+                let slots = store.shared_slots();
+                let whole = Whole::new(&slots, *domain, ids.is_none());
+                let mesh = whole.as_ref().map(|w| w.geometry(&slots));
+                let context = Context::new(&slots, (*domain, name, n), ids.as_deref(), &mesh);
+                let float = matches!(ty, NumberType::F32 | NumberType::F64);
+                macro_rules! typed {
+                    ($v:expr, $t:ty) => {{
+                        let choice = choose::<$t>(&context, float, $v);
+                        ops.symbol(&mut self.predictor, choice.0.symbol());
+                        ops.symbol(&mut self.decorrelate, usize::from(choice.1 >> 1));
+                        let models = self.models::<$t>(ty, n);
+                        write_values::<$t>(geometry, models, &context, choice, $v);
+                    }};
+                }
+                match values {
+                    Values::U8(v) => typed!(v, u8),
+                    Values::I32(v) => typed!(v, i32),
+                    Values::U32(v) => typed!(v, u32),
+                    Values::F32(v) => typed!(v, f32),
+                    Values::F64(v) => typed!(v, f64),
                 }
             }
             _ => unreachable!("only attribute ops are coded here"),
@@ -102,12 +189,11 @@ impl AttributeCoder {
         &mut self,
         kind: OpKind,
         store: &MeshStore,
-        ops: &mut SymbolReader,
-        ids_in: &mut SymbolReader,
-        geometry: &mut SymbolReader,
+        input: [&mut SymbolReader; 3],
         lists: &mut IdListCoder,
         limit: u64,
     ) -> Result<Op, CorruptStream> {
+        let [ops, ids_in, geometry] = input;
         let (domain, name) = self.read_header(ops)?;
         if kind == OpKind::RemoveAttribute {
             return Ok(Op::RemoveAttribute { domain, name });
@@ -122,41 +208,232 @@ impl AttributeCoder {
             Some(ids) => ids.len(),
             None => domain.len(store.vertex_slots() as usize, store.triangle_slots() as usize),
         };
-        if elements as u64 > limit.max(1) && ids.is_some() {
+        if elements as u64 > limit.max(1) {
             return Err(CorruptStream);
         }
-        let numbers = elements * usize::from(components);
-        let models = &mut self.bytes[type_index(ty)];
-        let mut bytes = Vec::with_capacity(numbers * ty.size());
-        for _ in 0..numbers {
-            for model in &mut models[..ty.size()] {
-                bytes.push(geometry.symbol(model)? as u8);
-            }
+        let predictor = Predictor::from_symbol(ops.symbol(&mut self.predictor)?);
+        let choice = (predictor, (ops.symbol(&mut self.decorrelate)? as u8) << 1);
+        let n = usize::from(components);
+        let float = matches!(ty, NumberType::F32 | NumberType::F64);
+        if let Predictor::Mesh(p) = predictor
+            && (ids.is_some() || !p.fits(domain, n, float))
+        {
+            return Err(CorruptStream);
         }
-        let values = from_le_bytes(ty, &bytes);
+        let slots = store.shared_slots();
+        let whole = Whole::new(&slots, domain, matches!(predictor, Predictor::Mesh(_)));
+        let mesh = whole.as_ref().map(|w| w.geometry(&slots));
+        let context = Context::new(&slots, (domain, &name, n), ids.as_deref(), &mesh);
+        macro_rules! typed {
+            ($t:ty, $wrap:path) => {{
+                let models = self.models::<$t>(ty, n);
+                $wrap(read_values::<$t>(geometry, models, &context, choice, elements)?)
+            }};
+        }
+        let values = match ty {
+            NumberType::U8 => typed!(u8, Values::U8),
+            NumberType::I32 => typed!(i32, Values::I32),
+            NumberType::U32 => typed!(u32, Values::U32),
+            NumberType::F32 => typed!(f32, Values::F32),
+            NumberType::F64 => typed!(f64, Values::F64),
+        };
         Ok(Op::SetAttribute { domain, name, components, ids, values })
     }
 }
 
-fn type_index(ty: NumberType) -> usize {
-    NumberType::ALL.iter().position(|&t| t == ty).expect("every type")
+/// For a set of every vertex slot: the slots in id order and the triangles around each,
+/// for a packed mesh's predictors.
+struct Whole {
+    order: Vec<u32>,
+    around: VertexTriangles,
 }
 
-fn from_le_bytes(ty: NumberType, bytes: &[u8]) -> Values {
-    let n = ty.size();
-    match ty {
-        NumberType::U8 => Values::U8(bytes.to_vec()),
-        NumberType::I32 => Values::I32(
-            bytes.chunks_exact(n).map(|b| i32::from_le_bytes(b.try_into().expect("4"))).collect(),
-        ),
-        NumberType::U32 => Values::U32(
-            bytes.chunks_exact(n).map(|b| u32::from_le_bytes(b.try_into().expect("4"))).collect(),
-        ),
-        NumberType::F32 => Values::F32(
-            bytes.chunks_exact(n).map(|b| f32::from_le_bytes(b.try_into().expect("4"))).collect(),
-        ),
-        NumberType::F64 => Values::F64(
-            bytes.chunks_exact(n).map(|b| f64::from_le_bytes(b.try_into().expect("8"))).collect(),
-        ),
+impl Whole {
+    /// `Some` for a set of every slot of the vertex domain when `wanted`.
+    fn new(slots: &MeshData, domain: Domain, wanted: bool) -> Option<Self> {
+        (wanted && domain == Domain::Vertex).then(|| Self {
+            order: (0..slots.vertex_count() as u32).collect(),
+            // Removed triangles' corners are past every vertex: left out.
+            around: VertexTriangles::new(slots.vertex_count(), &slots.triangles),
+        })
     }
+
+    fn geometry<'a>(&'a self, slots: &'a MeshData) -> Geometry<'a> {
+        Geometry::new(&slots.positions, &slots.triangles, &self.around, &self.order)
+    }
+}
+
+/// What a `set-attribute`'s predictions read: the attribute as it is, the op's ids, and for
+/// a set of every vertex the mesh in id order.
+struct Context<'a> {
+    domain: Domain,
+    components: usize,
+    ids: Option<&'a [u32]>,
+    /// The attribute's values before the op, if the mesh has it in this shape.
+    current: Option<&'a Values>,
+    /// The value of an element the attribute does not cover yet.
+    default: f64,
+    geometry: &'a Option<Geometry<'a>>,
+}
+
+impl<'a> Context<'a> {
+    /// For the op on `domain`'s `name` over `slots` (the store's, before the op).
+    fn new(
+        slots: &'a MeshData,
+        (domain, name, components): (Domain, &str, usize),
+        ids: Option<&'a [u32]>,
+        geometry: &'a Option<Geometry<'a>>,
+    ) -> Self {
+        let shape = Attribute {
+            domain,
+            name: name.to_owned(),
+            components: components as u8,
+            values: Values::U8(Vec::new()),
+        };
+        let current = slots
+            .attributes
+            .get(domain, name)
+            .filter(|a| usize::from(a.components) == components)
+            .map(|a| &a.values);
+        Self { domain, components, ids, current, default: shape.default_value(), geometry }
+    }
+
+    /// What predicts with `predictor`; `None` where it cannot (a packed mesh's predictor
+    /// without the whole mesh).
+    fn predicting(&self, predictor: Predictor) -> Option<Predicting<'_, 'a>> {
+        let mesh = match predictor {
+            Predictor::Mesh(p) => {
+                let geometry = self.geometry.as_ref()?;
+                Some(Predictions::new(geometry, self.domain, p, self.components))
+            }
+            _ => None,
+        };
+        Some(Predicting { context: self, predictor, mesh })
+    }
+}
+
+/// One predictor at work over one op's values.
+struct Predicting<'c, 'a> {
+    context: &'c Context<'a>,
+    predictor: Predictor,
+    mesh: Option<Predictions<'c, 'a>>,
+}
+
+impl Predicting<'_, '_> {
+    /// The predicted images of the `j`th element's components, reading only the op's
+    /// values before it.
+    fn predict<T: Number>(&mut self, values: &[T], j: usize) -> [u64; MAX_COMPONENTS] {
+        let c = self.context;
+        let n = c.components;
+        match self.predictor {
+            Predictor::Zero => [0; MAX_COMPONENTS],
+            Predictor::Previous if j == 0 => [0; MAX_COMPONENTS],
+            Predictor::Previous => {
+                std::array::from_fn(|k| if k < n { values[n * (j - 1) + k].image() } else { 0 })
+            }
+            Predictor::Current => {
+                let e = c.ids.map_or(j, |ids| ids[j] as usize);
+                std::array::from_fn(|k| {
+                    let current = c.current.filter(|v| n * e + k < v.len());
+                    match (k < n, current) {
+                        (false, _) => 0,
+                        (true, Some(v)) => T::nearest_image(v.get(n * e + k)),
+                        (true, None) => T::nearest_image(c.default),
+                    }
+                })
+            }
+            Predictor::Mesh(_) => self.mesh.as_mut().expect("made with the geometry").at(values, j),
+        }
+    }
+}
+
+fn write_values<T: Number>(
+    w: &mut SymbolWriter,
+    models: &mut ValueModels,
+    context: &Context,
+    (predictor, mask): (Predictor, u8),
+    values: &[T],
+) {
+    let n = context.components;
+    let mut predicting = context.predicting(predictor).expect("chosen among those that can");
+    for j in 0..values.len() / n {
+        let base = predicting.predict(values, j);
+        let mut previous = 0;
+        for k in 0..n {
+            let actual = values[n * j + k].image();
+            models.write::<T>(w, k, actual, adjusted::<T>(base[k], k, mask, previous));
+            previous = difference::<T>(actual, base[k]);
+        }
+    }
+}
+
+fn read_values<T: Number>(
+    r: &mut SymbolReader,
+    models: &mut ValueModels,
+    context: &Context,
+    (predictor, mask): (Predictor, u8),
+    elements: usize,
+) -> Result<Vec<T>, CorruptStream> {
+    let n = context.components;
+    let mut predicting = context.predicting(predictor).ok_or(CorruptStream)?;
+    let mut values = vec![T::default(); elements * n];
+    for j in 0..elements {
+        let base = predicting.predict(&values, j);
+        let mut previous = 0;
+        for k in 0..n {
+            let predicted = adjusted::<T>(base[k], k, mask, previous);
+            let actual = models.read::<T>(r, k, predicted)?;
+            values[n * j + k] = T::from_image(actual);
+            previous = difference::<T>(actual, base[k]);
+        }
+    }
+    Ok(values)
+}
+
+/// The predictor and decorrelation mask with the smallest residuals, judged on a sample.
+fn choose<T: Number>(context: &Context, float: bool, values: &[T]) -> (Predictor, u8) {
+    let n = context.components;
+    let elements = values.len() / n;
+    let stride = elements.div_ceil(SAMPLE).max(1);
+    let mut best = (f64::INFINITY, Predictor::Zero, 0u8);
+    let mut candidates = vec![Predictor::Current, Predictor::Previous, Predictor::Zero];
+    if context.geometry.is_some() {
+        let mesh = MeshPredictor::candidates(context.domain, n, float);
+        candidates
+            .extend(mesh.into_iter().filter(|p| MESH_PREDICTORS.contains(p)).map(Predictor::Mesh));
+    }
+    for predictor in candidates {
+        let Some(mut predicting) = context.predicting(predictor) else { continue };
+        let mut costs = [[Costs::default(); 2]; MAX_COMPONENTS];
+        for j in (0..elements).step_by(stride) {
+            let base = predicting.predict(values, j);
+            let mut previous = 0;
+            for k in 0..n {
+                let actual = values[n * j + k].image();
+                costs[k][0].add(zigzag(difference::<T>(actual, base[k])), u8::MAX);
+                if k > 0 {
+                    let predicted = adjusted::<T>(base[k], k, 1 << k, previous);
+                    costs[k][1].add(zigzag(difference::<T>(actual, predicted)), u8::MAX);
+                }
+                previous = difference::<T>(actual, base[k]);
+            }
+        }
+        let (mut total, mut mask) = (0.0, 0u8);
+        for (k, [plain, adjusted]) in costs.iter().enumerate().take(n) {
+            if k > 0 && adjusted.plain() < plain.plain() {
+                mask |= 1 << k;
+                total += adjusted.plain();
+            } else {
+                total += plain.plain();
+            }
+        }
+        if total < best.0 {
+            best = (total, predictor, mask);
+        }
+    }
+    (best.1, best.2)
+}
+
+fn type_index(ty: NumberType) -> usize {
+    NumberType::ALL.iter().position(|&t| t == ty).expect("every type")
 }

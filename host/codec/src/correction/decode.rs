@@ -145,9 +145,7 @@ impl Decoder {
                 let op = m.attributes.read(
                     kind,
                     &self.store,
-                    &mut input.ops,
-                    &mut input.ids,
-                    &mut input.geometry,
+                    [&mut input.ops, &mut input.ids, &mut input.geometry],
                     &mut m.lists,
                     limit,
                 )?;

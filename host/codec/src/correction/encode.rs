@@ -165,9 +165,12 @@ impl Encoder {
             }
             Op::Transform { matrix } => matrix.iter().for_each(|&v| out.geometry.f32_bits(v)),
             Op::Clear => {}
-            Op::SetAttribute { .. } | Op::RemoveAttribute { .. } => {
-                m.attributes.write(&mut out.ops, &mut out.ids, &mut out.geometry, &mut m.lists, op)
-            }
+            Op::SetAttribute { .. } | Op::RemoveAttribute { .. } => m.attributes.write(
+                [&mut out.ops, &mut out.ids, &mut out.geometry],
+                &mut m.lists,
+                &self.store,
+                op,
+            ),
         }
         self.apply(index, op)?;
         Ok(1)

@@ -18,7 +18,8 @@ use super::CorrectionError;
 use super::coding::bytes::{open_sealed, put_grid, put_varint, seal, sealed_front};
 
 pub(crate) const MAGIC: [u8; 4] = *b"MFC\x1a";
-pub const VERSION: u16 = 6;
+/// 7: `set-attribute` values as residuals from a prediction.
+pub const VERSION: u16 = 7;
 
 /// How many op kinds the header counts.
 pub(crate) const KINDS: usize = OpKind::ALL.len();

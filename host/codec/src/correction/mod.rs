@@ -12,7 +12,12 @@
 //!   added with them, split points from the centroid or midpoint they replace;
 //! - moves as residuals from the old position; `set-positions` per vertex as "still",
 //!   "exactly predicted" or a residual, the prediction being one step of uniform Laplacian
-//!   smoothing with a fitted factor.
+//!   smoothing with a fitted factor;
+//! - `set-attribute` values as exact residuals from the element's value before the op, the
+//!   value before it in the op, or for a set of every vertex from its neighbours or the
+//!   geometry's normal (`attributes.rs`). What happens to attributes through the other ops
+//!   (kept, interpolated at a split, recomputed normals) the store derives on both sides:
+//!   it costs no byte.
 //!
 //! Residuals are differences of order-preserving integer images of the f32 bits, so the
 //! codec is lossless. The header is readable without the base mesh ([`decode`]), for

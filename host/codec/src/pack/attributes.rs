@@ -18,9 +18,10 @@ use meshflow_mesh::attributes::{
     NumberType, Values,
 };
 
-use super::values::{self, Geometry, Number, Predictor};
+use super::values::{self, Geometry, Predictor};
 use super::{ELEMENT_SLACK, ELEMENTS_PER_BYTE, PackError};
 use crate::correction::coding::bytes::{ByteReader, put_varint};
+use crate::correction::coding::numbers::{MAX_COMPONENTS, Number};
 use crate::correction::coding::stream::{SymbolReader, SymbolWriter};
 
 const DOMAINS: [Domain; 3] = [Domain::Vertex, Domain::Face, Domain::Corner];
@@ -100,7 +101,7 @@ pub(super) fn read(bytes: &[u8], geometry: &Geometry) -> Result<Attributes, Pack
         let ty = *NumberType::ALL
             .get(usize::from(ty))
             .ok_or_else(|| malformed(format!("number type {ty}")))?;
-        if !(1..=values::MAX_COMPONENTS as u8).contains(&components)
+        if !(1..=MAX_COMPONENTS as u8).contains(&components)
             || usize::from(name_len) > MAX_NAME_BYTES
         {
             return Err(malformed(format!("{components} components, a {name_len}-byte name")));

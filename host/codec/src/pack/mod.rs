@@ -36,7 +36,7 @@ mod error;
 mod open_edges;
 mod order;
 mod predict;
-mod values;
+pub(crate) mod values;
 
 pub use error::PackError;
 

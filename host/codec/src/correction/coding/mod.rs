@@ -5,6 +5,7 @@ pub(crate) mod corners;
 pub(crate) mod float;
 pub(crate) mod integer;
 pub(crate) mod model;
+pub(crate) mod numbers;
 pub(crate) mod recent;
 pub(crate) mod residual;
 pub(crate) mod stream;
