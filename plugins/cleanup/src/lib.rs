@@ -9,7 +9,9 @@ pub mod mirror;
 pub mod nonmanifold;
 pub mod orient;
 
-use meshflow_plugin_sdk::{Error, Mesh, ParamSpec, Params, Result, Service};
+use meshflow_plugin_sdk::{
+    Error, Mesh, ParamSpec, Params, Result, Service, blend_new_vertex_attributes,
+};
 
 use components::Keep;
 use mirror::Edit;
@@ -71,6 +73,10 @@ fn repair_non_manifold(mesh: &Mesh, _: &Params) -> Result<String> {
         if first != expected {
             return Err(Error(format!("new vertices start at {first}, expected {expected}")));
         }
+        // A copy carries on its original's colour, quality, …
+        let copies: Vec<(u32, [(u32, f64); 1])> =
+            (first..).zip(&repair.copied_from).map(|(copy, &v)| (copy, [(v, 1.0)])).collect();
+        blend_new_vertex_attributes(mesh, &copies)?;
     }
     if !repair.readded.is_empty() {
         mesh.add_triangles(&repair.readded)?;

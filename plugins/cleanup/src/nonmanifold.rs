@@ -21,6 +21,8 @@ pub struct Repair {
     pub readded: Vec<u32>,
     /// `x y z` per new vertex (a copy of the split vertex).
     pub new_positions: Vec<f32>,
+    /// Per new vertex: the vertex it copies (whose attributes it takes too).
+    pub copied_from: Vec<u32>,
     pub improper: usize,
     pub duplicates: usize,
     pub non_manifold_edges: usize,
@@ -123,6 +125,7 @@ pub fn repair_non_manifold_owned(positions: &[f32], triangles: Vec<u32>) -> Repa
                 Some(&(_, copy)) => copy,
                 None => {
                     repair.new_positions.extend_from_slice(p);
+                    repair.copied_from.push(v);
                     copy_of_root.push((root, next_vertex));
                     next_vertex += 1;
                     next_vertex - 1

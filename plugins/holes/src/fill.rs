@@ -37,6 +37,9 @@ pub struct Filling {
     pub non_manifold: usize,
     /// Holes whose every triangulation would duplicate an edge the mesh already has.
     pub unfillable: usize,
+    /// Per new vertex, in an order where parents come first: the vertices (boundary or new)
+    /// its attribute values blend, with weights ([`crate::blend`]).
+    pub blends: Vec<(u32, Vec<(u32, f64)>)>,
 }
 
 /// Fills the holes of the mesh `positions` / `triangles` (compact, as a run starts).
@@ -165,6 +168,7 @@ fn append(
     for p in &patch.points[patch.rim_len()..] {
         filling.new_positions.extend(p.map(|c| c as f32));
     }
+    filling.blends.extend(crate::blend::rim_first_blends(patch, global));
     for t in &patch.triangles {
         filling.new_triangles.extend(t.map(global));
         for k in 0..3 {

@@ -1,6 +1,7 @@
 //! Hole filling (Liepa 2003). Algorithms are pure functions over arrays, one per file; the
 //! service function here only moves data between them and the host.
 
+pub mod blend;
 pub mod fair;
 pub mod fill;
 pub mod patch;
@@ -8,7 +9,9 @@ pub mod refine;
 pub mod surroundings;
 pub mod triangulate;
 
-use meshflow_plugin_sdk::{Error, Mesh, ParamSpec, Params, Result, Service};
+use meshflow_plugin_sdk::{
+    Error, Mesh, ParamSpec, Params, Result, Service, blend_new_vertex_attributes,
+};
 
 use fill::{Settings, fill_holes};
 
@@ -34,6 +37,8 @@ fn fill_holes_service(mesh: &Mesh, params: &Params) -> Result<String> {
     if !filling.new_triangles.is_empty() {
         mesh.add_triangles(&filling.new_triangles)?;
     }
+    // New vertices take colours, quality, … spread in from each hole's boundary.
+    blend_new_vertex_attributes(mesh, &filling.blends)?;
     Ok(format!(
         "filled {} hole(s) with {} triangles and {} vertices; left open: {} above {} edges, \
          {} through a non-manifold vertex, {} without a valid triangulation",
@@ -52,7 +57,10 @@ fn services() -> Vec<Service> {
         Service::filter(
             "fill-holes",
             "Fills holes (Liepa 2003): minimum-weight triangulation by dihedral angle then \
-             area, refinement to the surrounding edge density, umbrella-operator fairing.",
+             area, refinement to the surrounding edge density, umbrella-operator fairing. \
+             New vertices take their attributes (colour, quality, …) from the hole's \
+             boundary, spread inwards ring by ring, each blending its neighbours nearer \
+             the boundary by inverse distance.",
             fill_holes_service,
         )
         .param(

@@ -14,7 +14,9 @@ pub mod loop_subdivision;
 pub mod renumber;
 
 use meshflow_plugin_sdk::geometry::bounding_box;
-use meshflow_plugin_sdk::{Error, Mesh, ParamSpec, Params, Result, Service};
+use meshflow_plugin_sdk::{
+    Error, Mesh, ParamSpec, Params, Result, Service, blend_new_vertex_attributes,
+};
 
 use decimate::{Settings, decimate_owned};
 use isotropic::{Edit, remesh_owned};
@@ -87,6 +89,10 @@ fn loop_subdivision_service(mesh: &Mesh, params: &Params) -> Result<String> {
     if first != expected {
         return Err(Error(format!("new vertices start at {first}, expected {expected}")));
     }
+    // Each edge point's colour, quality, … is the mean of its edge's ends'.
+    let blends: Vec<(u32, [(u32, f64); 2])> =
+        (first..).zip(&result.edge_ends).map(|(v, &[a, b])| (v, [(a, 0.5), (b, 0.5)])).collect();
+    blend_new_vertex_attributes(mesh, &blends)?;
     let old: Vec<u32> = (0..mesh.triangle_slots() as u32).collect();
     mesh.remove_triangles(&old)?;
     mesh.add_triangles(&result.triangles)?;
@@ -209,7 +215,8 @@ fn services() -> Vec<Service> {
         Service::filter(
             "loop-subdivision",
             "Loop subdivision: each triangle becomes four; Loop's weights inside, the curve \
-             rule on boundaries, corners held. Needs at most two triangles per edge.",
+             rule on boundaries, corners held. Needs at most two triangles per edge. A new \
+             vertex's attributes (colour, quality, …) are the mean of its edge's ends'.",
             loop_subdivision_service,
         )
         .param(

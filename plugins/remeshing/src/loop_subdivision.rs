@@ -45,6 +45,10 @@ impl fmt::Display for Refusal {
 pub struct Subdivided {
     pub positions: Vec<f32>,
     pub triangles: Vec<u32>,
+    /// Per edge point, in id order: the ends of the edge it splits (ids of the vertices
+    /// before its level, so an earlier level's edge points come first). Attributes blend
+    /// them half and half.
+    pub edge_ends: Vec<[u32; 2]>,
 }
 
 /// `iterations` levels of Loop subdivision of a mesh whose triangles are all proper and
@@ -58,9 +62,16 @@ pub fn loop_subdivision(
     if output > MAX_OUTPUT_TRIANGLES {
         return Err(Refusal::TooLarge { triangles: output });
     }
-    let mut mesh = Subdivided { positions: positions.to_vec(), triangles: triangles.to_vec() };
+    let mut mesh = Subdivided {
+        positions: positions.to_vec(),
+        triangles: triangles.to_vec(),
+        edge_ends: Vec::new(),
+    };
     for _ in 0..iterations {
-        mesh = subdivide_once(&mesh.positions, &mesh.triangles)?;
+        let level = subdivide_once(&mesh.positions, &mesh.triangles)?;
+        let mut edge_ends = std::mem::take(&mut mesh.edge_ends);
+        edge_ends.extend(level.edge_ends);
+        mesh = Subdivided { edge_ends, ..level };
     }
     Ok(mesh)
 }
@@ -72,6 +83,7 @@ fn subdivide_once(positions: &[f32], triangles: &[u32]) -> Result<Subdivided, Re
     // Edge points, one per edge, numbered after the old vertices in half-edge order.
     let mut edge_vertex = vec![NONE; half_edges.len()];
     let mut new_positions = vertex_points(positions, triangles, &half_edges);
+    let mut edge_ends = Vec::new();
     for h in 0..half_edges.len() as u32 {
         if edge_vertex[h as usize] != NONE {
             continue;
@@ -90,6 +102,7 @@ fn subdivide_once(positions: &[f32], triangles: &[u32]) -> Result<Subdivided, Re
         };
         edge_vertex[h as usize] = id;
         new_positions.extend(p.map(|x| x as f32));
+        edge_ends.push([origin(triangles, h), target(triangles, h)]);
     }
 
     let mut new_triangles = Vec::with_capacity(4 * triangles.len());
@@ -99,7 +112,7 @@ fn subdivide_once(positions: &[f32], triangles: &[u32]) -> Result<Subdivided, Re
         let [ab, bc, ca] = [h, next(h), prev(h)].map(|e| edge_vertex[e as usize]);
         new_triangles.extend([a, ab, ca, ab, b, bc, ca, bc, c, ab, bc, ca]);
     }
-    Ok(Subdivided { positions: new_positions, triangles: new_triangles })
+    Ok(Subdivided { positions: new_positions, triangles: new_triangles, edge_ends })
 }
 
 /// The old vertices' new positions (`x y z` per vertex).

@@ -1,6 +1,8 @@
-//! Smoothing and noise filters. Algorithms are pure functions over arrays (one per file);
-//! the service functions here only move data between them and the host.
+//! Smoothing and noise filters, and the curvature they smooth away (written as quality).
+//! Algorithms are pure functions over arrays (one per file); the service functions here
+//! only move data between them and the host.
 
+pub mod curvature;
 pub mod laplacian;
 pub mod noise;
 pub mod random;
@@ -53,6 +55,36 @@ fn add_noise(mesh: &Mesh, params: &Params) -> Result<String> {
     ))
 }
 
+fn curvature_service(mesh: &Mesh, params: &Params) -> Result<String> {
+    let kind = match params.text("kind")? {
+        "gaussian" => curvature::Kind::Gaussian,
+        _ => curvature::Kind::Mean,
+    };
+    let (positions, triangles) = (mesh.positions(), mesh.triangles());
+    let kinds = mesh.half_edge_kinds()?;
+    let result = curvature::curvature(&positions, &triangles, &kinds, kind);
+    mesh.set_quality(None, &result.values)?;
+    let name = params.text("kind")?;
+    let mut report = format!("{name} curvature of {} vertices as quality", result.values.len());
+    let computed =
+        result.values.len() - result.not_interior - result.without_area - result.unreferenced;
+    if computed > 0 {
+        let (lo, hi) =
+            result.values.iter().fold((f32::MAX, f32::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        report += &format!(": from {lo:.6} to {hi:.6}");
+    }
+    for (count, what) in [
+        (result.not_interior, "on a boundary, non-manifold or misoriented edge"),
+        (result.without_area, "with no area around them"),
+        (result.unreferenced, "in no triangle"),
+    ] {
+        if count > 0 {
+            report += &format!("; {count} vertices {what} got 0");
+        }
+    }
+    Ok(report)
+}
+
 fn services() -> Vec<Service> {
     vec![
         Service::filter(
@@ -99,6 +131,19 @@ fn services() -> Vec<Service> {
             ParamSpec::integer("seed", 0)
                 .range(0.0, i64::MAX as f64)
                 .doc("Seed of the random sequence."),
+        ),
+        Service::filter(
+            "curvature",
+            "Writes each vertex's discrete curvature as its quality, to colour by (Meyer et \
+             al. 2003, over mixed Voronoi areas). mean: half the length of the cotangent \
+             Laplacian of the position, positive where the surface bends away from its \
+             normal (1/r on a sphere of radius r); gaussian: the angle deficit over the area \
+             (1/r²). Boundary and non-manifold vertices get 0. The geometry is unchanged.",
+            curvature_service,
+        )
+        .param(
+            ParamSpec::choice("kind", "mean", &["mean", "gaussian"])
+                .doc("mean: signed mean curvature H; gaussian: Gaussian curvature K."),
         ),
     ]
 }

@@ -102,6 +102,20 @@ fn edit_in_check(mesh: &Mesh, _: &Params) -> Result<Value> {
     Ok(Value::Boolean(true))
 }
 
+/// A check that writes quality: the host refuses it (`read-only`), the value says how.
+fn set_attribute_in_check(mesh: &Mesh, _: &Params) -> Result<Value> {
+    let quality = vec![1.0; mesh.vertex_slots()];
+    let refused = mesh.set_quality(None, &quality).expect_err("a check wrote quality");
+    let removed = mesh.remove_attribute(meshflow_plugin_sdk::AttributeDomain::Vertex, "quality");
+    Ok(Value::Text(format!("{refused} | {}", removed.expect_err("a check removed quality"))))
+}
+
+/// Adds a vertex and gives it no attribute values: the host's defaults, and its report.
+fn add_bare_vertex(mesh: &Mesh, _: &Params) -> Result<String> {
+    mesh.add_vertex([0.0, 0.0, 2.0])?;
+    Ok("added a vertex".into())
+}
+
 fn wrong_result_type(_: &Mesh, _: &Params) -> Result<Value> {
     Ok(Value::Text("not an integer".into()))
 }
@@ -135,6 +149,17 @@ fn services() -> Vec<Service> {
             "Edits although it is a check.",
             ValueType::Boolean,
             edit_in_check,
+        ),
+        Service::check(
+            "set-attribute-in-check",
+            "Writes and removes quality although it is a check; the refusals as its value.",
+            ValueType::Text,
+            set_attribute_in_check,
+        ),
+        Service::filter(
+            "add-bare-vertex",
+            "Adds a vertex without attribute values.",
+            add_bare_vertex,
         ),
         Service::check(
             "wrong-result-type",
