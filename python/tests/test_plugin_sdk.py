@@ -117,3 +117,91 @@ def test_describe_run_and_errors(sdk):
     assert "unknown service" in e.value.value
     with pytest.raises(ValueError):
         mp.filter("lift-py", "again")(lambda m, p: None)
+
+
+@pytest.fixture()
+def with_mesh_types(sdk, monkeypatch):
+    """sdk plus a stand-in for the WIT `mesh` interface's attribute types."""
+    mp, t, Err = sdk
+    m = pytypes.ModuleType("wit_world.imports.mesh")
+    m.AttributeDomain = enum.Enum("AttributeDomain", "VERTEX FACE CORNER")
+    m.NumberType = enum.Enum("NumberType", "U8 S32 U32 F32 F64")
+    for ty in ("U8", "S32", "U32", "F32", "F64"):
+        setattr(m, f"AttributeValues_{ty}",
+                dataclass(type(f"AttributeValues_{ty}", (), {"__annotations__": {"value": object}})))
+    m.AttributeInfo = dataclass(type("AttributeInfo", (), {
+        "__annotations__": {f: object for f in "domain name components number_type".split()}}))
+    sys.modules["wit_world.imports"].mesh = m
+    monkeypatch.setitem(sys.modules, "wit_world.imports.mesh", m)
+    return mp, t, Err, m
+
+
+class AttributeMesh:
+    """The host's attribute calls over a dict, as the stand-in bindings type them."""
+
+    def __init__(self, m, err, read_only=False):
+        self.m, self.err, self.read_only = m, err, read_only
+        self.values = {("VERTEX", "color"): (4, m.AttributeValues_U8(bytes([0, 0, 0, 255, 200, 100, 0, 255, 9, 9, 9, 9]))),
+                       ("VERTEX", "quality"): (1, m.AttributeValues_F32([0.0, 1.0, 0.0]))}
+
+    def vertex_slots(self):
+        return 3
+
+    def attributes(self):
+        return [self.m.AttributeInfo(getattr(self.m.AttributeDomain, d), n, c,
+                                     getattr(self.m.NumberType, type(v).__name__.rsplit("_", 1)[-1]))
+                for (d, n), (c, v) in sorted(self.values.items())]
+
+    def read_attribute(self, domain, name):
+        if (domain.name, name) not in self.values:
+            raise self.err("no such attribute")
+        return self.values[(domain.name, name)][1]
+
+    def set_attribute(self, domain, name, components, ids, values):
+        if self.read_only:
+            raise self.err("read-only")
+        key = (domain.name, name)
+        if ids is None:
+            self.values[key] = (components, values)
+            return
+        old = list(self.values[key][1].value)
+        for j, i in enumerate(ids):
+            old[components * i:components * (i + 1)] = list(values.value)[components * j:components * (j + 1)]
+        kind = type(values)
+        self.values[key] = (components, kind(bytes(old) if isinstance(values.value, bytes) else old))
+
+    def remove_attribute(self, domain, name):
+        if self.read_only:
+            raise self.err("read-only")
+        del self.values[(domain.name, name)]
+
+
+def test_attributes_read_write_and_blend(with_mesh_types):
+    mp, t, Err, m = with_mesh_types
+    edit_error = lambda message: Err(t.EditError(t.EditErrorKind.NOT_APPLICABLE, message))
+    raw = AttributeMesh(m, edit_error)
+    mesh = mp.Mesh(raw)
+    assert mesh.attributes() == [mp.AttributeInfo("vertex", "color", 4, "u8"),
+                                 mp.AttributeInfo("vertex", "quality", 1, "f32")]
+    assert mesh.vertex_colors()[4:8].tolist() == [200, 100, 0, 255]
+    assert mesh.quality().typecode == "f"
+    assert mesh.read_attribute("face", "label") is None
+    mesh.set_quality([2.0, 4.0, 8.0])
+    assert raw.values[("VERTEX", "quality")][1] == m.AttributeValues_F32([2.0, 4.0, 8.0])
+    mesh.set_attribute("face", "label", 1, [7], number_type="s32")
+    assert raw.values[("FACE", "label")] == (1, m.AttributeValues_S32([7]))
+    # Vertex 2 halfway between 0 and 1 (colours round to nearest, ties away from zero).
+    assert mp.blend_new_vertex_attributes(mesh, [(2, [(0, 1.0), (1, 1.0)])]) == 2
+    assert list(raw.values[("VERTEX", "color")][1].value) == [0, 0, 0, 255, 200, 100, 0, 255,
+                                                              100, 50, 0, 255]
+    assert raw.values[("VERTEX", "quality")][1].value == [2.0, 4.0, 3.0]
+    with pytest.raises(mp.ServiceError):
+        mp.blend_new_vertex_attributes(mesh, [(2, [(0, -1.0)])])
+    mesh.remove_attribute("face", "label")
+    assert ("FACE", "label") not in raw.values
+
+    check = mp.Mesh(AttributeMesh(m, lambda message: Err(t.EditError(t.EditErrorKind.READ_ONLY, message)),
+                                  read_only=True))
+    with pytest.raises(mp.MeshError) as e:
+        check.set_quality([0.0, 0.0, 0.0])
+    assert e.value.kind == "read-only"

@@ -28,12 +28,14 @@ WIT's ``edit-error-kind``); nothing half-done escapes: the host keeps only runs 
 
 from __future__ import annotations
 
+import math
 from array import array
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, NamedTuple, Sequence
 
 __all__ = [
     "Mesh", "MeshError", "ServiceError", "Boolean", "Integer", "Real", "Text", "filter", "check",
-    "services", "Service", "NativeMesh", "run_native",
+    "services", "Service", "NativeMesh", "run_native", "AttributeInfo",
+    "blend_new_vertex_attributes",
 ]
 
 
@@ -219,6 +221,90 @@ def _list(a):
     return a.tolist() if isinstance(a, array) else list(a)
 
 
+# ---- attributes -----------------------------------------------------------------------------
+# The WIT's number types and the `array` type codes that hold them exactly.
+_TYPECODES = {"u8": "B", "s32": "i", "u32": "I", "f32": "f", "f64": "d"}
+_NUMBER_TYPES = {code: ty for ty, code in _TYPECODES.items()}
+
+
+class AttributeInfo(NamedTuple):
+    """One attribute as :meth:`Mesh.attributes` lists it: ``domain`` is ``vertex``,
+    ``face`` or ``corner``; ``number_type`` one of ``u8 s32 u32 f32 f64``."""
+    domain: str
+    name: str
+    components: int
+    number_type: str
+
+
+def _wit_name(member) -> str:
+    return getattr(member, "name", str(member)).lower().replace("_", "-")
+
+
+def _domain(domain: str):
+    from wit_world.imports import mesh as m
+
+    return getattr(m.AttributeDomain, domain.upper())
+
+
+def _values_to_array(values) -> array:
+    ty = type(values).__name__.rsplit("_", 1)[-1].lower()
+    return array(_TYPECODES[ty], values.value)
+
+
+def _values_from_array(values: array):
+    from wit_world.imports import mesh as m
+
+    ty = _NUMBER_TYPES[values.typecode]
+    payload = bytes(values) if ty == "u8" else values.tolist()
+    return getattr(m, f"AttributeValues_{ty.upper()}")(payload)
+
+
+def _round(ty: str, x: float) -> float:
+    """As the host rounds an interpolated value: integers to the nearest (ties away from
+    zero) within the type's range; floats kept (``array('f')`` rounds to f32 as it stores)."""
+    if ty in ("f32", "f64"):
+        return x
+    lo, hi = {"u8": (0, 255), "s32": (-2**31, 2**31 - 1), "u32": (0, 2**32 - 1)}[ty]
+    whole = math.floor(abs(x))
+    r = (whole + (abs(x) - whole >= 0.5)) * (1 if x >= 0 else -1)
+    return min(max(r, lo), hi)
+
+
+def blend_new_vertex_attributes(mesh: "Mesh", blends) -> int:
+    """Gives vertices made with ``add_vertices`` every vertex attribute (normals aside: the
+    host recomputes them) blended from the vertices they came from. ``blends`` is a sequence
+    of ``(vertex, [(parent, weight), ...])``; weights must be finite, not negative, and sum
+    above zero (they are divided by their sum); a parent may be a vertex listed earlier.
+    One read and one ``set_attribute`` per vertex attribute; returns how many were written.
+    The same rule, in the same order, as the Rust SDK's helper."""
+    blends = [(int(v), [(int(p), float(w)) for p, w in parents]) for v, parents in blends]
+    if not blends:
+        return 0
+    for v, parents in blends:
+        total = sum(w for _, w in parents)
+        if any(not (w >= 0.0 and w != float("inf")) for _, w in parents) or not 0.0 < total < float("inf"):
+            raise ServiceError(f"blend: vertex {v}'s weights must be finite, not negative, and sum above 0")
+    ids = [v for v, _ in blends]
+    written = 0
+    for info in mesh.attributes():
+        if info.domain != "vertex" or info.name == "normal":
+            continue
+        values = mesh.read_attribute("vertex", info.name)
+        if values is None:
+            continue
+        per = info.components
+        out = array(values.typecode)
+        for v, parents in blends:
+            total = sum(w for _, w in parents)
+            for k in range(per):
+                x = sum(w / total * values[per * p + k] for p, w in parents)
+                values[per * v + k] = _round(info.number_type, x)
+                out.append(values[per * v + k])
+        mesh.set_attribute("vertex", info.name, per, out, ids=ids)
+        written += 1
+    return written
+
+
 class Mesh:
     """The host's mesh (the WIT's ``mesh`` resource) with Python types: bulk reads as
     ``array('f')`` / ``array('I')``, bulk edits from any sequence, refused edits as
@@ -275,6 +361,48 @@ class Mesh:
     def collapse_edge(self, e) -> None: _edit(self.raw.collapse_edge, e)
     def remove_component(self, t) -> None: _edit(self.raw.remove_component, t)
     def clear(self) -> None: _edit(self.raw.clear)
+
+    # attributes: whole arrays, one call each; ``domain`` is "vertex", "face" or "corner"
+    def attributes(self) -> list[AttributeInfo]:
+        """Every attribute the mesh carries, by domain, then name."""
+        return [AttributeInfo(_wit_name(a.domain), a.name, a.components, _wit_name(a.number_type))
+                for a in self.raw.attributes()]
+
+    def read_attribute(self, domain: str, name: str) -> array | None:
+        """An attribute's numbers for every slot of its domain, ``components`` per element,
+        as an ``array`` of its type (``B i I f d``); ``None`` when the mesh lacks it."""
+        try:
+            return _values_to_array(_edit(self.raw.read_attribute, _domain(domain), name))
+        except MeshError:
+            return None
+
+    def set_attribute(self, domain: str, name: str, components: int, values, ids=None,
+                      number_type: str | None = None) -> None:
+        """Sets an attribute at ``ids`` (every slot of its domain when ``None``), from an
+        ``array`` (its type code gives the number type) or a sequence with ``number_type``.
+        An attribute the mesh lacks is made, the other elements at the default. A check gets
+        ``read-only``."""
+        if not isinstance(values, array):
+            values = array(_TYPECODES[number_type or "f32"], values)
+        _edit(self.raw.set_attribute, _domain(domain), name, components,
+              None if ids is None else _list(ids), _values_from_array(values))
+
+    def remove_attribute(self, domain: str, name: str) -> None:
+        _edit(self.raw.remove_attribute, _domain(domain), name)
+
+    def vertex_colors(self) -> array | None:
+        """``r g b a`` bytes per vertex slot (``array('B')``), if the mesh has colours."""
+        return self.read_attribute("vertex", "color")
+
+    def set_vertex_colors(self, rgba, ids=None) -> None:
+        self.set_attribute("vertex", "color", 4, array("B", rgba), ids)
+
+    def quality(self) -> array | None:
+        """Quality per vertex slot (``array('f')``), if the mesh has it."""
+        return self.read_attribute("vertex", "quality")
+
+    def set_quality(self, quality, ids=None) -> None:
+        self.set_attribute("vertex", "quality", 1, array("f", quality), ids)
 
 
 # ---- native runs (plain CPython, for unit tests of an algorithm) -----------------------------
