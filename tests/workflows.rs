@@ -612,7 +612,9 @@ async fn colours_and_quality_survive_the_repair_by_corrections_replays_and_full_
     let n = mesh.vertex_count();
     let colour = |v: usize| [(v >> 16) as u8, (v >> 8) as u8, v as u8, 255];
     let quality: Vec<f32> = (0..n).map(|v| (v as f32).sqrt()).collect();
-    mesh.attributes.insert(Attribute::color((0..n).flat_map(colour).collect()), n, mesh.triangle_count()).unwrap();
+    mesh.attributes
+        .insert(Attribute::color((0..n).flat_map(colour).collect()), n, mesh.triangle_count())
+        .unwrap();
     mesh.attributes.insert(Attribute::quality(quality.clone()), n, mesh.triangle_count()).unwrap();
     let mut bytes = Vec::new();
     meshflow_meshio::write_to(&mut bytes, &mesh, meshflow_meshio::Format::Ply).unwrap();
@@ -630,10 +632,14 @@ async fn colours_and_quality_survive_the_repair_by_corrections_replays_and_full_
     let id = cluster.submit(&workflow, &cluster.upload(&input).await).await;
     let record = cluster.finished(&id).await;
     let result = cluster.result(&id).await;
-    let Some(Values::U8(colours)) = result.attributes.get(Domain::Vertex, "color").map(|a| a.values.clone()) else {
+    let Some(Values::U8(colours)) =
+        result.attributes.get(Domain::Vertex, "color").map(|a| a.values.clone())
+    else {
         panic!("the result lost its colours: {:?}", result.attributes.describe());
     };
-    let Some(Values::F32(kept_quality)) = result.attributes.get(Domain::Vertex, "quality").map(|a| a.values.clone()) else {
+    let Some(Values::F32(kept_quality)) =
+        result.attributes.get(Domain::Vertex, "quality").map(|a| a.values.clone())
+    else {
         panic!("the result lost its quality");
     };
     // A survivor's colour names its input vertex and its quality is that vertex's, bit for

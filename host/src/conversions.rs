@@ -12,8 +12,8 @@ use meshflow_api::host::MeshFileFormat;
 use meshflow_api::raw_mesh;
 use meshflow_codec::pack::{self, PackError};
 use meshflow_codec::quantize::Grid;
-use meshflow_mesh::{MeshData, as_le_bytes_f32, as_le_bytes_u32};
 use meshflow_mesh::attributes::write_canonical;
+use meshflow_mesh::{MeshData, as_le_bytes_f32, as_le_bytes_u32};
 use meshflow_meshio::{self as io, Format};
 
 use crate::blobs::{BlobError, BlobStore};
