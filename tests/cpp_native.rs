@@ -128,13 +128,19 @@ fn edits_a_host_refuses_are_refused_natively_alike_and_a_check_cannot_edit() {
     assert_eq!(native["repeat-corner"].0, "repeated vertex", "{log}");
     assert_eq!(native["move-removed"].0, "invalid vertex", "{log}");
     assert_eq!(native["clear-in-check"].0, "read-only mesh", "{log}");
+    assert_eq!(native["bad-attribute-shape"].0, "invalid argument", "{log}");
+    assert_eq!(native["quality-in-check"].0, "read-only mesh", "{log}");
 
     // On a host: the same services as a component; the same messages.
     make(&project, &[]);
     let plugin = "build/refusals.wasm";
-    for (service, command) in
-        [("repeat-corner", "apply"), ("move-removed", "apply"), ("clear-in-check", "check")]
-    {
+    for (service, command) in [
+        ("repeat-corner", "apply"),
+        ("move-removed", "apply"),
+        ("clear-in-check", "check"),
+        ("bad-attribute-shape", "apply"),
+        ("quality-in-check", "check"),
+    ] {
         let input = bunny();
         let mut args = vec![command, service, &input, "--plugin", plugin];
         if command == "apply" {
@@ -157,4 +163,13 @@ fn edits_a_host_refuses_are_refused_natively_alike_and_a_check_cannot_edit() {
         "edit refused (read-only mesh): clear refused: a check may not edit the mesh"
     );
     assert_eq!(host["value"], value);
+
+    // Attributes written natively and on a host: the same result, to the content hash.
+    let out = meshflow_in(
+        &project,
+        &["apply", "write-attributes", &bunny(), "-o", "written.ply", "--plugin", plugin, "--json"],
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let host: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(host["output_hash"], native["write-attributes"].1, "{log}");
 }

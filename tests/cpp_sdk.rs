@@ -1,7 +1,8 @@
 //! The C++ SDK header (sdk/cpp/include/meshflow.hpp) as a C++ author uses it: every `Mesh`
-//! wrapper of the WIT mesh, `MESHFLOW_TRY`, formatted `fail`, direct parameter getters,
-//! builders on named objects and capturing lambdas (tests/cpp_sdk/api.cpp), built with
-//! `-Wall -Wextra` in a project `meshflow plugin new --lang cpp` wrote, and run by a host.
+//! wrapper of the WIT mesh (attributes included), `MESHFLOW_TRY`, formatted `fail`, direct
+//! parameter getters, builders on named objects and capturing lambdas
+//! (tests/cpp_sdk/api.cpp), built with `-Wall -Wextra` in a project `meshflow plugin new
+//! --lang cpp` wrote, and run by a host.
 
 mod common;
 
@@ -60,6 +61,33 @@ fn every_part_of_the_cpp_header_works_against_a_host() {
     let out = meshflow_in(dir, &["check", "sdk-api-fail", &bunny, "--plugin", &plugin]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && stderr.contains("3674 triangles and a failure"), "{stderr}");
+
+    // Attributes written through the header reach the host's result, and its file.
+    let coloured = dir.join("coloured.ply").display().to_string();
+    let out = meshflow_in(
+        dir,
+        &["apply", "sdk-api-attributes", &bunny, "-o", &coloured, "--plugin", &plugin],
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        stdout.contains("attributes=color:4x0,quality:1x3,label:1x1, same=1 missing=1"),
+        "{stdout}"
+    );
+    let ply = std::fs::read(&coloured).unwrap();
+    let header = String::from_utf8_lossy(&ply[..ply.len().min(600)]);
+    assert!(header.contains("quality") && header.contains("red"), "{header}");
+    // A check reads, and is refused writing.
+    let out = meshflow_in(
+        dir,
+        &["check", "sdk-api-quality-in-check", &coloured, "--plugin", &plugin, "--json"],
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let value: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        value["value"],
+        "edit refused (read-only mesh): set-attribute refused: a check may not edit the mesh"
+    );
 
     let cleared = dir.join("cleared.ply").display().to_string();
     let out =

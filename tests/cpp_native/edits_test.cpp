@@ -11,9 +11,12 @@ int main(int argc, char** argv) {
     auto mesh = meshflow::native::load(argv[1]);
     if (!mesh) return std::fprintf(stderr, "%s\n", mesh.error().message.c_str()), 1;
     int failures = 0;
-    const std::pair<const char*, ErrorKind> refused[] = {{"repeat-corner", ErrorKind::RepeatedVertex},
-                                                         {"move-removed", ErrorKind::InvalidVertex},
-                                                         {"clear-in-check", ErrorKind::ReadOnly}};
+    const std::pair<const char*, ErrorKind> refused[] = {
+        {"repeat-corner", ErrorKind::RepeatedVertex},
+        {"move-removed", ErrorKind::InvalidVertex},
+        {"clear-in-check", ErrorKind::ReadOnly},
+        {"bad-attribute-shape", ErrorKind::InvalidArgument},
+        {"quality-in-check", ErrorKind::ReadOnly}};
     for (auto [service, kind] : refused) {
         auto out = meshflow::native::run(service, *mesh);
         if (out) {
@@ -35,6 +38,13 @@ int main(int argc, char** argv) {
         ++failures;
     } else {
         std::printf("edit-in-check\tvalue\t%s\n", std::get<std::string>(*check->value).c_str());
+    }
+    auto written = meshflow::native::run("write-attributes", *mesh);
+    if (!written || written->report != "2 attributes") {
+        std::fprintf(stderr, "FAILED: write-attributes\n");
+        ++failures;
+    } else {
+        std::printf("write-attributes\thash\t%s\n", written->mesh.hash().c_str());
     }
     return failures ? 1 : 0;
 }

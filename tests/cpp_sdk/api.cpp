@@ -1,5 +1,5 @@
 // Exercises every part of meshflow.hpp against a real host (tests/cpp_sdk.rs): each Mesh
-// wrapper, MESHFLOW_TRY on values and on Result<>, formatted fail(), direct parameter
+// wrapper (attributes included), MESHFLOW_TRY on values and on Result<>, formatted fail(), direct parameter
 // getters, builders on named objects, and capturing lambdas as services.
 #include <meshflow.hpp>
 
@@ -93,6 +93,44 @@ Result<std::string> edits(const Mesh& mesh, const Params& params) {
     return log;
 }
 
+// Every attribute call: typed and generic writes, reads back, a removal, a refusal.
+Result<std::string> attributes(const Mesh& mesh, const Params&) {
+    using meshflow::Domain;
+    uint32_t n = mesh.vertex_slots();
+    if (mesh.quality() || !mesh.attributes().empty()) return meshflow::fail("attributes already");
+    std::vector<float> quality(n);
+    std::vector<std::array<uint8_t, 4>> rgba(n);
+    for (uint32_t v = 0; v < n; ++v) {
+        quality[v] = float(v) / 2;
+        rgba[v] = {uint8_t(v % 256), 128, 0, 255};
+    }
+    MESHFLOW_TRY(mesh.set_quality(std::nullopt, quality));
+    MESHFLOW_TRY(mesh.set_vertex_colors(std::nullopt, rgba));
+    std::vector<uint32_t> first{0};
+    MESHFLOW_TRY(mesh.set_vertex_colors(first, std::vector<std::array<uint8_t, 4>>{{1, 2, 3, 4}}));
+    std::vector<int32_t> labels(mesh.triangle_slots(), -7);
+    MESHFLOW_TRY(mesh.set_attribute(Domain::Face, "label", 1, std::nullopt, labels));
+    MESHFLOW_TRY(mesh.set_attribute(Domain::Face, "scratch", 2, std::nullopt,
+                                    std::vector<double>(2 * mesh.triangle_slots(), 0.5)));
+    MESHFLOW_TRY(mesh.remove_attribute(Domain::Face, "scratch"));
+    // A wrong shape is refused with the host's reason.
+    auto wrong = mesh.set_attribute(Domain::Vertex, "quality", 2, std::nullopt, quality);
+    if (wrong || wrong.error().kind != meshflow::ErrorKind::InvalidArgument)
+        return meshflow::fail("a 2-component quality was accepted");
+
+    std::string names;
+    for (auto& a : mesh.attributes()) names += std::format("{}:{}x{},", a.name, a.components, int(a.type));
+    auto back = mesh.quality();
+    auto colours = mesh.vertex_colors();
+    auto label = mesh.read_attribute(Domain::Face, "label");
+    bool same = back && *back == quality && colours && (*colours)[0] == std::array<uint8_t, 4>{1, 2, 3, 4} &&
+                (*colours)[1] == rgba[1] && label && std::get<std::vector<int32_t>>(*label) == labels;
+    // Generic values read and written back unchanged.
+    MESHFLOW_TRY(mesh.set_attribute(Domain::Face, "label", 1, std::nullopt, *label));
+    return std::format("attributes={} same={} missing={}", names, int(same),
+                       int(!mesh.read_attribute(Domain::Corner, "texcoord")));
+}
+
 }  // namespace
 
 std::vector<meshflow::Service> services() {
@@ -114,6 +152,15 @@ std::vector<meshflow::Service> services() {
         edit,
         Service::check("sdk-api-fail", "Fails, saying how many triangles.",
                        meshflow::ValueType::Text, fails),
+        Service::filter("sdk-api-attributes", "Every attribute call.", attributes),
+        Service::check("sdk-api-quality-in-check", "Writes quality in a check; the refusal.",
+                       meshflow::ValueType::Text,
+                       [](const Mesh& mesh, const Params&) -> Result<meshflow::Value> {
+                           std::vector<float> q(mesh.vertex_slots(), 1.0f);
+                           auto refused = mesh.set_quality(std::nullopt, q);
+                           if (refused) return meshflow::fail("a check wrote quality");
+                           return meshflow::Value{refused.error().message};
+                       }),
         Service::filter("sdk-api-clear", "Removes everything.",
                         [](const Mesh& mesh, const Params&) -> Result<std::string> {
                             MESHFLOW_TRY(mesh.clear());
