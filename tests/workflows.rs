@@ -643,19 +643,26 @@ async fn colours_and_quality_survive_the_repair_by_corrections_replays_and_full_
         panic!("the result lost its quality");
     };
     // A survivor's colour names its input vertex and its quality is that vertex's, bit for
-    // bit; a vertex the repair made has a blend of its parents' values.
+    // bit; a vertex the repair made comes after the survivors, with a blend of its parents'
+    // values. That blend may be one input vertex's exactly (fill-holes gives a vertex whose
+    // only neighbour nearer the hole's boundary is one boundary vertex that vertex's
+    // values), so a survivor is the first vertex to name its input vertex.
+    let mut named = vec![false; n];
     let survivors: Vec<usize> = colours
         .chunks_exact(4)
         .zip(&kept_quality)
         .filter_map(|(c, q)| {
             let index = (usize::from(c[0]) << 16) | (usize::from(c[1]) << 8) | usize::from(c[2]);
-            (index < n && q.to_bits() == quality[index].to_bits()).then_some(index)
+            let first = index < n && !std::mem::replace(&mut named[index], true);
+            (first && q.to_bits() == quality[index].to_bits()).then_some(index)
         })
         .collect();
     assert!(survivors.windows(2).all(|w| w[0] < w[1]), "survivors keep their order");
     let survivors = survivors.len();
     assert!(survivors > n * 9 / 10, "{survivors} of {n} input vertices recognised");
     assert!(survivors < result.vertex_count(), "fill-holes made vertices");
+    // Every colour blends the input's, whose red is 0: none is the default white.
+    assert!(colours.chunks_exact(4).all(|c| c[0] == 0 && c[3] == 255));
     let carried = record["steps"].as_array().unwrap().last().unwrap()["attributes"].to_string();
     assert!(carried.contains("vertex color") && carried.contains("vertex quality"), "{carried}");
 }
