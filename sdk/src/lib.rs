@@ -22,6 +22,12 @@
 //! meshflow_plugin_sdk::export_plugin!(services);
 //! ```
 //!
+//! Colours, normals, quality, texture coordinates and other per-vertex, per-face or
+//! per-corner numbers are read and written whole ([`Mesh::attributes`],
+//! [`Mesh::vertex_colors`], [`Mesh::set_quality`], [`Mesh::read_attribute`],
+//! [`Mesh::set_attribute`]); a service that makes vertices with `add-vertices` gives them
+//! values with [`blend_new_vertex_attributes`] (see [`attributes`]).
+//!
 //! Algorithms are best written as pure functions over the flat arrays
 //! ([`Mesh::positions`], [`Mesh::triangles`]); [`topology`] and [`geometry`] provide what
 //! most of them need, and work natively too, so they can be tested with `cargo test`.

@@ -4,7 +4,8 @@
 //
 //   - `meshflow::Mesh`: the host's mesh, read as spans-ready vectors of floats and ids,
 //     edited in bulk; every edit is recorded by the host, a refused one comes back as an
-//     error value;
+//     error value; its attributes (colours, quality, normals, texture coordinates, other
+//     numbers by name) read and written whole;
 //   - `meshflow::Service`, `meshflow::Param`: services and typed parameters described in
 //     code; `meshflow::Params` reads them;
 //   - `MESHFLOW_EXPORT_PLUGIN(services)`: exports a `std::vector<Service> services()`.
