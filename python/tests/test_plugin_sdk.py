@@ -205,3 +205,30 @@ def test_attributes_read_write_and_blend(with_mesh_types):
     with pytest.raises(mp.MeshError) as e:
         check.set_quality([0.0, 0.0, 0.0])
     assert e.value.kind == "read-only"
+
+
+def test_native_mesh_attributes(sdk):
+    mp, t, Err = sdk
+    from array import array
+
+    @mp.filter("height-quality-py", "Writes the height as quality.")
+    def height(mesh, params):
+        p = mesh.positions()
+        mesh.set_quality(p[2::3])
+        colours = mesh.vertex_colors()
+        return f"{len(mesh.quality())} {colours is None}"
+
+    mesh = mp.NativeMesh([0, 0, 0, 1, 0, 1, 0, 1, 2], [0, 1, 2])
+    assert mp.run_native("height-quality-py", mesh) == (None, "3 True")
+    assert mesh.quality().tolist() == [0.0, 1.0, 2.0]
+    mesh.set_vertex_colors([1, 2, 3, 4], ids=[1])
+    assert mesh.vertex_colors().tolist() == [255] * 4 + [1, 2, 3, 4] + [255] * 4
+    assert mesh.attributes() == [mp.AttributeInfo("vertex", "color", 4, "u8"),
+                                 mp.AttributeInfo("vertex", "quality", 1, "f32")]
+    assert mp.blend_new_vertex_attributes(mesh, [(2, [(0, 1.0), (1, 3.0)])]) == 2
+    assert mesh.quality().tolist() == [0.0, 1.0, 0.75]
+    assert mesh.vertex_colors()[8:].tolist() == [65, 65, 66, 67]  # 64.5 rounds away from 0
+    with pytest.raises(mp.MeshError):
+        mesh.set_quality([1.0])
+    mesh.remove_attribute("vertex", "color")
+    assert mesh.vertex_colors() is None

@@ -407,14 +407,18 @@ class Mesh:
 
 # ---- native runs (plain CPython, for unit tests of an algorithm) -----------------------------
 class NativeMesh:
-    """A stand-in for the host's mesh in plain CPython, with the bulk reads and the
-    position edits (``set_positions``, ``move_vertices``, ``transform``): enough to test a
-    smoothing or deformation service with pytest before building the component."""
+    """A stand-in for the host's mesh in plain CPython, with the bulk reads, the
+    position edits (``set_positions``, ``move_vertices``, ``transform``) and attributes
+    (``attributes_by_name``, read and written as :class:`Mesh` does): enough to test a
+    smoothing, deformation or quality-writing service with pytest before building the
+    component."""
 
-    def __init__(self, positions, triangles):
+    def __init__(self, positions, triangles, attributes=None):
         self._p = array("f", positions)
         self._t = array("I", triangles)
         self.edits = 0
+        # (domain, name) -> (components, array): e.g. {("vertex", "quality"): (1, array("f", ...))}
+        self.attributes_by_name = dict(attributes or {})
 
     def vertex_slots(self): return len(self._p) // 3
     def triangle_slots(self): return len(self._t) // 3
@@ -442,6 +446,48 @@ class NativeMesh:
                                         m[4] * x + m[5] * y + m[6] * z + m[7],
                                         m[8] * x + m[9] * y + m[10] * z + m[11])
         self.edits += 1
+
+
+    # attributes, as Mesh has them (no shape checks beyond the element count)
+    def attributes(self) -> list[AttributeInfo]:
+        order = {"vertex": 0, "face": 1, "corner": 2}
+        return [AttributeInfo(d, n, c, _NUMBER_TYPES[v.typecode])
+                for (d, n), (c, v) in sorted(self.attributes_by_name.items(),
+                                             key=lambda kv: (order[kv[0][0]], kv[0][1]))]
+
+    def read_attribute(self, domain: str, name: str) -> array | None:
+        found = self.attributes_by_name.get((domain, name))
+        return None if found is None else array(found[1].typecode, found[1])
+
+    def set_attribute(self, domain: str, name: str, components: int, values, ids=None,
+                      number_type: str | None = None) -> None:
+        if not isinstance(values, array):
+            values = array(_TYPECODES[number_type or "f32"], values)
+        slots = {"vertex": self.vertex_slots(), "face": self.triangle_slots(),
+                 "corner": 3 * self.triangle_slots()}[domain]
+        count = slots if ids is None else len(ids)
+        if len(values) != components * count:
+            raise MeshError("invalid-argument", f"{count} elements need {components * count} numbers, got {len(values)}")
+        if ids is None:
+            self.attributes_by_name[(domain, name)] = (components, array(values.typecode, values))
+        else:
+            default = 255 if (domain, name) == ("vertex", "color") else 0
+            _, old = self.attributes_by_name.get(
+                (domain, name), (components, array(values.typecode, [default] * (components * slots))))
+            for j, i in enumerate(ids):
+                old[components * i:components * (i + 1)] = values[components * j:components * (j + 1)]
+            self.attributes_by_name[(domain, name)] = (components, old)
+        self.edits += 1
+
+    def remove_attribute(self, domain: str, name: str) -> None:
+        if self.attributes_by_name.pop((domain, name), None) is None:
+            raise MeshError("not-applicable", f"the mesh has no {domain} attribute {name}")
+        self.edits += 1
+
+    vertex_colors = Mesh.vertex_colors
+    set_vertex_colors = Mesh.set_vertex_colors
+    quality = Mesh.quality
+    set_quality = Mesh.set_quality
 
 
 def run_native(name: str, mesh: NativeMesh, **params: Any):
