@@ -10,6 +10,14 @@
 //! result's packed (.mfm) and binary PLY + zstd-19 bytes, and encode / apply / pack /
 //! unpack times (best of a few runs). The scan runs twice: as generated, and quantised to
 //! 16 bits per axis at ingest (`--quantize 16`), each step snapped back onto the grid.
+//!
+//! `cargo bench --bench corrections -- attributes` measures instead what attributes cost
+//! (issue 35): the scan and the bunny given per-vertex colours (a smooth function of
+//! position plus noise) and quality, with and without them (and with normals, which the
+//! store recomputes): `.mfm` size and times, the edit logs of an RSC and an LS step, and
+//! the time the store takes for the step. `MESHFLOW_ATTRIBUTE_MESHES=a.ply:b.ply` adds
+//! meshes from outside the repository: each attribute's packed bytes beside zstd-19 of its
+//! raw bytes.
 
 mod common;
 
@@ -24,6 +32,7 @@ use meshflow_codec::quantize::{self, Grid};
 use meshflow_codec::{correction, pack};
 use meshflow_generate::{ScanSpec, scan};
 use meshflow_mesh::MeshData;
+use meshflow_mesh::attributes::{Attribute, Domain, NORMAL};
 use meshflow_mesh::store::{MeshStore, Op};
 use meshflow_meshio as io;
 use meshflow_plugin_smoothing::laplacian::{Pinning, Weights, smooth};
@@ -218,7 +227,242 @@ fn steps(name: &'static str, input: MeshData, grid: Option<Grid>, rows: &mut Vec
     }
 }
 
+/// `mesh` with per-vertex colours, a smooth function of position plus noise (a shared
+/// brightness noise of ±3 and ±2 per channel, as a photo's), and a scanner-like quality
+/// (smooth, plus noise of about 1 % in its low bits); with `normals`, normals too (zero:
+/// the store recomputes those a step changes).
+fn paint(mesh: &MeshData, normals: bool) -> MeshData {
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut noise = |n: u64| {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state % (2 * n + 1)) as f32 - n as f32
+    };
+    let (v, t) = (mesh.vertex_count(), mesh.triangle_count());
+    let p = &mesh.positions;
+    // Scaled to the mesh, so colour changes across the surface as on a scan of an object.
+    let (lo, hi) = p.chunks_exact(3).fold(([f32::MAX; 3], [f32::MIN; 3]), |(lo, hi), q| {
+        (std::array::from_fn(|k| lo[k].min(q[k])), std::array::from_fn(|k| hi[k].max(q[k])))
+    });
+    let size = (0..3).map(|k| hi[k] - lo[k]).fold(0.0f32, f32::max).max(f32::MIN_POSITIVE);
+    let unit = |i: usize, k: usize| (p[3 * i + k] - lo[k]) / size;
+    let mut colour = Vec::with_capacity(4 * v);
+    let mut quality = Vec::with_capacity(v);
+    for i in 0..v {
+        let (x, y, z) = (unit(i, 0), unit(i, 1), unit(i, 2));
+        let shared = noise(3);
+        let smooth = [
+            128.0 + 90.0 * (6.0 * x).sin(),
+            128.0 + 80.0 * (5.0 * y + 2.0 * z).cos(),
+            110.0 + 60.0 * (9.0 * x * z).sin(),
+        ];
+        for c in smooth {
+            colour.push((c + shared + noise(2)).clamp(0.0, 255.0) as u8);
+        }
+        colour.push(255);
+        quality.push(0.6 + 0.3 * (4.0 * y).sin() + 0.004 * (noise(1000) / 1000.0));
+    }
+    let mut painted = mesh.clone();
+    let a = &mut painted.attributes;
+    a.insert(Attribute::color(colour), v, t).expect("one colour per vertex");
+    a.insert(Attribute::quality(quality), v, t).expect("one quality per vertex");
+    if normals {
+        a.insert(Attribute::normal(vec![0.0; 3 * v]), v, t).expect("one normal per vertex");
+    }
+    painted
+}
+
+/// Unit vertex normals weighted by each corner's angle, in f64 with the system's `acos`
+/// (what Blender writes), rounded to f32.
+fn angle_weighted_normals(mesh: &MeshData) -> Vec<f32> {
+    let p = |v: u32| -> [f64; 3] {
+        std::array::from_fn(|k| f64::from(mesh.positions[3 * v as usize + k]))
+    };
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let cross = |u: [f64; 3], w: [f64; 3]| {
+        [u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]]
+    };
+    let length = |u: [f64; 3]| (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+    let mut sums = vec![[0.0f64; 3]; mesh.vertex_count()];
+    for c in mesh.triangles.chunks_exact(3) {
+        let n = cross(sub(p(c[1]), p(c[0])), sub(p(c[2]), p(c[0])));
+        let l = length(n);
+        if l == 0.0 {
+            continue;
+        }
+        for k in 0..3 {
+            let (a, b, d) = (c[k], c[(k + 1) % 3], c[(k + 2) % 3]);
+            let (u, w) = (sub(p(b), p(a)), sub(p(d), p(a)));
+            let cos = (u[0] * w[0] + u[1] * w[1] + u[2] * w[2]) / (length(u) * length(w));
+            let angle = cos.clamp(-1.0, 1.0).acos();
+            (0..3).for_each(|i| sums[a as usize][i] += angle * n[i] / l);
+        }
+    }
+    sums.iter()
+        .flat_map(|s| {
+            let l = length(*s);
+            if l > 0.0 { s.map(|x| (x / l) as f32) } else { [0.0, 0.0, 1.0] }
+        })
+        .collect()
+}
+
+fn zstd19(bytes: &[u8]) -> usize {
+    zstd::bulk::compress(bytes, 19).expect("in-memory compression").len()
+}
+
+/// One attribute's bytes: raw, packed (the packed mesh less the one without it), and
+/// zstd-19 of the raw little-endian bytes; and its element count.
+struct AttributeSize {
+    name: String,
+    raw: usize,
+    packed: usize,
+    zstd: usize,
+    elements: usize,
+}
+
+fn attribute_sizes(mesh: &MeshData) -> Vec<AttributeSize> {
+    let packed = pack::encode(mesh).expect("packs").len();
+    mesh.attributes
+        .iter()
+        .map(|a| {
+            let mut without = mesh.clone();
+            without.attributes.remove(a.domain, &a.name);
+            let cost = packed - pack::encode(&without).expect("packs").len();
+            let raw = a.values.to_le_bytes();
+            let ty = a.values.number_type().name();
+            AttributeSize {
+                name: format!("{} {} ({} × {ty})", a.domain.name(), a.name, a.components),
+                raw: raw.len(),
+                packed: cost,
+                zstd: zstd19(&raw),
+                elements: a.element_count(),
+            }
+        })
+        .collect()
+}
+
+fn print_size(s: &AttributeSize) {
+    let bits = 8.0 * s.packed as f64 / s.elements.max(1) as f64;
+    println!(
+        "    {:<30} raw {:>9}  packed {:>9} ({bits:5.2} bit/element)  zstd-19 {:>9}",
+        s.name, s.raw, s.packed, s.zstd
+    );
+}
+
+/// The attribute figures (see the module notes).
+fn attributes_bench() {
+    let bunny = io::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data/bunny.obj"))
+        .expect("the bunny ships with the repository");
+    let spec = ScanSpec { vertices: 1_000_000, components: 150, holes: 40, noise: 0.2, seed: 11 };
+    let scan = scan(&spec);
+    println!("packed meshes (.mfm), best of {RUNS}:");
+    println!(
+        "{:<8} {:<26} {:>10} {:>9} {:>9} {:>10} {:>10}",
+        "mesh", "carries", "mfm B", "pack ms", "unpack ms", "attr B", "zstd-19 B"
+    );
+    for (name, mesh) in [("bunny", &bunny), ("scan 1M", &scan)] {
+        let painted = paint(mesh, true);
+        let (v, t) = (mesh.vertex_count(), mesh.triangle_count());
+        // Normals as the store computes them (area-weighted), after any step that moves.
+        let mut store = MeshStore::new(painted.clone());
+        let identity = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        store.apply(Op::Transform { matrix: identity }).expect("an affine map");
+        let stored = store.finish().0;
+        let normal = stored.attributes.get(Domain::Vertex, NORMAL).expect("kept");
+        assert!(normal.values.to_le_bytes().iter().any(|&b| b != 0), "recomputed");
+        // Normals as other tools write them (Blender: angle-weighted).
+        let mut angled = painted.clone();
+        let normals = Attribute::normal(angle_weighted_normals(mesh));
+        angled.attributes.insert(normals, v, t).expect("one normal per vertex");
+        let variants = [
+            ("positions, triangles", mesh.clone()),
+            ("+ colour, quality", paint(mesh, false)),
+            ("+ c, q, store's normal", stored),
+            ("+ c, q, angle-w. normal", angled),
+        ];
+        for (carries, m) in variants {
+            let (pack_time, packed) = best(RUNS, || pack::encode(&m).expect("packs"));
+            let (unpack, unpacked) = best(RUNS, || pack::decode(&packed).expect("unpacks"));
+            assert_eq!(unpacked.content_hash(), m.content_hash());
+            let raw: usize = m.attributes.iter().map(|a| a.values.to_le_bytes().len()).sum();
+            let sizes = attribute_sizes(&m);
+            let attr: usize = sizes.iter().map(|s| s.packed).sum();
+            let zstd: usize = sizes.iter().map(|s| s.zstd).sum();
+            println!(
+                "{name:<8} {carries:<26} {:>10} {:>9.1} {:>9.1} {:>10} {:>10}   raw {raw}",
+                packed.len(),
+                ms(pack_time),
+                ms(unpack),
+                attr,
+                zstd
+            );
+            for s in sizes {
+                print_size(&s);
+            }
+        }
+    }
+
+    println!("\nsteps: edit log (.mfc) bytes and the store's time for the step, best of {RUNS}:");
+    println!(
+        "{:<8} {:<6} {:<26} {:>9} {:>10} {:>9} {:>9} {:>9}",
+        "mesh", "step", "carries", "edits", "mfc B", "store ms", "enc ms", "apply ms"
+    );
+    type Step = fn(&mut MeshStore, &MeshData);
+    let steps: [(&str, Step); 2] =
+        [("RSC", |s, _| rsc(s)), ("LS(1)", |s, m| ls(s, m, Weights::Uniform))];
+    for (name, mesh) in [("bunny", &bunny), ("scan 1M", &scan)] {
+        let variants = [
+            ("positions, triangles", mesh.clone()),
+            ("+ colour, quality", paint(mesh, false)),
+            ("+ colour, quality, normal", paint(mesh, true)),
+        ];
+        for (step, edit) in steps {
+            for (carries, m) in &variants {
+                let shared = Arc::new(m.clone());
+                let (store_time, (result, log)) = best(RUNS, || {
+                    let mut store = MeshStore::new(Arc::clone(&shared));
+                    edit(&mut store, m);
+                    store.finish()
+                });
+                let (encode, bytes) =
+                    best(RUNS, || correction::encode(m, &log, &result).expect("encodes"));
+                let (apply, applied) =
+                    best(RUNS, || correction::apply(Arc::clone(&shared), &bytes).expect("applies"));
+                assert_eq!(applied.content_hash(), result.content_hash());
+                if m.attributes.get(Domain::Vertex, NORMAL).is_some() && step == "LS(1)" {
+                    assert_ne!(result.attributes, m.attributes, "normals recomputed");
+                }
+                let edits: usize = log.iter().map(|op| op.edit_count()).sum();
+                println!(
+                    "{name:<8} {step:<6} {carries:<26} {edits:>9} {:>10} {:>9.1} {:>9.1} {:>9.1}",
+                    bytes.len(),
+                    ms(store_time),
+                    ms(encode),
+                    ms(apply)
+                );
+            }
+        }
+    }
+
+    let Ok(paths) = std::env::var("MESHFLOW_ATTRIBUTE_MESHES") else { return };
+    println!(
+        "\nmeshes from outside the repository: each attribute packed and as zstd-19 of its raw bytes:"
+    );
+    for path in paths.split(':').filter(|p| !p.is_empty()) {
+        let mesh = io::load(Path::new(path)).expect("a mesh file");
+        println!("{path}: {} vertices, {} triangles", mesh.vertex_count(), mesh.triangle_count());
+        for s in attribute_sizes(&mesh) {
+            print_size(&s);
+        }
+    }
+}
+
 fn main() {
+    if std::env::args().any(|a| a == "attributes") {
+        attributes_bench();
+        return;
+    }
     let mut rows = Vec::new();
     let bunny = io::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data/bunny.obj"))
         .expect("the bunny ships with the repository");

@@ -4,6 +4,7 @@
 use std::sync::Arc;
 
 use meshflow_mesh::as_le_bytes_f32;
+use meshflow_mesh::attributes::Values;
 use meshflow_mesh::store::{MeshStore, Op};
 use meshflow_mesh::{ContentHash, MeshData};
 
@@ -285,8 +286,26 @@ impl Encoder {
 fn same_bytes(a: &MeshData, b: &MeshData) -> bool {
     a.triangles == b.triangles
         && as_le_bytes_f32(&a.positions) == as_le_bytes_f32(&b.positions)
-        && (a.attributes.is_empty() && b.attributes.is_empty()
-            || a.content_hash() == b.content_hash())
+        && a.attributes.materials == b.attributes.materials
+        && a.attributes.len() == b.attributes.len()
+        && a.attributes.iter().zip(b.attributes.iter()).all(|(x, y)| {
+            (x.domain, &x.name, x.components) == (y.domain, &y.name, y.components)
+                && same_values(&x.values, &y.values)
+        })
+}
+
+/// Bit-identical values, compared in place (hashing both meshes took longer).
+fn same_values(a: &Values, b: &Values) -> bool {
+    match (a, b) {
+        (Values::U8(x), Values::U8(y)) => x == y,
+        (Values::I32(x), Values::I32(y)) => x == y,
+        (Values::U32(x), Values::U32(y)) => x == y,
+        (Values::F32(x), Values::F32(y)) => as_le_bytes_f32(x) == as_le_bytes_f32(y),
+        (Values::F64(x), Values::F64(y)) => {
+            x.len() == y.len() && x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits())
+        }
+        _ => false,
+    }
 }
 
 fn at(positions: &[f32], v: u32) -> [f32; 3] {

@@ -433,8 +433,9 @@ fn atan(x: f64) -> f64 {
     offset + (z * zz * p / q + z)
 }
 
-/// Elements the encoder's choice of predictor looks at, at most.
+/// Elements the encoder's choice of predictor looks at, at most, in runs of [`RUN`].
 const SAMPLE: usize = 1 << 16;
+const RUN: usize = 1 << 10;
 
 /// Codes `values` (`components` numbers per element of `domain`).
 pub(super) fn write<T: Number>(
@@ -484,17 +485,32 @@ pub(super) fn read<T: Number>(
     Ok(values)
 }
 
-/// Per element and component in coding order, the rank of its value among the component's
-/// recent values before it, or [`MISS`].
+/// The positions in coding order the encoder's choice looks at: all of a small attribute,
+/// else [`SAMPLE`] of them in runs of [`RUN`] spread over the whole (runs, so that recent
+/// values are judged as the coder meets them).
+fn sample(count: usize) -> Vec<usize> {
+    if count <= SAMPLE {
+        return (0..count).collect();
+    }
+    let runs = SAMPLE / RUN;
+    (0..runs).flat_map(|r| (0..RUN).map(move |i| r * (count - RUN) / (runs - 1) + i)).collect()
+}
+
+/// Per sampled position and component, the rank of its value among the component's recent
+/// values before it in its run, or [`MISS`].
 fn recent_ranks<T: Number>(
     geometry: &Geometry,
     domain: Domain,
     components: usize,
     values: &[T],
+    sample: &[usize],
 ) -> Vec<u8> {
     let mut recent: Vec<Recent> = (0..components).map(|_| Recent::default()).collect();
-    let mut ranks = Vec::with_capacity(values.len());
-    for i in 0..geometry.count(domain) {
+    let mut ranks = Vec::with_capacity(sample.len() * components);
+    for (s, &i) in sample.iter().enumerate() {
+        if s > 0 && sample[s - 1] + 1 != i {
+            recent.iter_mut().for_each(|r| r.0.clear());
+        }
         let e = geometry.element(domain, i);
         for (k, recent) in recent.iter_mut().enumerate() {
             let x = values[components * e + k].image();
@@ -506,7 +522,7 @@ fn recent_ranks<T: Number>(
 }
 
 /// The predictor and mask (recent values, decorrelated components) with the smallest
-/// residuals for `values`.
+/// residuals for `values`, judged on a [`sample`] of them.
 pub(super) fn choose<T: Number>(
     geometry: &Geometry,
     domain: Domain,
@@ -514,26 +530,30 @@ pub(super) fn choose<T: Number>(
     float: bool,
     values: &[T],
 ) -> (Predictor, u8) {
-    let ranks = recent_ranks(geometry, domain, components, values);
     let count = geometry.count(domain);
+    let sample = sample(count);
+    let ranks = recent_ranks(geometry, domain, components, values, &sample);
+    let n = sample.len() as f64;
     let mut best = (f64::INFINITY, Predictor::Zero, 0u8);
     for predictor in Predictor::candidates(domain, components, float) {
         // Per component: without and with decorrelation.
         let mut costs = [[Costs::default(); 2]; MAX_COMPONENTS];
         let mut predictions = Predictions::new(geometry, domain, predictor, components);
-        // Large attributes are judged on a sample of their elements.
-        let stride = match predictions.random_access() {
-            true => count.div_ceil(SAMPLE).max(1),
-            false => 1,
-        };
-        let n = count.div_ceil(stride) as f64;
-        for i in (0..count).step_by(stride) {
+        let mut next = 0; // the next position to predict, for predictors that remember
+        for (s, &i) in sample.iter().enumerate() {
+            if !predictions.random_access() {
+                while next < i {
+                    predictions.at(values, next);
+                    next += 1;
+                }
+                next += 1;
+            }
             let e = geometry.element(domain, i);
             let base = predictions.at(values, i);
             let mut previous = 0;
             for k in 0..components {
                 let actual = values[components * e + k].image();
-                let rank = ranks[components * i + k];
+                let rank = ranks[components * s + k];
                 costs[k][0].add(zigzag(difference::<T>(actual, base[k])), rank);
                 if k > 0 {
                     let predicted = adjusted::<T>(base[k], k, 1 << k, previous);
