@@ -113,6 +113,13 @@ impl<'a> Geometry<'a> {
         Self { positions, triangles, around, order, rank }
     }
 
+    /// The triangles around `a` or around `b`, whichever are fewer: where to look for the
+    /// triangles on edge `a b`.
+    fn shorter(&self, a: u32, b: u32) -> &[u32] {
+        let (around_a, around_b) = (self.around.of(a), self.around.of(b));
+        if around_a.len() <= around_b.len() { around_a } else { around_b }
+    }
+
     /// Elements of `domain`.
     pub(super) fn count(&self, domain: Domain) -> usize {
         domain.len(self.order.len(), self.triangles.len() / 3)
@@ -310,10 +317,10 @@ impl<'g, 'a> Predictions<'g, 'a> {
             if a == b || !known(a) || !known(b) {
                 continue;
             }
-            let opposite = g.around.of(a).iter().filter(|&&u| u != t).find_map(|&u| {
+            let opposite = g.shorter(a, b).iter().take(SCAN).filter(|&&u| u != t).find_map(|&u| {
                 let d = corners(u);
                 let third = d.iter().copied().find(|&x| x != a && x != b)?;
-                (d.contains(&b) && known(third)).then_some(third)
+                (d.contains(&a) && d.contains(&b) && known(third)).then_some(third)
             });
             if let Some(o) = opposite {
                 let at = |x: u32, k: usize| values[n * x as usize + k].value();
@@ -351,12 +358,12 @@ impl<'g, 'a> Predictions<'g, 'a> {
             if a == b {
                 continue;
             }
-            for &s in g.around.of(a) {
+            for &s in g.shorter(a, b).iter().take(SCAN) {
                 if s as usize >= t {
                     break; // ascending
                 }
                 let d = &g.triangles[3 * s as usize..3 * s as usize + 3];
-                if d.contains(&b) && !self.sources.contains(&(s as usize)) {
+                if d.contains(&a) && d.contains(&b) && !self.sources.contains(&(s as usize)) {
                     self.sources.push(s as usize);
                 }
             }
@@ -433,6 +440,9 @@ fn atan(x: f64) -> f64 {
     offset + (z * zz * p / q + z)
 }
 
+/// Triangles looked at for the ones across an edge, at most: a vertex with a million
+/// triangles (a fan a hostile file may hold) costs no more than a few.
+const SCAN: usize = 64;
 /// Elements the encoder's choice of predictor looks at, at most, in runs of [`RUN`].
 const SAMPLE: usize = 1 << 16;
 const RUN: usize = 1 << 10;
