@@ -133,6 +133,11 @@ fn every_way_of_predicting_set_values_round_trips_and_pays_off() {
         bytes.len(),
         ids.len()
     );
+    // Against a scale of the values before the op, fitted and sent: a quality rescaled as a
+    // service computes it in f32 (two roundings; the prediction rounds once).
+    let rescaled = q.iter().map(|x| x * 0.9 + 0.01).collect();
+    let (_, bytes) = step(&base, set("quality", 1, None, Values::F32(rescaled)));
+    assert!(bytes.len() < v / 4, "{} bytes for {v} rescaled qualities", bytes.len());
     // Against the value before in the op: new vertices, one colour each, a ramp.
     let ramp = |s: &mut MeshStore| {
         let first = s.vertex_slots();

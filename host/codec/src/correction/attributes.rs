@@ -6,7 +6,8 @@
 //! prediction ([`numbers`](super::coding::numbers), models kept per number type and
 //! component count across the correction's ops). The encoder picks the predictor whose
 //! residuals are smallest:
-//! - the element's value before the op (a filter that adjusts a quality);
+//! - the element's value before the op (a filter that adjusts a quality), or `a x + b` of
+//!   it, `a` and `b` fitted to the op and sent with it (a quality rescaled);
 //! - the value before it in the op (new vertices blended from their neighbours come in the
 //!   order they were made, close together);
 //! - for a set of every vertex slot, a packed mesh's predictors with the vertices in id order
@@ -37,6 +38,9 @@ const SAMPLE: usize = 1 << 16;
 enum Predictor {
     /// The element's value before the op.
     Current,
+    /// `a x + b` of the element's value `x` before the op, `a` and `b` fitted to the op and
+    /// sent: a quality rescaled, a colour brightened.
+    Scaled,
     Previous,
     Zero,
     /// For a set of every vertex slot: a packed mesh's predictor, the vertices in id order.
@@ -57,8 +61,9 @@ impl Predictor {
             Predictor::Current => 0,
             Predictor::Previous => 1,
             Predictor::Zero => 2,
+            Predictor::Scaled => 3,
             Predictor::Mesh(p) => {
-                3 + MESH_PREDICTORS.iter().position(|&q| q == p).expect("only these")
+                4 + MESH_PREDICTORS.iter().position(|&q| q == p).expect("only these")
             }
         }
     }
@@ -68,12 +73,13 @@ impl Predictor {
             0 => Predictor::Current,
             1 => Predictor::Previous,
             2 => Predictor::Zero,
-            s => Predictor::Mesh(MESH_PREDICTORS[s - 3]),
+            3 => Predictor::Scaled,
+            s => Predictor::Mesh(MESH_PREDICTORS[s - 4]),
         }
     }
 }
 
-const PREDICTOR_SYMBOLS: usize = 3 + MESH_PREDICTORS.len();
+const PREDICTOR_SYMBOLS: usize = 4 + MESH_PREDICTORS.len();
 
 pub(super) struct AttributeCoder {
     domain: AdaptiveModel,
@@ -159,13 +165,21 @@ impl AttributeCoder {
                 let slots = store.shared_slots();
                 let whole = Whole::new(&slots, *domain, ids.is_none());
                 let mesh = whole.as_ref().map(|w| w.geometry(&slots));
-                let context = Context::new(&slots, (*domain, name, n), ids.as_deref(), &mesh);
+                let mut context = Context::new(&slots, (*domain, name, n), ids.as_deref(), &mesh);
                 let float = matches!(ty, NumberType::F32 | NumberType::F64);
                 macro_rules! typed {
                     ($v:expr, $t:ty) => {{
+                        context.scale = context.fit($v);
                         let choice = choose::<$t>(&context, float, $v);
                         ops.symbol(&mut self.predictor, choice.0.symbol());
                         ops.symbol(&mut self.decorrelate, usize::from(choice.1 >> 1));
+                        if choice.0 == Predictor::Scaled {
+                            let (a, b) = context.scale.expect("chosen only when fitted");
+                            for x in [a, b].map(f64::to_bits) {
+                                geometry.raw(32, x as u32);
+                                geometry.raw(32, (x >> 32) as u32);
+                            }
+                        }
                         let models = self.models::<$t>(ty, n);
                         write_values::<$t>(geometry, models, &context, choice, $v);
                     }};
@@ -223,7 +237,18 @@ impl AttributeCoder {
         let slots = store.shared_slots();
         let whole = Whole::new(&slots, domain, matches!(predictor, Predictor::Mesh(_)));
         let mesh = whole.as_ref().map(|w| w.geometry(&slots));
-        let context = Context::new(&slots, (domain, &name, n), ids.as_deref(), &mesh);
+        let mut context = Context::new(&slots, (domain, &name, n), ids.as_deref(), &mesh);
+        if predictor == Predictor::Scaled {
+            let mut f64_bits = || -> Result<f64, CorruptStream> {
+                let low = u64::from(geometry.raw(32)?);
+                Ok(f64::from_bits(low | u64::from(geometry.raw(32)?) << 32))
+            };
+            let (a, b) = (f64_bits()?, f64_bits()?);
+            if !a.is_finite() || !b.is_finite() {
+                return Err(CorruptStream);
+            }
+            context.scale = Some((a, b));
+        }
         macro_rules! typed {
             ($t:ty, $wrap:path) => {{
                 let models = self.models::<$t>(ty, n);
@@ -274,6 +299,8 @@ struct Context<'a> {
     /// The value of an element the attribute does not cover yet.
     default: f64,
     geometry: &'a Option<Geometry<'a>>,
+    /// `a` and `b` of [`Predictor::Scaled`].
+    scale: Option<(f64, f64)>,
 }
 
 impl<'a> Context<'a> {
@@ -295,7 +322,39 @@ impl<'a> Context<'a> {
             .get(domain, name)
             .filter(|a| usize::from(a.components) == components)
             .map(|a| &a.values);
-        Self { domain, components, ids, current, default: shape.default_value(), geometry }
+        let default = shape.default_value();
+        Self { domain, components, ids, current, default, geometry, scale: None }
+    }
+
+    /// The number `k` of the `j`th element before the op.
+    fn current(&self, j: usize, k: usize) -> f64 {
+        let (n, e) = (self.components, self.ids.map_or(j, |ids| ids[j] as usize));
+        match self.current.filter(|v| n * e + k < v.len()) {
+            Some(v) => v.get(n * e + k),
+            None => self.default,
+        }
+    }
+
+    /// The least-squares `a` and `b` of `new ≈ a current + b` over a sample of the op's
+    /// numbers; `None` without values before the op or when nothing fits.
+    fn fit<T: Number>(&self, values: &[T]) -> Option<(f64, f64)> {
+        self.current?;
+        let n = self.components;
+        let elements = values.len() / n;
+        let stride = elements.div_ceil(SAMPLE).max(1);
+        let (mut count, mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for j in (0..elements).step_by(stride) {
+            for k in 0..n {
+                let (x, y) = (self.current(j, k), values[n * j + k].value());
+                (count, sx, sy, sxx, sxy) = (count + 1.0, sx + x, sy + y, sxx + x * x, sxy + x * y);
+            }
+        }
+        let variance = count * sxx - sx * sx;
+        let a = if variance > 0.0 { (count * sxy - sx * sy) / variance } else { 1.0 };
+        let b = (sy - a * sx) / count;
+        // Rounded to what a service would have written (a scale in f32): exact hits.
+        let (a, b) = (f64::from(a as f32), f64::from(b as f32));
+        (a.is_finite() && b.is_finite()).then_some((a, b))
     }
 
     /// What predicts with `predictor`; `None` where it cannot (a packed mesh's predictor
@@ -332,14 +391,12 @@ impl Predicting<'_, '_> {
                 std::array::from_fn(|k| if k < n { values[n * (j - 1) + k].image() } else { 0 })
             }
             Predictor::Current => {
-                let e = c.ids.map_or(j, |ids| ids[j] as usize);
+                std::array::from_fn(|k| if k < n { T::nearest_image(c.current(j, k)) } else { 0 })
+            }
+            Predictor::Scaled => {
+                let (a, b) = c.scale.unwrap_or((1.0, 0.0));
                 std::array::from_fn(|k| {
-                    let current = c.current.filter(|v| n * e + k < v.len());
-                    match (k < n, current) {
-                        (false, _) => 0,
-                        (true, Some(v)) => T::nearest_image(v.get(n * e + k)),
-                        (true, None) => T::nearest_image(c.default),
-                    }
+                    if k < n { T::nearest_image(a * c.current(j, k) + b) } else { 0 }
                 })
             }
             Predictor::Mesh(_) => self.mesh.as_mut().expect("made with the geometry").at(values, j),
@@ -397,6 +454,9 @@ fn choose<T: Number>(context: &Context, float: bool, values: &[T]) -> (Predictor
     let stride = elements.div_ceil(SAMPLE).max(1);
     let mut best = (f64::INFINITY, Predictor::Zero, 0u8);
     let mut candidates = vec![Predictor::Current, Predictor::Previous, Predictor::Zero];
+    if context.scale.is_some() {
+        candidates.push(Predictor::Scaled);
+    }
     if context.geometry.is_some() {
         let mesh = MeshPredictor::candidates(context.domain, n, float);
         candidates
