@@ -38,6 +38,8 @@ use meshflow_meshio as io;
 use meshflow_plugin_smoothing::laplacian::{Pinning, Weights, smooth};
 
 const RUNS: usize = 3;
+/// The attribute figures compare times within a few percent: more runs on a noisy machine.
+const ATTRIBUTE_RUNS: usize = 7;
 
 fn ply_zstd19(mesh: &MeshData) -> usize {
     let mut ply = Vec::new();
@@ -350,13 +352,169 @@ fn print_size(s: &AttributeSize) {
     );
 }
 
+/// The `set-attribute` ops that give vertices `new` (each with its parents and weights)
+/// values blended from their parents, as `blend_new_vertex_attributes` in the SDK writes
+/// them for every vertex attribute but normals.
+fn blends(mesh: &MeshData, new: &[(u32, [(u32, f64); 2])]) -> Vec<Op> {
+    let ids: Vec<u32> = new.iter().map(|n| n.0).collect();
+    mesh.attributes
+        .iter()
+        .filter(|a| a.domain == Domain::Vertex && a.name != NORMAL)
+        .map(|a| {
+            let per = usize::from(a.components);
+            let mut values = meshflow_mesh::attributes::Values::empty(a.values.number_type());
+            for (_, parents) in new {
+                for k in 0..per {
+                    let x: f64 =
+                        parents.iter().map(|&(p, w)| w * a.values.get(per * p as usize + k)).sum();
+                    values.push(x);
+                }
+            }
+            Op::SetAttribute {
+                domain: Domain::Vertex,
+                name: a.name.clone(),
+                components: a.components,
+                ids: Some(ids.clone()),
+                values,
+            }
+        })
+        .collect()
+}
+
+/// Steps whose service writes attributes (on the painted meshes): their edit logs, the same
+/// steps' without their `set-attribute` ops, and what the values add per element set (the
+/// largest op's elements; the subdivision and midpoints set colour and quality of each).
+fn set_attribute_steps(bunny: &MeshData, scan: &MeshData) {
+    use meshflow_mesh::attributes::Values;
+    use meshflow_plugin_remeshing::loop_subdivision::loop_subdivision;
+    use meshflow_plugin_sdk::topology::halfedge::HalfEdges;
+    use meshflow_plugin_smoothing::curvature::{Kind, curvature};
+
+    println!(
+        "\nsteps that write attributes: edit log bytes with and without them, best of {ATTRIBUTE_RUNS}:"
+    );
+    println!(
+        "{:<8} {:<30} {:>9} {:>10} {:>10} {:>12} {:>9}",
+        "mesh", "step", "elements", "mfc B", "w/o sets B", "bit/element", "enc ms"
+    );
+    type Step = Box<dyn Fn(&mut MeshStore, &MeshData)>;
+    let subdivide: Step = Box::new(|store, m| {
+        let result = loop_subdivision(&m.positions, &m.triangles, 1).expect("manifold");
+        let old = m.positions.len();
+        store.apply(Op::SetPositions { xyz: result.positions[..old].to_vec() }).expect("ok");
+        let first = store.vertex_slots();
+        store.apply(Op::AddVertices { xyz: result.positions[old..].to_vec() }).expect("ok");
+        let new: Vec<(u32, [(u32, f64); 2])> = (first..)
+            .zip(&result.edge_ends)
+            .map(|(v, &[a, b])| (v, [(a, 0.5), (b, 0.5)]))
+            .collect();
+        for op in blends(m, &new) {
+            store.apply(op).expect("blended values");
+        }
+        let all = (0..store.triangle_slots()).collect();
+        store.apply(Op::RemoveTriangles { ids: all }).expect("ok");
+        store.apply(Op::AddTriangles { abc: result.triangles }).expect("ok");
+    });
+    let curvature_as_quality: Step = Box::new(|store, m| {
+        let kinds = HalfEdges::new(m.vertex_count(), &m.triangles);
+        let q = curvature(&m.positions, &m.triangles, kinds.kinds(), Kind::Mean).values;
+        let op = Op::SetAttribute {
+            domain: Domain::Vertex,
+            name: "quality".into(),
+            components: 1,
+            ids: None,
+            values: Values::F32(q),
+        };
+        store.apply(op).expect("one quality per vertex");
+    });
+    let rescale: Step = Box::new(|store, m| {
+        let Some(Values::F32(q)) = m.attributes.get(Domain::Vertex, "quality").map(|a| &a.values)
+        else {
+            return;
+        };
+        let values = Values::F32(q.iter().map(|x| x * 0.9 + 0.01).collect());
+        let op = Op::SetAttribute {
+            domain: Domain::Vertex,
+            name: "quality".into(),
+            components: 1,
+            ids: None,
+            values,
+        };
+        store.apply(op).expect("one quality per vertex");
+    });
+    // New vertices at the midpoint of every third triangle's first edge, blended (as a
+    // service that splits by itself would write them).
+    let midpoints: Step = Box::new(|store, m| {
+        let mut xyz = Vec::new();
+        let mut new = Vec::new();
+        let first = store.vertex_slots();
+        for t in m.triangles.chunks_exact(3).step_by(3) {
+            let (a, b) = (t[0], t[1]);
+            let p = |v: u32, k: usize| m.positions[3 * v as usize + k];
+            xyz.extend((0..3).map(|k| 0.5 * (p(a, k) + p(b, k))));
+            new.push((first + new.len() as u32, [(a, 0.5), (b, 0.5)]));
+        }
+        store.apply(Op::AddVertices { xyz }).expect("finite points");
+        for op in blends(m, &new) {
+            store.apply(op).expect("blended values");
+        }
+    });
+    let steps: [(&str, &MeshData, &str, Step); 5] = [
+        ("bunny", bunny, "loop subdivision (blended)", subdivide),
+        ("scan 1M", scan, "curvature as quality", curvature_as_quality),
+        ("scan 1M", scan, "quality x 0.9 + 0.01", rescale),
+        ("scan 1M", scan, "midpoints, blended", midpoints),
+        ("bunny", bunny, "curvature as quality", {
+            let f: Step = Box::new(|store, m| {
+                let kinds = HalfEdges::new(m.vertex_count(), &m.triangles);
+                let q = curvature(&m.positions, &m.triangles, kinds.kinds(), Kind::Mean).values;
+                let op = Op::SetAttribute {
+                    domain: Domain::Vertex,
+                    name: "quality".into(),
+                    components: 1,
+                    ids: None,
+                    values: Values::F32(q),
+                };
+                store.apply(op).expect("one quality per vertex");
+            });
+            f
+        }),
+    ];
+    for (name, mesh, step, edit) in steps {
+        let painted = paint(mesh, false);
+        let mut store = MeshStore::new(painted.clone());
+        edit(&mut store, &painted);
+        let (result, log) = store.finish();
+        let (encode, bytes) =
+            best(ATTRIBUTE_RUNS, || correction::encode(&painted, &log, &result).expect("encodes"));
+        let applied = correction::apply(painted.clone(), &bytes).expect("applies");
+        assert_eq!(applied.content_hash(), result.content_hash());
+        // The same step without its set-attribute ops.
+        let mut store = MeshStore::new(painted.clone());
+        let sets = |op: &&Op| matches!(op, Op::SetAttribute { .. });
+        for op in log.iter().filter(|op| !sets(op)) {
+            store.apply(op.clone()).expect("replays");
+        }
+        let (bare_result, bare_log) = store.finish();
+        let without = correction::encode(&painted, &bare_log, &bare_result).expect("encodes");
+        let elements: usize = log.iter().filter(sets).map(Op::edit_count).max().unwrap_or(0);
+        let bits = 8.0 * bytes.len().saturating_sub(without.len()) as f64 / elements as f64;
+        println!(
+            "{name:<8} {step:<30} {elements:>9} {:>10} {:>10} {bits:>12.2} {:>9.1}",
+            bytes.len(),
+            without.len(),
+            ms(encode)
+        );
+    }
+}
+
 /// The attribute figures (see the module notes).
 fn attributes_bench() {
     let bunny = io::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/data/bunny.obj"))
         .expect("the bunny ships with the repository");
     let spec = ScanSpec { vertices: 1_000_000, components: 150, holes: 40, noise: 0.2, seed: 11 };
     let scan = scan(&spec);
-    println!("packed meshes (.mfm), best of {RUNS}:");
+    println!("packed meshes (.mfm), best of {ATTRIBUTE_RUNS}:");
     println!(
         "{:<8} {:<26} {:>10} {:>9} {:>9} {:>10} {:>10}",
         "mesh", "carries", "mfm B", "pack ms", "unpack ms", "attr B", "zstd-19 B"
@@ -382,8 +540,8 @@ fn attributes_bench() {
             ("+ c, q, angle-w. normal", angled),
         ];
         for (carries, m) in variants {
-            let (pack_time, packed) = best(RUNS, || pack::encode(&m).expect("packs"));
-            let (unpack, unpacked) = best(RUNS, || pack::decode(&packed).expect("unpacks"));
+            let (pack_time, packed) = best(ATTRIBUTE_RUNS, || pack::encode(&m).expect("packs"));
+            let (unpack, unpacked) = best(ATTRIBUTE_RUNS, || pack::decode(&packed).expect("unpacks"));
             assert_eq!(unpacked.content_hash(), m.content_hash());
             let raw: usize = m.attributes.iter().map(|a| a.values.to_le_bytes().len()).sum();
             let sizes = attribute_sizes(&m);
@@ -403,7 +561,7 @@ fn attributes_bench() {
         }
     }
 
-    println!("\nsteps: edit log (.mfc) bytes and the store's time for the step, best of {RUNS}:");
+    println!("\nsteps: edit log (.mfc) bytes and the store's time for the step, best of {ATTRIBUTE_RUNS}:");
     println!(
         "{:<8} {:<6} {:<26} {:>9} {:>10} {:>9} {:>9} {:>9}",
         "mesh", "step", "carries", "edits", "mfc B", "store ms", "enc ms", "apply ms"
@@ -420,15 +578,15 @@ fn attributes_bench() {
         for (step, edit) in steps {
             for (carries, m) in &variants {
                 let shared = Arc::new(m.clone());
-                let (store_time, (result, log)) = best(RUNS, || {
+                let (store_time, (result, log)) = best(ATTRIBUTE_RUNS, || {
                     let mut store = MeshStore::new(Arc::clone(&shared));
                     edit(&mut store, m);
                     store.finish()
                 });
                 let (encode, bytes) =
-                    best(RUNS, || correction::encode(m, &log, &result).expect("encodes"));
+                    best(ATTRIBUTE_RUNS, || correction::encode(m, &log, &result).expect("encodes"));
                 let (apply, applied) =
-                    best(RUNS, || correction::apply(Arc::clone(&shared), &bytes).expect("applies"));
+                    best(ATTRIBUTE_RUNS, || correction::apply(Arc::clone(&shared), &bytes).expect("applies"));
                 assert_eq!(applied.content_hash(), result.content_hash());
                 if m.attributes.get(Domain::Vertex, NORMAL).is_some() && step == "LS(1)" {
                     assert_ne!(result.attributes, m.attributes, "normals recomputed");
@@ -444,6 +602,8 @@ fn attributes_bench() {
             }
         }
     }
+
+    set_attribute_steps(&bunny, &scan);
 
     let Ok(paths) = std::env::var("MESHFLOW_ATTRIBUTE_MESHES") else { return };
     println!(
