@@ -541,7 +541,8 @@ fn attributes_bench() {
         ];
         for (carries, m) in variants {
             let (pack_time, packed) = best(ATTRIBUTE_RUNS, || pack::encode(&m).expect("packs"));
-            let (unpack, unpacked) = best(ATTRIBUTE_RUNS, || pack::decode(&packed).expect("unpacks"));
+            let (unpack, unpacked) =
+                best(ATTRIBUTE_RUNS, || pack::decode(&packed).expect("unpacks"));
             assert_eq!(unpacked.content_hash(), m.content_hash());
             let raw: usize = m.attributes.iter().map(|a| a.values.to_le_bytes().len()).sum();
             let sizes = attribute_sizes(&m);
@@ -561,7 +562,9 @@ fn attributes_bench() {
         }
     }
 
-    println!("\nsteps: edit log (.mfc) bytes and the store's time for the step, best of {ATTRIBUTE_RUNS}:");
+    println!(
+        "\nsteps: edit log (.mfc) bytes and the store's time for the step, best of {ATTRIBUTE_RUNS}:"
+    );
     println!(
         "{:<8} {:<6} {:<26} {:>9} {:>10} {:>9} {:>9} {:>9}",
         "mesh", "step", "carries", "edits", "mfc B", "store ms", "enc ms", "apply ms"
@@ -585,8 +588,9 @@ fn attributes_bench() {
                 });
                 let (encode, bytes) =
                     best(ATTRIBUTE_RUNS, || correction::encode(m, &log, &result).expect("encodes"));
-                let (apply, applied) =
-                    best(ATTRIBUTE_RUNS, || correction::apply(Arc::clone(&shared), &bytes).expect("applies"));
+                let (apply, applied) = best(ATTRIBUTE_RUNS, || {
+                    correction::apply(Arc::clone(&shared), &bytes).expect("applies")
+                });
                 assert_eq!(applied.content_hash(), result.content_hash());
                 if m.attributes.get(Domain::Vertex, NORMAL).is_some() && step == "LS(1)" {
                     assert_ne!(result.attributes, m.attributes, "normals recomputed");
