@@ -43,6 +43,8 @@ fn browse(phase: &str, engine: &str, artefacts: &Path, extra: &[(&str, &str)]) {
         .env("SCAN", artefacts.join("scan.ply"))
         .env("BAD_MESH", artefacts.join("random.stl"))
         .env("PLUGIN", artefacts.join("smoothing.wasm"))
+        .env("TEXTURED_OBJ", artefacts.join("textured.obj"))
+        .env("TEXTURE_PNG", root.join("tests/data/checker-skin.png"))
         .env("UPLOAD_TOKEN", TOKEN)
         .env("API_TOKEN", common::API_TOKEN)
         .envs(extra.iter().copied())
@@ -77,6 +79,11 @@ async fn the_workbench_builds_runs_shows_downloads_and_remembers_runs() {
     let noise: Vec<u8> =
         (0..4096u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8).collect();
     std::fs::write(artefacts.join("random.stl"), noise).unwrap();
+    // A textured quad: a texture coordinate per corner, its material in a library.
+    let textured = "mtllib textured.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+                    vt 0 0\nvt 1 0\nvt 1 1\nvt 0 0\nvt 1 1\nvt 0 1\n\
+                    usemtl skin\nf 1/1 2/2 3/3\nf 1/4 3/5 4/6\n";
+    std::fs::write(artefacts.join("textured.obj"), textured).unwrap();
     // A plugin to upload from the page (the hosts take uploads with TOKEN).
     std::fs::write(artefacts.join("smoothing.wasm"), builtin("smoothing")).unwrap();
 

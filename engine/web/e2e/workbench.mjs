@@ -469,6 +469,19 @@ async function big(page) {
   assert.equal(viewer.vertexColors, 'yes', 'the viewer draws the mesh in its colours');
   assert.match(await page.getByTestId('viewer-status').innerText(), /carries vertex color \(4 × u8\)/);
   await shot(page, '12-coloured-result');
+
+  // A textured OBJ chosen with its image: the run keeps its per-corner texture coordinates
+  // and material library, and the result is drawn with the image, which never left here.
+  await page.goto(`${BASE}/#token=${API_TOKEN}`);
+  await page.getByTestId('workflow-json').fill(JSON.stringify({ steps: [{ run: 'remove-degenerate-triangles' }] }));
+  await page.getByText('The engine accepts this workflow.').waitFor();
+  await page.getByTestId('mesh-file').setInputFiles([process.env.TEXTURED_OBJ, process.env.TEXTURE_PNG]);
+  await page.getByTestId('run').click();
+  assert.equal(await finalStatus(page), 'completed');
+  assert.match(await page.getByTestId('input-attributes').innerText(), /corner texcoord \(2 × f32\)/);
+  await page.waitForFunction(() => document.querySelector('[data-testid=viewer]')?.dataset.textureLoaded === 'checker-skin.png', null, { timeout: RUN_TIMEOUT });
+  await canvasNotBlank(page, 'result');
+  await shot(page, '13-textured-result');
 }
 
 const phases = { main, restarted, big };

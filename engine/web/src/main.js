@@ -59,7 +59,12 @@ async function showUser() {
 const builderRoot = el('div', {});
 const catalogueRoot = el('div', { testid: 'service-list' });
 const builder = new Builder(builderRoot, () => services);
-const meshFile = el('input', { type: 'file', testid: 'mesh-file', accept: '.ply,.obj,.off,.stl,.mfm' });
+const meshFile = el('input', {
+  type: 'file', testid: 'mesh-file', multiple: true, accept: '.ply,.obj,.off,.stl,.mfm,.png,.jpg,.jpeg',
+  title: 'A mesh, and the texture images it names (they are drawn here, not uploaded)',
+});
+/** The mesh among the chosen files; images beside it are its textures, kept in the browser. */
+const MESH_NAME = /\.(ply|obj|off|stl|mfm)$/i;
 const inputUrl = el('input', { type: 'url', testid: 'input-url', placeholder: 'http://…/scan.ply', size: 50 });
 const progress = el('progress', { testid: 'upload-progress', max: 1, value: 0, hidden: true });
 const runButton = el('button', { testid: 'run', className: 'primary', onclick: () => startRun() }, 'Run');
@@ -114,7 +119,10 @@ async function startRun() {
   fill(runRoot, el('p', { testid: 'run-status', className: 'status', 'data-status': 'starting' }, 'Starting a new run…'));
   try {
     let input = inputUrl.value.trim() || null;
-    const file = meshFile.files[0];
+    const files = [...meshFile.files];
+    const file = files.find((f) => MESH_NAME.test(f.name));
+    viewer.useTextures(files.filter((f) => !MESH_NAME.test(f.name)), Boolean(file));
+    if (!file && files.length) throw new Error('choose a mesh (.ply, .obj, .off, .stl or .mfm) with the images');
     if (file) {
       progress.hidden = false;
       progress.value = 0;

@@ -32,7 +32,7 @@ const TYPES = [['u8', 1], ['i32', 4], ['u32', 4], ['f32', 4], ['f64', 8]];
  *  checked: a section that runs past the buffer is refused. */
 export function parseAttributes(buffer, vertices, triangles) {
   let at = RAW_HEADER_BYTES + vertices * 12 + triangles * 12;
-  const found = { list: [], colorOffset: null, textures: [] };
+  const found = { list: [], colorOffset: null, vertexUvOffset: null, cornerUvOffset: null, textures: [] };
   if (at === buffer.byteLength) return found;
   const view = new DataView(buffer);
   const need = (n) => {
@@ -67,6 +67,11 @@ export function parseAttributes(buffer, vertices, triangles) {
     if (domain === 0 && name === 'color' && typeName === 'u8' && components === 4 && numbers === vertices * 4) {
       found.colorOffset = at;
     }
+    // Numbers in the section need not be 4-byte aligned: floats are copied out (slice).
+    if (name === 'texcoord' && typeName === 'f32' && components === 2) {
+      if (domain === 0 && numbers === vertices * 2) found.vertexUvOffset = at;
+      if (domain === 2 && numbers === triangles * 6) found.cornerUvOffset = at;
+    }
     at += numbers * size;
   }
   for (const list of [[], [], found.textures]) {
@@ -74,6 +79,23 @@ export function parseAttributes(buffer, vertices, triangles) {
     for (let i = 0; i < n; i += 1) list.push(text(u32()));
   }
   return found;
+}
+
+/** One vertex per corner (what a texture with seams needs: a vertex's corners may have
+ *  different texture coordinates): positions, normals and colours copied to each corner. */
+export function perCorner(mesh, normals, colors) {
+  const { corners } = mesh;
+  const n = corners.length;
+  const positions = new Float32Array(n * 3);
+  const cornerNormals = new Float32Array(n * 3);
+  const cornerColors = colors ? new Uint8Array(n * 4) : null;
+  for (let c = 0; c < n; c += 1) {
+    const v = corners[c];
+    positions.set(mesh.positions.subarray(3 * v, 3 * v + 3), 3 * c);
+    cornerNormals.set(normals.subarray(3 * v, 3 * v + 3), 3 * c);
+    if (cornerColors) cornerColors.set(colors.subarray(4 * v, 4 * v + 4), 4 * c);
+  }
+  return { positions, normals: cornerNormals, colors: cornerColors };
 }
 
 /** Area-weighted vertex normals (what three.js's computeVertexNormals gives). */

@@ -44,6 +44,9 @@ function decode(buffer, onBoundary) {
           positions: new Float32Array(data.buffer, 12, vertices * 3),
           corners: new Uint32Array(data.buffer, 12 + vertices * 12, triangles * 3),
           colors: data.colorOffset === null ? null : new Uint8Array(data.buffer, data.colorOffset, vertices * 4),
+          uv: data.vertexUv,
+          textures: data.textures,
+          corner: data.corner,
           attributes: data.attributes,
         });
         return;
@@ -66,6 +69,8 @@ export class Viewer {
     });
     this.status = el('div', { className: 'note', testid: 'viewer-status', 'aria-live': 'polite' }, 'Nothing to show yet: run a workflow or open a run.');
     this.slots = {};
+    /** Image files chosen with meshes, by name (see `useTextures`). */
+    this.textures = new Map();
     /** Counts clears, so a load that began before one is dropped. */
     this.generation = 0;
     /** Where the shown run's input is, for "Before" and "Side by side" (`setInput`). */
@@ -172,18 +177,33 @@ export class Viewer {
     this.render();
   }
 
+  /** Image files chosen with a mesh: a textured mesh names its textures, and those with
+   *  the same file name are drawn on it. They stay in this browser. */
+  useTextures(files, fresh) {
+    if (fresh) this.textures.clear();
+    for (const file of files) this.textures.set(file.name, file);
+  }
+
   put(slot, label, mesh) {
     this.slots[slot]?.scene.traverse((node) => node.geometry?.dispose());
     const geometry = new THREE.BufferGeometry();
-    geometry.setAttribute('position', new THREE.BufferAttribute(mesh.positions, 3));
-    geometry.setAttribute('normal', new THREE.BufferAttribute(mesh.normals, 3));
-    geometry.setIndex(new THREE.BufferAttribute(mesh.corners, 1));
+    // Texture coordinates per corner need a vertex per corner (the worker made them).
+    const arrays = mesh.corner ?? mesh;
+    geometry.setAttribute('position', new THREE.BufferAttribute(arrays.positions, 3));
+    geometry.setAttribute('normal', new THREE.BufferAttribute(arrays.normals, 3));
+    if (!mesh.corner) geometry.setIndex(new THREE.BufferAttribute(mesh.corners, 1));
     geometry.boundingSphere = new THREE.Sphere(new THREE.Vector3(...mesh.sphere.center), mesh.sphere.radius);
     // A mesh's own vertex colours (RGBA bytes, normalised) replace the slot's tint.
-    if (mesh.colors) geometry.setAttribute('color', new THREE.BufferAttribute(mesh.colors, 4, true));
+    if (arrays.colors) geometry.setAttribute('color', new THREE.BufferAttribute(arrays.colors, 4, true));
+    const uv = mesh.corner?.uv ?? mesh.uv;
+    if (uv) geometry.setAttribute('uv', new THREE.BufferAttribute(uv, 2));
+    // An OBJ names its textures in its material library, not in itself: with one image
+    // chosen beside it, that image is its texture.
+    const named = mesh.textures[0] ?? (this.textures.size === 1 ? [...this.textures.keys()][0] : null);
+    const map = uv && named ? this.texture(named) : null;
     const surface = new THREE.Mesh(geometry, new THREE.MeshStandardMaterial({
-      color: mesh.colors ? 0xffffff : slot === 'before' ? 0xb0b8c8 : 0x9cc3a8, vertexColors: Boolean(mesh.colors),
-      side: THREE.DoubleSide, roughness: 0.7, metalness: 0.05,
+      color: mesh.colors || map ? 0xffffff : slot === 'before' ? 0xb0b8c8 : 0x9cc3a8, vertexColors: Boolean(mesh.colors),
+      map, side: THREE.DoubleSide, roughness: 0.7, metalness: 0.05,
       polygonOffset: true, polygonOffsetFactor: 1, polygonOffsetUnits: 1,
     }));
     const scene = new THREE.Scene();
@@ -192,16 +212,38 @@ export class Viewer {
     const light = new THREE.DirectionalLight(0xffffff, 1.8);
     light.position.set(1, 2, 3);
     scene.add(light);
-    this.slots[slot] = { scene, surface, boundary: null, label };
+    this.slots[slot] = { scene, surface, boundary: null, label, positions: mesh.positions };
     this.applyStyle();
+  }
+
+  /** The named texture: the image chosen with the mesh, or a checker that shows the
+   *  texture coordinates' layout when the image is not in this browser. */
+  texture(name) {
+    const file = this.textures.get(name.split('/').pop());
+    this.canvas.dataset.texture = file ? name : `${name} (not chosen here: a checker shows its layout)`;
+    if (!file) {
+      const cells = new Uint8Array(8 * 8 * 4).map((_, i) => ((((i >> 2) & 7) + (i >> 5)) % 2 ? 230 : 90));
+      const checker = new THREE.DataTexture(cells, 8, 8);
+      checker.magFilter = THREE.NearestFilter;
+      checker.needsUpdate = true;
+      return checker;
+    }
+    const url = URL.createObjectURL(file);
+    const map = new THREE.TextureLoader().load(url, () => {
+      URL.revokeObjectURL(url);
+      this.canvas.dataset.textureLoaded = name;
+      this.render();
+    });
+    map.colorSpace = THREE.SRGBColorSpace;
+    return map;
   }
 
   /** The holes the worker found, once the mesh they belong to is still shown. */
   addBoundary(slot, mesh, pairs) {
     const entry = this.slots[slot];
-    if (!mesh || !entry || entry.surface.geometry.attributes.position.array !== mesh.positions) return;
+    if (!mesh || !entry || entry.positions !== mesh.positions) return;
     const geometry = new THREE.BufferGeometry();
-    geometry.setAttribute('position', entry.surface.geometry.attributes.position);
+    geometry.setAttribute('position', new THREE.BufferAttribute(mesh.positions, 3));
     geometry.setIndex(new THREE.BufferAttribute(pairs, 1));
     geometry.boundingSphere = entry.surface.geometry.boundingSphere;
     entry.boundary = new THREE.LineSegments(geometry, new THREE.LineBasicMaterial({ color: 0xdc2626 }));
