@@ -261,7 +261,7 @@ mod tests {
         let colours = vec![255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 9, 9, 9, 128];
         let attribute = meshflow_mesh::attributes::Attribute::color(colours);
         coloured.attributes.insert(attribute, 4, 2).unwrap();
-        let raw = raw(&coloured);
+        let raw = super::raw(&coloured);
         assert_eq!(raw_mesh::counts(&raw), Ok((4, 2)));
         assert_eq!(raw_mesh::content_hash(&raw).unwrap(), coloured.content_hash().to_hex());
         assert_ne!(coloured.content_hash(), mesh.content_hash());
