@@ -88,7 +88,7 @@ async fn mesh(
         .map(|c| if c.is_ascii_graphic() || c == ' ' { c } else { '?' })
         .take(MAX_NOT_KEPT_HEADER_CHARS)
         .collect();
-    let not_kept = (!not_kept.is_empty()).then(|| [(NOT_KEPT_HEADER, not_kept)]);
+    let not_kept = (!not_kept.is_empty()).then_some([(NOT_KEPT_HEADER, not_kept)]);
     // Checked already; streamed from its file, which goes once the stream ends.
     let file = tokio::fs::File::open(&download.file).await.map_err(super::error::internal)?;
     let spool = download.file;
