@@ -276,9 +276,11 @@ class Run:
                 raise RunFailed(self.id, rec.get("status"), rec.get("error"))
         return rec
 
-    def result(self, verify: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
+    def result(self, verify: bool | None = None, attributes: bool = False):
         """The final mesh as ``(vertices (V, 3) float32, faces (T, 3) uint32)``, waiting for
-        the run first. Downloaded as ``?format=raw`` (the host writing it checked its content
+        the run first; with ``attributes=True`` also what it carries beyond them (colours,
+        normals, quality, …; see :func:`meshflow.raw_attributes`) as a third item.
+        Downloaded as ``?format=raw`` (the host writing it checked its content
         hash, and the engine checks it again). With the ``blake3`` package the client
         checks it a third time against the record's ``result.hash`` (``verify=None``: when
         blake3 is installed; ``True``: always, ``False``: never)."""
@@ -292,6 +294,8 @@ class Run:
             expected = (rec.get("result") or {}).get("hash")
             if got is not None and expected and got != expected:
                 raise HashMismatch(expected, got)
+        if attributes:
+            return (*meshio.parse_raw(data), meshio.raw_attributes(data))
         return meshio.parse_raw(data)
 
     def result_trimesh(self, verify: bool | None = None):

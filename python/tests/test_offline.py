@@ -71,3 +71,24 @@ def test_ply_and_raw_bytes():
         meshflow.parse_raw(raw[:-1])
     with pytest.raises(ValueError):
         meshflow.ply_bytes(v, [[0, 1, 3]])
+
+
+def test_a_raw_mesh_with_attributes_parses_and_says_what_it_carries():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], dtype=np.float32)
+    raw = meshflow.raw_bytes(v, [[0, 1, 2]])
+    # The section as meshflow-mesh writes it: a colour per vertex, one texture name.
+    section = b"attributes-v1" + struct.pack("<I", 1) + bytes([0, 0, 4])
+    section += struct.pack("<I", 5) + b"color" + struct.pack("<Q", 12)
+    section += bytes([255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 128])
+    section += struct.pack("<I", 0) + struct.pack("<I", 0) + struct.pack("<I", 1)
+    section += struct.pack("<I", 8) + b"skin.png"
+    v2, f2 = meshflow.parse_raw(raw + section)
+    assert np.array_equal(v2, v) and f2.tolist() == [[0, 1, 2]]
+    carried = meshflow.raw_attributes(raw + section)
+    assert carried["vertex color"].dtype == np.uint8
+    assert carried["vertex color"].tolist()[2] == [0, 0, 255, 128]
+    assert carried["textures"] == ["skin.png"] and carried["materials"] == []
+    assert meshflow.raw_attributes(raw) == {}
+    for broken in (raw + section[:-1], raw + section + b"\0", raw + b"junk"):
+        with pytest.raises(ValueError):
+            meshflow.parse_raw(broken)
