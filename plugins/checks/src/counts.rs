@@ -22,12 +22,19 @@ pub fn edge_count(mesh: &MeshArrays) -> usize {
 /// or not, whatever their orientations) are connected; triangles touching only at a vertex
 /// are not. Unreferenced vertices form no component. O(T) over the twins.
 pub fn component_count(mesh: &MeshArrays) -> Result<usize> {
+    Ok(edge_connected(mesh)?.sets())
+}
+
+/// The triangles joined through every edge they share (as
+/// [`UnionFind::edge_connected`](meshflow_plugin_sdk::topology::UnionFind::edge_connected)
+/// groups them), from the derived connectivity where it has every edge.
+pub fn edge_connected(mesh: &MeshArrays) -> Result<UnionFind> {
     let kinds = mesh.kinds()?;
     // An improper triangle still joins its neighbours through its edges with two distinct
     // in-range ids, which the derived connectivity leaves out: such a mesh is grouped over
     // every edge from the triangles, as before the host derived anything.
     if contains_kind(kinds, EdgeKind::Degenerate) {
-        return Ok(UnionFind::edge_connected(mesh.vertex_slots(), mesh.triangles()).sets());
+        return Ok(UnionFind::edge_connected(mesh.vertex_slots(), mesh.triangles()));
     }
     let mut forest = UnionFind::new(kinds.len() / 3);
     for (h, &twin) in mesh.opposites().iter().enumerate() {
@@ -49,7 +56,7 @@ pub fn component_count(mesh: &MeshArrays) -> Result<usize> {
             }
         }
     }
-    Ok(forest.sets())
+    Ok(forest)
 }
 
 /// The number of boundary loops (holes, the outer border of an open surface included); a

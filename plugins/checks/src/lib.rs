@@ -77,7 +77,7 @@ fn surface_area(mesh: &Mesh, _: &Params) -> Result<Value> {
 }
 
 fn volume(mesh: &Mesh, _: &Params) -> Result<Value> {
-    Ok(Value::Real(measures::enclosed_volume(&mesh.positions(), &mesh.triangles())?))
+    Ok(Value::Real(measures::enclosed_volume(&MeshArrays::of(*mesh))?))
 }
 
 fn services() -> Vec<Service> {

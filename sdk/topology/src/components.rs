@@ -53,6 +53,14 @@ impl TriangleComponents {
         })
     }
 
+    /// The sets of a union-find over the triangles (as [`UnionFind::edge_connected`] groups
+    /// them, or the same grouping from a derived connectivity), labelled as [`Self::new`]
+    /// labels them: in order of each component's smallest triangle id. O(T).
+    pub fn from_forest(forest: &mut UnionFind) -> Self {
+        let tris = forest.parent.len();
+        Self::from_roots(tris, |t| forest.find(t))
+    }
+
     /// Relabels arbitrary per-triangle root keys to 0.. in order of first appearance.
     fn from_roots(tris: usize, mut root: impl FnMut(u32) -> u32) -> Self {
         // Label of the component whose root key is k, if seen; keys are < vertex_count + tris

@@ -22,28 +22,58 @@ pub fn closed_component_volumes(positions: &[f32], triangles: &[u32]) -> Vec<Com
     let vertex_count = positions.len() / 3;
     let half_edges = HalfEdges::new(vertex_count, triangles);
     let components = TriangleComponents::new(vertex_count, triangles);
+    closed_component_volumes_of(
+        vertex_count,
+        || positions,
+        triangles,
+        &components,
+        half_edges.kinds(),
+    )
+}
+
+/// [`closed_component_volumes`] with the components ([`TriangleComponents::new`]'s, or the
+/// same labels from [`TriangleComponents::from_forest`]) and the half-edges' kinds already
+/// derived, as a host holds them for the checks that follow: the same values, bit for bit.
+/// The positions (`vertex_count` vertices) are read only if some component is closed, and
+/// only the closed components' triangles are measured. O(T).
+pub fn closed_component_volumes_of<'p>(
+    vertex_count: usize,
+    positions: impl FnOnce() -> &'p [f32],
+    triangles: &[u32],
+    components: &TriangleComponents,
+    kinds: &[EdgeKind],
+) -> Vec<ComponentVolume> {
     let count = components.count();
     let mut seed = vec![u32::MAX; count];
     let mut open = vec![false; count];
-    let mut origin: Vec<Option<Vec3>> = vec![None; count];
-    let mut volume = vec![0.0f64; count];
     for (t, c) in triangles.chunks_exact(3).enumerate() {
-        let c = [c[0], c[1], c[2]];
-        if !proper(c, vertex_count) {
+        if !proper([c[0], c[1], c[2]], vertex_count) {
             continue;
         }
         let label = components.label(t as u32) as usize;
         seed[label] = seed[label].min(t as u32);
-        let h = 3 * t as u32;
-        if (h..h + 3).any(|h| half_edges.kind(h) == EdgeKind::Boundary) {
-            open[label] = true;
+        let h = 3 * t;
+        open[label] |= kinds[h..h + 3].contains(&EdgeKind::Boundary);
+    }
+    let closed = |l: usize| !open[l] && seed[l] != u32::MAX;
+    if !(0..count).any(closed) {
+        return Vec::new();
+    }
+    let positions = positions();
+    let mut origin: Vec<Option<Vec3>> = vec![None; count];
+    let mut volume = vec![0.0f64; count];
+    for (t, c) in triangles.chunks_exact(3).enumerate() {
+        let c = [c[0], c[1], c[2]];
+        let label = components.label(t as u32) as usize;
+        if !closed(label) || !proper(c, vertex_count) {
+            continue;
         }
         let o = *origin[label].get_or_insert_with(|| point(positions, c[0]));
         let [a, b, d] = c.map(|v| sub(point(positions, v), o));
         volume[label] += dot(a, cross(b, d)) / 6.0;
     }
     (0..count)
-        .filter(|&l| !open[l] && seed[l] != u32::MAX)
+        .filter(|&l| closed(l))
         .map(|l| ComponentVolume { seed: seed[l], volume: volume[l] })
         .collect()
 }
