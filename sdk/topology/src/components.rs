@@ -191,6 +191,7 @@ mod tests {
         let c = TriangleComponents::new(5, &t);
         assert_eq!((c.count(), c.labels(), c.sizes()), (2, &[0, 1][..], &[1, 1][..]));
         assert_eq!(c.largest(), Some(0));
+        assert_eq!(TriangleComponents::from_forest(&mut UnionFind::edge_connected(5, &t)), c);
         let v = TriangleComponents::vertex_connected(5, &t);
         assert_eq!(v.count(), 1);
         assert_eq!(TriangleComponents::new(0, &[]).largest(), None);
