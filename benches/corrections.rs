@@ -415,24 +415,9 @@ fn set_attribute_steps(bunny: &MeshData, scan: &MeshData) {
         store.apply(Op::RemoveTriangles { ids: all }).expect("ok");
         store.apply(Op::AddTriangles { abc: result.triangles }).expect("ok");
     });
-    let curvature_as_quality: Step = Box::new(|store, m| {
-        let kinds = HalfEdges::new(m.vertex_count(), &m.triangles);
-        let q = curvature(&m.positions, &m.triangles, kinds.kinds(), Kind::Mean).values;
-        let op = Op::SetAttribute {
-            domain: Domain::Vertex,
-            name: "quality".into(),
-            components: 1,
-            ids: None,
-            values: Values::F32(q),
-        };
-        store.apply(op).expect("one quality per vertex");
-    });
-    let rescale: Step = Box::new(|store, m| {
-        let Some(Values::F32(q)) = m.attributes.get(Domain::Vertex, "quality").map(|a| &a.values)
-        else {
-            return;
-        };
-        let values = Values::F32(q.iter().map(|x| x * 0.9 + 0.01).collect());
+    /// Every vertex's quality set at once, as a filter writing it does.
+    fn set_quality(store: &mut MeshStore, q: Vec<f32>) {
+        let values = Values::F32(q);
         let op = Op::SetAttribute {
             domain: Domain::Vertex,
             name: "quality".into(),
@@ -441,6 +426,17 @@ fn set_attribute_steps(bunny: &MeshData, scan: &MeshData) {
             values,
         };
         store.apply(op).expect("one quality per vertex");
+    }
+    fn curvature_as_quality(store: &mut MeshStore, m: &MeshData) {
+        let kinds = HalfEdges::new(m.vertex_count(), &m.triangles);
+        set_quality(store, curvature(&m.positions, &m.triangles, kinds.kinds(), Kind::Mean).values);
+    }
+    let rescale: Step = Box::new(|store, m| {
+        let Some(Values::F32(q)) = m.attributes.get(Domain::Vertex, "quality").map(|a| &a.values)
+        else {
+            return;
+        };
+        set_quality(store, q.iter().map(|x| x * 0.9 + 0.01).collect());
     });
     // New vertices at the midpoint of every third triangle's first edge, blended (as a
     // service that splits by itself would write them).
@@ -461,24 +457,10 @@ fn set_attribute_steps(bunny: &MeshData, scan: &MeshData) {
     });
     let steps: [(&str, &MeshData, &str, Step); 5] = [
         ("bunny", bunny, "loop subdivision (blended)", subdivide),
-        ("scan 1M", scan, "curvature as quality", curvature_as_quality),
+        ("scan 1M", scan, "curvature as quality", Box::new(curvature_as_quality)),
         ("scan 1M", scan, "quality x 0.9 + 0.01", rescale),
         ("scan 1M", scan, "midpoints, blended", midpoints),
-        ("bunny", bunny, "curvature as quality", {
-            let f: Step = Box::new(|store, m| {
-                let kinds = HalfEdges::new(m.vertex_count(), &m.triangles);
-                let q = curvature(&m.positions, &m.triangles, kinds.kinds(), Kind::Mean).values;
-                let op = Op::SetAttribute {
-                    domain: Domain::Vertex,
-                    name: "quality".into(),
-                    components: 1,
-                    ids: None,
-                    values: Values::F32(q),
-                };
-                store.apply(op).expect("one quality per vertex");
-            });
-            f
-        }),
+        ("bunny", bunny, "curvature as quality", Box::new(curvature_as_quality)),
     ];
     for (name, mesh, step, edit) in steps {
         let painted = paint(mesh, false);
