@@ -1,12 +1,16 @@
 //! The sandbox against misbehaving plugins: every failure is a clear, typed error within
 //! the limits, and the runtime keeps working afterwards.
 
+mod common;
+
+use common::builtin;
+
 use std::time::{Duration, Instant};
 
 use meshflow_builtin_plugins::{PLUGINS, fixture};
 use meshflow_mesh::MeshData;
 use meshflow_mesh::store::{MeshStore, Op};
-use meshflow_runtime::{Limits, Plugin, PluginError, RunError, Runtime, Value};
+use meshflow_runtime::{Limits, PluginError, RunError, Runtime, Value};
 
 /// A small closed mesh: an octahedron.
 fn octahedron() -> MeshData {
@@ -25,11 +29,6 @@ fn runtime_with(limits: Limits) -> Runtime {
 
 fn quick_limits() -> Limits {
     Limits { deadline: Duration::from_secs(2), memory_bytes: 256 << 20, ..Limits::default() }
-}
-
-fn builtin(runtime: &Runtime, name: &str) -> Plugin {
-    let wasm = PLUGINS.iter().find(|p| p.name == name).expect("a built-in plugin").wasm;
-    runtime.load(wasm).expect("built-in plugins load")
 }
 
 /// The sandbox is usable after a failure: a real service runs and gives the right answer.

@@ -4,32 +4,19 @@
 //! blended from where they came from; a check may read attributes but not write them; a
 //! step whose new vertices kept the defaults says so in its report.
 
-use meshflow_builtin_plugins::{PLUGINS, fixture};
+mod common;
+
+use common::{run, runtime};
+
+use meshflow_builtin_plugins::fixture;
 use meshflow_mesh::MeshData;
 use meshflow_mesh::attributes::{Attribute, COLOR, Domain, QUALITY, Values};
 use meshflow_mesh::store::Op;
-use meshflow_runtime::{Limits, Plugin, RunOutput, Runtime, Value};
+use meshflow_runtime::Value;
 use meshflow_topology::boundary::boundary_loops;
 use meshflow_topology::geometry::{norm, point};
 use meshflow_topology::halfedge::HalfEdges;
 use meshflow_topology::shapes::uv_sphere;
-
-fn runtime() -> Runtime {
-    Runtime::new(Limits::default(), None).expect("a runtime")
-}
-
-fn builtin(runtime: &Runtime, name: &str) -> Plugin {
-    let wasm = PLUGINS.iter().find(|p| p.name == name).expect("a built-in plugin").wasm;
-    runtime.load(wasm).expect("built-in plugins load")
-}
-
-fn run(plugin: &str, service: &str, mesh: &MeshData, params: &[(&str, Value)]) -> RunOutput {
-    let runtime = runtime();
-    let plugin = builtin(&runtime, plugin);
-    let params: Vec<(String, Value)> =
-        params.iter().map(|(name, value)| (name.to_string(), value.clone())).collect();
-    runtime.run(&plugin, service, mesh.clone(), &params).unwrap_or_else(|e| panic!("{e}"))
-}
 
 /// Colours and quality that vary smoothly over the mesh: RGB from the position in
 /// [-1, 1]³, quality the height.

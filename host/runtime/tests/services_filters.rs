@@ -1,36 +1,20 @@
 //! The cleanup, smoothing and noise filters, run as WebAssembly through the host on
 //! generated scans and hand-built meshes.
 
-use meshflow_builtin_plugins::PLUGINS;
+mod common;
+
+use common::run;
+
 use meshflow_generate::{ScanSpec, scan};
 use meshflow_mesh::MeshData;
 use meshflow_mesh::store::Op;
-use meshflow_runtime::{Limits, Plugin, RunOutput, Runtime, Value};
+use meshflow_runtime::Value;
 use meshflow_topology::adjacency::VertexNeighbours;
 use meshflow_topology::boundary::{boundary_loops, boundary_vertices};
 use meshflow_topology::components::TriangleComponents;
 use meshflow_topology::geometry::{bounding_box, is_degenerate};
 use meshflow_topology::halfedge::HalfEdges;
 use meshflow_topology::shapes::{square_grid, triangular_sheet};
-
-fn runtime() -> Runtime {
-    Runtime::new(Limits::default(), None).expect("a runtime")
-}
-
-fn builtin(runtime: &Runtime, name: &str) -> Plugin {
-    let wasm = PLUGINS.iter().find(|p| p.name == name).expect("a built-in plugin").wasm;
-    runtime.load(wasm).expect("built-in plugins load")
-}
-
-fn run(plugin: &str, service: &str, mesh: &MeshData, params: &[(&str, Value)]) -> RunOutput {
-    let runtime = runtime();
-    let plugin = builtin(&runtime, plugin);
-    let params: Vec<(String, Value)> =
-        params.iter().map(|(name, value)| (name.to_string(), value.clone())).collect();
-    runtime
-        .run(&plugin, service, mesh.clone(), &params)
-        .unwrap_or_else(|e| panic!("{service}: {e}"))
-}
 
 fn small_scan(seed: u64) -> MeshData {
     scan(&ScanSpec { vertices: 20_000, components: 12, holes: 15, noise: 0.2, seed })
