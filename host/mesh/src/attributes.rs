@@ -242,7 +242,35 @@ impl Values {
 
     /// The little-endian bytes of every number, in order.
     pub fn to_le_bytes(&self) -> Vec<u8> {
-        each_values!(self, v => v.iter().flat_map(|x| x.to_le_bytes()).collect())
+        self.le_bytes().into_owned()
+    }
+
+    /// [`to_le_bytes`](Self::to_le_bytes), borrowed on little-endian machines: what the
+    /// content hash reads on every step, without copying the arrays.
+    pub fn le_bytes(&self) -> std::borrow::Cow<'_, [u8]> {
+        match self {
+            Values::U8(v) => std::borrow::Cow::Borrowed(v),
+            Values::F32(v) => crate::as_le_bytes_f32(v),
+            Values::U32(v) => crate::as_le_bytes_u32(v),
+            Values::I32(v) if cfg!(target_endian = "little") => {
+                // SAFETY: i32 has no padding and any byte is a valid u8.
+                let bytes =
+                    unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<u8>(), v.len() * 4) };
+                std::borrow::Cow::Borrowed(bytes)
+            }
+            Values::F64(v) if cfg!(target_endian = "little") => {
+                // SAFETY: f64 has no padding and any byte is a valid u8.
+                let bytes =
+                    unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<u8>(), v.len() * 8) };
+                std::borrow::Cow::Borrowed(bytes)
+            }
+            Values::I32(v) => {
+                std::borrow::Cow::Owned(v.iter().flat_map(|x| x.to_le_bytes()).collect())
+            }
+            Values::F64(v) => {
+                std::borrow::Cow::Owned(v.iter().flat_map(|x| x.to_le_bytes()).collect())
+            }
+        }
     }
 
     /// The first non-finite number, where the type has any.
@@ -581,7 +609,7 @@ pub fn write_canonical(attributes: &Attributes, out: &mut impl FnMut(&[u8])) {
         out(&[a.domain as u8, a.values.number_type() as u8, a.components]);
         string(out, &a.name);
         out(&(a.values.len() as u64).to_le_bytes());
-        out(&a.values.to_le_bytes());
+        out(&a.values.le_bytes());
     }
     let m = &attributes.materials;
     for list in [&m.names, &m.libraries, &m.textures] {

@@ -4,7 +4,6 @@
 use std::sync::Arc;
 
 use meshflow_mesh::as_le_bytes_f32;
-use meshflow_mesh::attributes::Values;
 use meshflow_mesh::store::{MeshStore, Op};
 use meshflow_mesh::{ContentHash, MeshData};
 
@@ -290,22 +289,9 @@ fn same_bytes(a: &MeshData, b: &MeshData) -> bool {
         && a.attributes.len() == b.attributes.len()
         && a.attributes.iter().zip(b.attributes.iter()).all(|(x, y)| {
             (x.domain, &x.name, x.components) == (y.domain, &y.name, y.components)
-                && same_values(&x.values, &y.values)
+                && x.values.number_type() == y.values.number_type()
+                && x.values.le_bytes() == y.values.le_bytes()
         })
-}
-
-/// Bit-identical values, compared in place (hashing both meshes took longer).
-fn same_values(a: &Values, b: &Values) -> bool {
-    match (a, b) {
-        (Values::U8(x), Values::U8(y)) => x == y,
-        (Values::I32(x), Values::I32(y)) => x == y,
-        (Values::U32(x), Values::U32(y)) => x == y,
-        (Values::F32(x), Values::F32(y)) => as_le_bytes_f32(x) == as_le_bytes_f32(y),
-        (Values::F64(x), Values::F64(y)) => {
-            x.len() == y.len() && x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits())
-        }
-        _ => false,
-    }
 }
 
 fn at(positions: &[f32], v: u32) -> [f32; 3] {
