@@ -14,10 +14,10 @@ mod common;
 use std::path::Path;
 use std::sync::Arc;
 
-use common::{SCAN_1M, best, ms, shuffled};
+use common::{SCAN_1M, best, ms};
 
 use meshflow_codec::{correction, pack, replay};
-use meshflow_generate::scan;
+use meshflow_generate::{scan, shuffled};
 use meshflow_params::Value;
 use meshflow_runtime::{Catalog, Limits, Runtime};
 

@@ -25,10 +25,10 @@ mod common;
 use std::sync::Arc;
 use std::time::Duration;
 
-use common::{SCAN_1M, best, meshlab_available, meshlab_time, ms, ratio, shuffled};
+use common::{SCAN_1M, best, meshlab_available, meshlab_time, ms, ratio};
 use meshflow_builtin_plugins::PLUGINS;
 use meshflow_codec::{correction, pack};
-use meshflow_generate::scan;
+use meshflow_generate::{scan, shuffled};
 use meshflow_mesh::MeshData;
 use meshflow_mesh::store::{MeshStore, Op};
 use meshflow_meshio as io;

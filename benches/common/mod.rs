@@ -8,7 +8,6 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use meshflow_generate::ScanSpec;
-use meshflow_mesh::MeshData;
 
 /// The generated scan of issue 4's speed targets: 1M vertices, 2M triangles, 150 spurious
 /// pieces, 400 holes.
@@ -64,34 +63,4 @@ pub fn meshlab_time(mesh: &Path, setup: &str, timed: &str, runs: usize) -> Optio
     let out = Command::new(python()).args(["-c", &script]).output().ok()?;
     let seconds: f64 = String::from_utf8(out.stdout).ok()?.trim().parse().ok()?;
     Some(Duration::from_secs_f64(seconds))
-}
-
-/// The mesh with vertices and triangles in a fixed pseudo-random order.
-pub fn shuffled(mesh: &MeshData) -> MeshData {
-    let mut state = 0x9e37_79b9_7f4a_7c15u64;
-    let mut next = |n: usize| {
-        state =
-            state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-        ((state >> 33) as usize) % n
-    };
-    let vertices = mesh.vertex_count();
-    let mut order: Vec<usize> = (0..vertices).collect();
-    for i in (1..vertices).rev() {
-        order.swap(i, next(i + 1));
-    }
-    let mut new_id = vec![0u32; vertices];
-    let mut positions = vec![0.0; 3 * vertices];
-    for (new, &old) in order.iter().enumerate() {
-        positions[3 * new..3 * new + 3].copy_from_slice(&mesh.positions[3 * old..3 * old + 3]);
-        new_id[old] = new as u32;
-    }
-    let mut faces: Vec<[u32; 3]> = mesh
-        .triangles
-        .chunks_exact(3)
-        .map(|t| [new_id[t[0] as usize], new_id[t[1] as usize], new_id[t[2] as usize]])
-        .collect();
-    for i in (1..faces.len()).rev() {
-        faces.swap(i, next(i + 1));
-    }
-    MeshData::new(positions, faces.concat())
 }

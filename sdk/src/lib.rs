@@ -59,10 +59,11 @@ pub use attributes::{
 pub use bindings::meshflow::geometry::types::{Value, ValueType};
 pub use error::{Error, Result};
 pub use mesh::{Mesh, REMOVED};
-pub use service::{CheckFn, FilterFn, ParamSpec, Params, Service, describe, run};
+pub use service::{CheckFn, FilterFn, ParamSpec, Params, ReachFn, Service, describe, reach, run};
 
 /// Exports the services returned by a `fn() -> Vec<Service>` as this component's
-/// `meshflow:geometry/service` interface. Only on wasm targets: a native build of the same
+/// `meshflow:geometry/service` interface, and their reach (see [`Service::local`]) as its
+/// `meshflow:geometry/locality` interface. Only on wasm targets: a native build of the same
 /// crate (for tests and benches) links with others without clashing export names.
 #[macro_export]
 macro_rules! export_plugin {
@@ -86,6 +87,16 @@ macro_rules! export_plugin {
                 params: Vec<$crate::bindings::meshflow::geometry::types::Param>,
             ) -> Result<$crate::bindings::meshflow::geometry::types::Outcome, String> {
                 $crate::run(&$services(), &name, $crate::Mesh::new(target), params)
+            }
+        }
+
+        #[cfg(target_arch = "wasm32")]
+        impl $crate::bindings::exports::meshflow::geometry::locality::Guest for MeshflowPlugin {
+            fn reach(
+                name: String,
+                params: Vec<$crate::bindings::meshflow::geometry::types::Param>,
+            ) -> Option<u32> {
+                $crate::reach(&$services(), &name, params)
             }
         }
 

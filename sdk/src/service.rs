@@ -9,6 +9,9 @@ use crate::{Error, Mesh, Result};
 pub type FilterFn = fn(&Mesh, &Params) -> Result<String>;
 /// A check reads the mesh (the host refuses edits) and returns a value.
 pub type CheckFn = fn(&Mesh, &Params) -> Result<Value>;
+/// How many rings of the mesh around a vertex decide its new position, for given
+/// parameters (see [`Service::local`]).
+pub type ReachFn = fn(&Params) -> Result<u32>;
 
 enum Runner {
     Filter(FilterFn),
@@ -31,16 +34,50 @@ enum Runner {
 pub struct Service {
     info: ServiceInfo,
     runner: Runner,
+    reach: Option<ReachFn>,
 }
 
 impl Service {
     pub fn filter(name: &str, doc: &str, run: FilterFn) -> Self {
-        Self { info: info(name, doc, ServiceKind::Filter, None), runner: Runner::Filter(run) }
+        let info = info(name, doc, ServiceKind::Filter, None);
+        Self { info, runner: Runner::Filter(run), reach: None }
     }
 
     pub fn check(name: &str, doc: &str, result: ValueType, run: CheckFn) -> Self {
         let info = info(name, doc, ServiceKind::Check, Some(result));
-        Self { info, runner: Runner::Check(run) }
+        Self { info, runner: Runner::Check(run), reach: None }
+    }
+
+    /// Declares a filter local: it only moves vertices (no other edit), and a vertex's new
+    /// position depends only on the triangles around the vertices up to `reach(params) - 1`
+    /// edges from it (and their vertices), read in ascending id order. A host may then run
+    /// it on partitions of a mesh too large for one sandbox, each grown by that many rings,
+    /// and keep each partition's result for its own vertices: the result must equal the
+    /// whole-mesh run's bit for bit (hosts compare hashes, so a wrong claim shows). Laplacian
+    /// smoothing with `k` iterations reaches `k` rings.
+    ///
+    /// ```
+    /// use meshflow_plugin_sdk::{Mesh, ParamSpec, Params, Result, Service};
+    ///
+    /// fn smooth(_: &Mesh, _: &Params) -> Result<String> {
+    ///     Ok(String::new())
+    /// }
+    /// fn rings(params: &Params) -> Result<u32> {
+    ///     Ok(params.integer("iterations")? as u32)
+    /// }
+    /// let service = Service::filter("my-smoothing", "Smooths.", smooth)
+    ///     .param(ParamSpec::integer("iterations", 1).range(1.0, 100.0))
+    ///     .local(rings);
+    /// assert!(service.is_local());
+    /// ```
+    pub fn local(mut self, reach: ReachFn) -> Self {
+        self.reach = Some(reach);
+        self
+    }
+
+    /// Whether [`Service::local`] declared it.
+    pub fn is_local(&self) -> bool {
+        self.reach.is_some()
     }
 
     pub fn param(mut self, param: ParamSpec) -> Self {
@@ -193,4 +230,12 @@ pub fn run(
         format!("unknown service `{name}`; this plugin has: {}", known.join(", "))
     })?;
     service.run(&mesh, &Params::new(params)).map_err(|e| e.0)
+}
+
+/// What the export macro calls: how far the named service reaches with these parameters
+/// (`None` for a service not declared [`Service::local`], or one unknown).
+pub fn reach(services: &[Service], name: &str, params: Vec<Param>) -> Option<u32> {
+    let service = services.iter().find(|s| s.info.name == name)?;
+    let reach = service.reach?;
+    reach(&Params::new(params)).ok()
 }

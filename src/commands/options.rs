@@ -30,6 +30,12 @@ pub struct SandboxArgs {
     #[arg(long, value_name = "MIB", default_value_t = (DEFAULT_MEMORY_BYTES / MIB) as u64,
           value_parser = parse_memory_cap)]
     pub memory_cap: u64,
+    /// Run services that declare themselves local (Laplacian and Taubin smoothing) on
+    /// partitions of at most this many core triangles, each grown by the service's reach,
+    /// on meshes with more: the same result as on the whole mesh, within the memory cap.
+    /// Default: the memory cap over 128 bytes (16M triangles under 2 GiB).
+    #[arg(long, value_name = "TRIANGLES", value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_partition_triangles: Option<u64>,
 }
 
 /// `--memory-cap`, refused with the sandbox's own reason when it cannot be given.
@@ -52,6 +58,7 @@ impl Default for SandboxArgs {
         Self {
             run_deadline: DEFAULT_DEADLINE.as_secs(),
             memory_cap: (DEFAULT_MEMORY_BYTES / MIB) as u64,
+            max_partition_triangles: None,
         }
     }
 }
@@ -62,6 +69,7 @@ impl SandboxArgs {
             deadline: std::time::Duration::from_secs(self.run_deadline),
             // Checked when parsed, and again by `Runtime::new`.
             memory_bytes: self.memory_cap as usize * MIB,
+            max_partition_triangles: self.max_partition_triangles.map(|n| n as usize),
             ..Limits::default()
         }
     }

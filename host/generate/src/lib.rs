@@ -52,6 +52,38 @@ pub fn scan(spec: &ScanSpec) -> MeshData {
     MeshData::new(draft.positions.iter().map(|&c| c as f32).collect(), draft.triangles)
 }
 
+/// The mesh with vertices and triangles in a fixed pseudo-random order (positions and
+/// triangles only), as real scans and other tools' meshes come: no code may rely on ids
+/// that follow the surface.
+pub fn shuffled(mesh: &MeshData) -> MeshData {
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut next = |n: usize| {
+        state =
+            state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        ((state >> 33) as usize) % n
+    };
+    let vertices = mesh.vertex_count();
+    let mut order: Vec<usize> = (0..vertices).collect();
+    for i in (1..vertices).rev() {
+        order.swap(i, next(i + 1));
+    }
+    let mut new_id = vec![0u32; vertices];
+    let mut positions = vec![0.0; 3 * vertices];
+    for (new, &old) in order.iter().enumerate() {
+        positions[3 * new..3 * new + 3].copy_from_slice(&mesh.positions[3 * old..3 * old + 3]);
+        new_id[old] = new as u32;
+    }
+    let mut faces: Vec<[u32; 3]> = mesh
+        .triangles
+        .chunks_exact(3)
+        .map(|t| [new_id[t[0] as usize], new_id[t[1] as usize], new_id[t[2] as usize]])
+        .collect();
+    for i in (1..faces.len()).rev() {
+        faces.swap(i, next(i + 1));
+    }
+    MeshData::new(positions, faces.concat())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

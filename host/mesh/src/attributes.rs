@@ -218,6 +218,20 @@ impl Values {
         })
     }
 
+    /// The elements (runs of `components` numbers) at `elements`, in that order.
+    pub fn gather(&self, components: usize, elements: impl Iterator<Item = usize>) -> Values {
+        fn pick<T: Copy>(from: &[T], c: usize, elements: impl Iterator<Item = usize>) -> Vec<T> {
+            elements.flat_map(|e| from[c * e..c * (e + 1)].iter().copied()).collect()
+        }
+        match self {
+            Values::U8(v) => Values::U8(pick(v, components, elements)),
+            Values::I32(v) => Values::I32(pick(v, components, elements)),
+            Values::U32(v) => Values::U32(pick(v, components, elements)),
+            Values::F32(v) => Values::F32(pick(v, components, elements)),
+            Values::F64(v) => Values::F64(pick(v, components, elements)),
+        }
+    }
+
     /// Appends `other`'s numbers; they must be of the same type.
     pub fn extend(&mut self, other: &Values) {
         match (self, other) {
@@ -505,6 +519,37 @@ impl Attributes {
 
     pub fn remove(&mut self, domain: Domain, name: &str) -> Option<Attribute> {
         self.position(domain, name).ok().map(|i| self.list.remove(i))
+    }
+
+    /// The attributes of the sub-mesh made of the elements `vertices` and `triangles` (ids
+    /// into this mesh, in the sub-mesh's order), and the same materials.
+    pub fn gather(&self, vertices: &[u32], triangles: &[u32]) -> Attributes {
+        let list = self
+            .list
+            .iter()
+            .map(|a| {
+                let components = usize::from(a.components);
+                let values = match a.domain {
+                    Domain::Vertex => {
+                        a.values.gather(components, vertices.iter().map(|&v| v as usize))
+                    }
+                    Domain::Face => {
+                        a.values.gather(components, triangles.iter().map(|&t| t as usize))
+                    }
+                    Domain::Corner => a.values.gather(
+                        components,
+                        triangles.iter().flat_map(|&t| (0..3).map(move |k| 3 * t as usize + k)),
+                    ),
+                };
+                Attribute {
+                    domain: a.domain,
+                    name: a.name.clone(),
+                    components: a.components,
+                    values,
+                }
+            })
+            .collect();
+        Attributes { list, materials: self.materials.clone() }
     }
 
     /// Checks every attribute against a mesh of `vertices` and `triangles`, and the

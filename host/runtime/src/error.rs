@@ -60,6 +60,14 @@ pub enum RunError {
     },
     #[error("{service}: could not start: {message}")]
     Instantiate { service: String, message: String },
+    /// A service that declared itself local made an edit other than moving vertices on a
+    /// partition: its result cannot be merged (the plugin's declaration is wrong).
+    #[error(
+        "{service}: declared itself local (vertex moves only) but made a `{edit}` edit on a \
+         partition; run it on a mesh of at most the partition size, or ask its author to fix \
+         its `locality.reach`"
+    )]
+    NotLocal { service: String, edit: &'static str },
     /// Every run slot is taken and the queue is full: try again later or elsewhere.
     #[error("{service}: all {slots} run slots are taken and {queued} runs wait already")]
     Busy { service: String, slots: usize, queued: usize },

@@ -20,6 +20,7 @@ mod error;
 mod host_mesh;
 mod invocation;
 mod limits;
+mod partitioned;
 mod permits;
 mod plugin;
 mod several;
@@ -34,6 +35,7 @@ pub use meshflow_params::{
     ParamError, ParamInfo, ServiceInfo, ServiceKind, Value, ValueType, describe_params,
     resolve as resolve_params, type_name, value_text,
 };
+pub use partitioned::Partitions;
 pub use plugin::{Plugin, digest};
 pub use several::{CheckRun, ChecksError};
 
@@ -41,7 +43,7 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use wasmtime::component::{HasSelf, Linker, Resource};
+use wasmtime::component::{HasSelf, Instance, Linker, Resource};
 use wasmtime::{Config, Enabled, Engine, PoolingAllocationConfig, Store, Trap};
 
 use bindings::Param;
@@ -68,8 +70,11 @@ pub struct RunOutput {
     pub duration: Duration,
     /// The time it waited for a run slot before that.
     pub queued: Duration,
-    /// The largest the guest's linear memory grew (its initial size at least).
+    /// The largest the guest's linear memory grew (its initial size at least); for a run on
+    /// partitions, the largest of theirs.
     pub guest_peak_bytes: usize,
+    /// How the mesh was cut, when the service ran on partitions.
+    pub partitions: Option<Partitions>,
 }
 
 pub struct Runtime {
@@ -120,16 +125,27 @@ impl Runtime {
             .map_err(|e| PluginError::World(format!("{e:#}")))?;
         let pre = bindings::PluginPre::new(instance_pre)
             .map_err(|e| PluginError::World(format!("{e:#}")))?;
+        let reach = partitioned::reach_export(&component);
         // A load waits for a slot however long the queue: uploads are few and need a token.
         let (slot, _) = self.permits.acquire(None).expect("an unbounded queue has room");
-        let services = self
-            .call(&slot, &pre, "describe", Arc::default(), true, |store, plugin, _| {
-                plugin.meshflow_geometry_service().call_describe(store)
+        let deadline = self.limits.deadline;
+        let (services, reach_typed) = self
+            .call(&slot, &pre, "describe", Arc::default(), true, deadline, |store, p, i, _| {
+                let services = p.meshflow_geometry_service().call_describe(&mut *store)?;
+                let reach_typed = reach
+                    .as_ref()
+                    .map(|index| partitioned::reach_func(store, i, index).map(|_| ()));
+                Ok((services, reach_typed))
             })
-            .map(|(services, _)| services.into_iter().map(ServiceInfo::from).collect::<Vec<_>>())
+            .map(|((services, reach), _)| {
+                (services.into_iter().map(ServiceInfo::from).collect::<Vec<_>>(), reach)
+            })
             .map_err(|e| PluginError::Describe(Box::new(e)))?;
+        if let Some(Err(e)) = reach_typed {
+            return Err(PluginError::World(format!("its `locality` export: {e:#}")));
+        }
         plugin::validate_description(&services)?;
-        Ok(Plugin { digest, services, pre })
+        Ok(Plugin { digest, services, pre, reach })
     }
 
     /// Runs `service` of `plugin` on `mesh`. Parameters are checked against the service's
@@ -184,17 +200,24 @@ impl Runtime {
             .map(|(name, value)| Param { name: name.clone(), value: value.clone().into() })
             .collect();
         let is_check = info.kind == ServiceKind::Check;
-        let (slot, queued) =
-            self.permits.acquire(Some(self.limits.queued_runs)).map_err(|_| RunError::Busy {
-                service: service.to_owned(),
-                slots: self.limits.concurrent_runs,
-                queued: self.limits.queued_runs,
-            })?;
+        if !is_check && mesh.triangle_count() > self.limits.partition_triangles() {
+            if let Some(output) = self.run_partitioned(plugin, info, &mesh, &params)? {
+                return Ok(output);
+            }
+        }
+        let (slot, queued) = self.acquire_slot(service)?;
         let started = Instant::now();
-        let (outcome, state) =
-            self.call(&slot, &plugin.pre, service, mesh, is_check, |store, p, mesh| {
+        let (outcome, state) = self.call(
+            &slot,
+            &plugin.pre,
+            service,
+            mesh,
+            is_check,
+            self.limits.deadline,
+            |store, p, _, mesh| {
                 p.meshflow_geometry_service().call_run(store, service, mesh, &params)
-            })?;
+            },
+        )?;
         // The store is gone: the next run may have the slot while this one compacts.
         drop(slot);
         let outcome =
@@ -214,12 +237,24 @@ impl Runtime {
             duration: started.elapsed(),
             queued,
             guest_peak_bytes: state.memory.peak_bytes,
+            partitions: None,
         })
     }
 
-    /// Instantiates the component in a fresh store around `mesh`, calls `f`, and turns
-    /// traps into errors that say which limit was hit. The `_slot` proves a run slot is
-    /// held: the pool has one instance slot per run slot.
+    /// A run slot for `service`, after waiting behind at most `queued_runs` others.
+    fn acquire_slot(&self, service: &str) -> Result<(permits::Permit<'_>, Duration), RunError> {
+        self.permits.acquire(Some(self.limits.queued_runs)).map_err(|_| RunError::Busy {
+            service: service.to_owned(),
+            slots: self.limits.concurrent_runs,
+            queued: self.limits.queued_runs,
+        })
+    }
+
+    /// Instantiates the component in a fresh store around `mesh`, calls `f` (given the
+    /// world's bindings and the instance itself, for optional exports) within `deadline`,
+    /// and turns traps into errors that say which limit was hit. The `_slot` proves a run
+    /// slot is held: the pool has one instance slot per run slot.
+    #[allow(clippy::too_many_arguments)]
     fn call<R>(
         &self,
         _slot: &permits::Permit<'_>,
@@ -227,9 +262,11 @@ impl Runtime {
         service: &str,
         mesh: Arc<MeshData>,
         read_only: bool,
+        deadline: Duration,
         f: impl FnOnce(
             &mut Store<RunState>,
             &bindings::Plugin,
+            &Instance,
             Resource<MeshHandle>,
         ) -> wasmtime::Result<R>,
     ) -> Result<(R, RunState), RunError> {
@@ -249,13 +286,17 @@ impl Runtime {
         store.limiter(|s| &mut s.memory);
         store
             .set_hostcall_fuel(BASE_HOSTCALL_BYTES + 8 * input_elements as usize + attribute_bytes);
-        store.set_epoch_deadline(ticks(self.limits.deadline));
+        store.set_epoch_deadline(ticks(deadline));
         store.epoch_deadline_trap();
         if let Some(fuel) = self.limits.fuel {
             store.set_fuel(fuel).expect("fuel is enabled in the engine config when set");
         }
-        let instance = match pre.instantiate(&mut store) {
-            Ok(instance) => instance,
+        let instantiated = pre
+            .instance_pre()
+            .instantiate(&mut store)
+            .and_then(|instance| Ok((bindings::Plugin::new(&mut store, &instance)?, instance)));
+        let (plugin, instance) = match instantiated {
+            Ok(instantiated) => instantiated,
             // The cap is below the plugin's initial memory.
             Err(_) if store.data().memory.exceeded => return Err(self.memory_error(service)),
             Err(e) => {
@@ -266,7 +307,7 @@ impl Runtime {
         let handle = store.data_mut().table().push(MeshHandle).map_err(|e| {
             RunError::Instantiate { service: service.to_owned(), message: e.to_string() }
         })?;
-        match f(&mut store, &instance, handle) {
+        match f(&mut store, &plugin, &instance, handle) {
             Ok(result) => Ok((result, store.into_data())),
             Err(error) => Err(self.classify(service, error, store.data())),
         }

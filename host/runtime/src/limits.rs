@@ -30,6 +30,14 @@ pub const BASE_EDIT_BUDGET: u64 = 16 << 20;
 pub const EDIT_BUDGET_PER_INPUT_ELEMENT: u64 = 64;
 /// Runs executing at once in one runtime.
 pub const DEFAULT_CONCURRENT_RUNS: usize = 4;
+/// Without `--max-partition-triangles`, a mesh is cut into partitions (for services that
+/// declare themselves local) when it has more triangles than the memory cap over this:
+/// 16M triangles under the default 2 GiB, where smoothing needs ~60 bytes a triangle.
+pub const AUTO_PARTITION_BYTES_PER_TRIANGLE: usize = 128;
+/// A partition may grow with its overlap to this many times its core's triangles before
+/// partitioning is given up and the service runs on the whole mesh (a reach so long that
+/// every partition would hold most of the mesh).
+pub const MAX_PARTITION_GROWTH: usize = 4;
 /// Runs that may wait for a slot; more are refused at once ([`RunError::Busy`]), so a
 /// flood of requests cannot park threads (and their meshes) without end.
 ///
@@ -70,6 +78,9 @@ pub struct Limits {
     pub concurrent_runs: usize,
     /// Runs waiting for one of the `concurrent_runs` slots before more are refused.
     pub queued_runs: usize,
+    /// Triangles of a partition's core when a local service runs on partitions; a mesh
+    /// with more is cut. `None`: the memory cap over [`AUTO_PARTITION_BYTES_PER_TRIANGLE`].
+    pub max_partition_triangles: Option<usize>,
 }
 
 impl Default for Limits {
@@ -80,6 +91,7 @@ impl Default for Limits {
             fuel: None,
             concurrent_runs: DEFAULT_CONCURRENT_RUNS,
             queued_runs: DEFAULT_QUEUED_RUNS,
+            max_partition_triangles: None,
         }
     }
 }
@@ -106,6 +118,13 @@ pub fn memory_cap_bytes(mib: u64) -> Result<usize, MemoryCapError> {
 }
 
 impl Limits {
+    /// The most triangles a local service takes in one piece: larger meshes are cut.
+    pub fn partition_triangles(&self) -> usize {
+        self.max_partition_triangles
+            .unwrap_or(self.memory_bytes / AUTO_PARTITION_BYTES_PER_TRIANGLE)
+            .max(1)
+    }
+
     /// Refuses a memory limit the sandbox cannot honour (none, or beyond 32-bit addresses).
     pub fn check(&self) -> Result<(), MemoryCapError> {
         match self.memory_bytes {

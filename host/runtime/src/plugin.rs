@@ -1,6 +1,7 @@
 //! A loaded plugin: its identity, its pre-linked component and the services it describes.
 
 use meshflow_params::{ServiceInfo, ServiceKind, type_name};
+use wasmtime::component::ComponentExportIndex;
 
 use super::bindings::PluginPre;
 use super::error::PluginError;
@@ -13,6 +14,9 @@ pub struct Plugin {
     pub digest: String,
     pub services: Vec<ServiceInfo>,
     pub(crate) pre: PluginPre<RunState>,
+    /// Its `locality.reach`, when it exports one (the `local-plugin` world): which services
+    /// may run on partitions of a mesh.
+    pub(crate) reach: Option<ComponentExportIndex>,
 }
 
 impl std::fmt::Debug for Plugin {
@@ -25,6 +29,11 @@ impl std::fmt::Debug for Plugin {
 impl Plugin {
     pub fn service(&self, name: &str) -> Option<&ServiceInfo> {
         self.services.iter().find(|s| s.name == name)
+    }
+
+    /// Whether it can say which of its services may run on partitions.
+    pub fn declares_locality(&self) -> bool {
+        self.reach.is_some()
     }
 }
 

@@ -59,15 +59,16 @@ impl Runtime {
             calls.push((info, params));
         }
         let label = services.join(", ");
-        let (slot, _) =
-            self.permits.acquire(Some(self.limits.queued_runs)).map_err(|_| RunError::Busy {
-                service: label.clone(),
-                slots: self.limits.concurrent_runs,
-                queued: self.limits.queued_runs,
-            })?;
+        let (slot, _) = self.acquire_slot(&label)?;
         let deadline = ticks(self.limits.deadline);
-        let (runs, _) =
-            self.call(&slot, &plugin.pre, &label, mesh.into(), true, |store, p, mesh| {
+        let (runs, _) = self.call(
+            &slot,
+            &plugin.pre,
+            &label,
+            mesh.into(),
+            true,
+            self.limits.deadline,
+            |store, p, _, mesh| {
                 let mut runs = Vec::with_capacity(calls.len());
                 for (info, params) in &calls {
                     store.set_epoch_deadline(deadline);
@@ -93,7 +94,8 @@ impl Runtime {
                     runs.push(CheckRun { service, value, duration });
                 }
                 Ok(runs)
-            })?;
+            },
+        )?;
         Ok(runs)
     }
 }

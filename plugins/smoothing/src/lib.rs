@@ -42,6 +42,16 @@ fn taubin_smoothing(mesh: &Mesh, params: &Params) -> Result<String> {
     ))
 }
 
+/// Each Laplacian step reads one ring further: `k` steps reach `k` rings.
+fn laplacian_reach(params: &Params) -> Result<u32> {
+    Ok(params.integer("iterations")? as u32)
+}
+
+/// A Taubin iteration is two Laplacian steps.
+fn taubin_reach(params: &Params) -> Result<u32> {
+    Ok(2 * params.integer("iterations")? as u32)
+}
+
 fn add_noise(mesh: &Mesh, params: &Params) -> Result<String> {
     let percent = params.real("amount")?;
     let seed = params.integer("seed")? as u64;
@@ -97,7 +107,8 @@ fn services() -> Vec<Service> {
         .param(ParamSpec::choice("weights", "uniform", &["uniform", "cotangent"]).doc(
             "uniform: every neighbour alike; cotangent: cotangent edge weights, which keep \
              the sampling and move vertices along the normal.",
-        )),
+        ))
+        .local(laplacian_reach),
         Service::filter(
             "taubin-smoothing",
             "Smooths without shrinking: each iteration moves every vertex by `lambda` times its \
@@ -115,7 +126,8 @@ fn services() -> Vec<Service> {
                 .range(-1.0, -1e-6)
                 .doc("Inflating step (negative); |mu| slightly above lambda keeps the volume."),
         )
-        .param(ParamSpec::integer("iterations", 10).range(1.0, 1000.0).doc("lambda|mu steps.")),
+        .param(ParamSpec::integer("iterations", 10).range(1.0, 1000.0).doc("lambda|mu steps."))
+        .local(taubin_reach),
         Service::filter(
             "add-noise",
             "Moves every vertex by a random vector, uniform in a ball of radius `amount` % of \

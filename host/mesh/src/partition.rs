@@ -1,0 +1,344 @@
+//! Cutting a mesh into partitions, for services whose result at a vertex depends only on a
+//! bounded neighbourhood of it (DESIGN §11, issue 33): each partition owns a *core* of
+//! vertices — every vertex of the mesh is in exactly one core — and carries the triangles
+//! within the service's reach of its core, so that a run on the partition computes its
+//! core vertices exactly as a run on the whole mesh would.
+//!
+//! Cores are runs of the vertices in Morton order of their positions, so they are compact in
+//! space whatever order the file lists vertices in (range scans interleave components).
+//! A partition keeps the relative order of the mesh's ids for its vertices and triangles:
+//! code that visits neighbours or triangles in ascending id order (sums in a fixed order)
+//! visits them in the same order on the partition, the condition for bit-identical results.
+
+use crate::MeshData;
+
+/// Bits of the Morton code per axis: 1024 cells along each side of the bounding box are
+/// enough to keep cores compact; ties are broken by vertex id.
+const MORTON_BITS: u32 = 10;
+
+/// A mesh prepared for cutting: its cores and the triangles around each vertex.
+pub struct Partitioning<'a> {
+    mesh: &'a MeshData,
+    /// Every vertex id, in Morton order; core `i` is `order[bounds[i]..bounds[i + 1]]`.
+    order: Vec<u32>,
+    bounds: Vec<usize>,
+    /// The triangles around vertex `v`: `around[starts[v]..starts[v + 1]]`, ascending.
+    starts: Vec<u32>,
+    around: Vec<u32>,
+}
+
+/// One partition: a mesh of its own and where its elements come from.
+#[derive(Debug)]
+pub struct Partition {
+    /// The partition's vertices and triangles, with the mesh's attributes restricted to them.
+    pub mesh: MeshData,
+    /// The mesh's id of each of the partition's vertices (ascending).
+    pub vertices: Vec<u32>,
+    /// Which of the partition's vertices are its core (partition ids, ascending).
+    pub core: Vec<u32>,
+}
+
+impl<'a> Partitioning<'a> {
+    /// Cores of about `max_core_triangles` triangles each (counted as a third of the
+    /// triangle corners at their vertices), at least one vertex each. O(V log V + T).
+    pub fn new(mesh: &'a MeshData, max_core_triangles: usize) -> Self {
+        let vertex_count = mesh.vertex_count();
+        let (starts, around) = triangles_around(vertex_count, &mesh.triangles);
+        let order = morton_order(&mesh.positions);
+        // A core closes when its vertices' corners reach 3 × the budget, or its vertex
+        // count reaches the budget (a cloud of points with no triangles).
+        let budget = max_core_triangles.max(1);
+        let mut bounds = vec![0];
+        let (mut corners, mut vertices) = (0usize, 0usize);
+        for (i, &v) in order.iter().enumerate() {
+            corners += (starts[v as usize + 1] - starts[v as usize]) as usize;
+            vertices += 1;
+            if corners >= 3 * budget || vertices >= budget {
+                bounds.push(i + 1);
+                (corners, vertices) = (0, 0);
+            }
+        }
+        if *bounds.last().expect("starts with 0") != order.len() {
+            bounds.push(order.len());
+        }
+        Self { mesh, order, bounds, starts, around }
+    }
+
+    /// How many partitions the mesh is cut into.
+    pub fn len(&self) -> usize {
+        self.bounds.len() - 1
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Partition `index`: its core, every triangle that has a vertex at most `rings - 1`
+    /// edges from a core vertex, and the vertices of those triangles; `None` once it holds
+    /// more than `max_triangles`. `rings == 0` gives the core alone. Panics if
+    /// `index >= self.len()`.
+    pub fn partition(&self, index: usize, rings: u32, max_triangles: usize) -> Option<Partition> {
+        let mut core = self.order[self.bounds[index]..self.bounds[index + 1]].to_vec();
+        core.sort_unstable();
+        let mut vertices = core.clone();
+        let mut triangles: Vec<u32> = Vec::new();
+        let mut frontier = core.clone();
+        for _ in 0..rings {
+            let mut reached: Vec<u32> = frontier
+                .iter()
+                .flat_map(|&v| {
+                    &self.around
+                        [self.starts[v as usize] as usize..self.starts[v as usize + 1] as usize]
+                })
+                .copied()
+                .filter(|t| triangles.binary_search(t).is_err())
+                .collect();
+            reached.sort_unstable();
+            reached.dedup();
+            let mut new_vertices: Vec<u32> = reached
+                .iter()
+                .flat_map(|&t| &self.mesh.triangles[3 * t as usize..3 * t as usize + 3])
+                .copied()
+                .filter(|v| vertices.binary_search(v).is_err())
+                .collect();
+            new_vertices.sort_unstable();
+            new_vertices.dedup();
+            triangles = merge_sorted(&triangles, &reached);
+            if triangles.len() > max_triangles {
+                return None;
+            }
+            vertices = merge_sorted(&vertices, &new_vertices);
+            if new_vertices.is_empty() && reached.is_empty() {
+                break;
+            }
+            frontier = new_vertices;
+        }
+        let local = |v: u32| vertices.binary_search(&v).expect("a triangle's vertex is in") as u32;
+        let corners = triangles
+            .iter()
+            .flat_map(|&t| &self.mesh.triangles[3 * t as usize..3 * t as usize + 3])
+            .map(|&v| local(v))
+            .collect();
+        let positions = vertices
+            .iter()
+            .flat_map(|&v| &self.mesh.positions[3 * v as usize..3 * v as usize + 3])
+            .copied()
+            .collect();
+        let attributes = self.mesh.attributes.gather(&vertices, &triangles);
+        let core_local = core.iter().map(|&v| local(v)).collect();
+        Some(Partition {
+            mesh: MeshData { positions, triangles: corners, attributes },
+            vertices,
+            core: core_local,
+        })
+    }
+}
+
+/// Two ascending lists with nothing in common, as one.
+fn merge_sorted(a: &[u32], b: &[u32]) -> Vec<u32> {
+    let mut out = Vec::with_capacity(a.len() + b.len());
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        if a[i] < b[j] {
+            out.push(a[i]);
+            i += 1;
+        } else {
+            out.push(b[j]);
+            j += 1;
+        }
+    }
+    out.extend_from_slice(&a[i..]);
+    out.extend_from_slice(&b[j..]);
+    out
+}
+
+/// The triangles at each vertex as offsets and items, each vertex's list ascending (a
+/// triangle with a repeated corner is listed once at that vertex).
+fn triangles_around(vertex_count: usize, triangles: &[u32]) -> (Vec<u32>, Vec<u32>) {
+    let mut starts = vec![0u32; vertex_count + 1];
+    let distinct = |c: &[u32], k: usize| !c[..k].contains(&c[k]);
+    for c in triangles.chunks_exact(3) {
+        for k in 0..3 {
+            if distinct(c, k) {
+                starts[c[k] as usize + 1] += 1;
+            }
+        }
+    }
+    for v in 0..vertex_count {
+        starts[v + 1] += starts[v];
+    }
+    let mut next = starts.clone();
+    let mut around = vec![0u32; starts[vertex_count] as usize];
+    for (t, c) in triangles.chunks_exact(3).enumerate() {
+        for k in 0..3 {
+            if distinct(c, k) {
+                let slot = &mut next[c[k] as usize];
+                around[*slot as usize] = t as u32;
+                *slot += 1;
+            }
+        }
+    }
+    (starts, around)
+}
+
+/// Vertex ids sorted by the Morton code of their cell in the bounding box, then by id.
+fn morton_order(positions: &[f32]) -> Vec<u32> {
+    let (points, _) = positions.as_chunks::<3>();
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in points {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let cells = (1u32 << MORTON_BITS) as f32;
+    let scale = [0, 1, 2].map(|k| {
+        let extent = hi[k] - lo[k];
+        if extent > 0.0 { (cells - 1.0) / extent } else { 0.0 }
+    });
+    let mut keys: Vec<u64> = points
+        .iter()
+        .enumerate()
+        .map(|(v, p)| {
+            let cell =
+                [0, 1, 2].map(|k| (((p[k] - lo[k]) * scale[k]) as u32).min((1 << MORTON_BITS) - 1));
+            (u64::from(interleave(cell)) << 32) | v as u64
+        })
+        .collect();
+    keys.sort_unstable();
+    keys.into_iter().map(|key| key as u32).collect()
+}
+
+/// The bits of three 10-bit cell coordinates interleaved (x lowest).
+fn interleave(cell: [u32; 3]) -> u32 {
+    let mut code = 0;
+    for bit in 0..MORTON_BITS {
+        for (k, &c) in cell.iter().enumerate() {
+            code |= ((c >> bit) & 1) << (3 * bit + k as u32);
+        }
+    }
+    code
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::attributes::{Attribute, Attributes};
+
+    /// A strip of `n` quads (2n triangles) along x, vertices listed in a scrambled order.
+    fn strip(n: u32) -> MeshData {
+        let count = 2 * (n + 1);
+        // Vertex at grid (i, j) gets id perm(2i + j): a fixed shuffle.
+        let perm = |g: u32| (g * 7919) % count;
+        let mut positions = vec![0.0; 3 * count as usize];
+        for i in 0..=n {
+            for j in 0..2 {
+                let v = perm(2 * i + j) as usize;
+                positions[3 * v..3 * v + 3].copy_from_slice(&[i as f32, j as f32, 0.0]);
+            }
+        }
+        let mut triangles = Vec::new();
+        for i in 0..n {
+            let [a, b, c, d] = [2 * i, 2 * i + 1, 2 * i + 2, 2 * i + 3].map(perm);
+            triangles.extend_from_slice(&[a, c, b, b, c, d]);
+        }
+        MeshData::new(positions, triangles)
+    }
+
+    #[test]
+    fn every_vertex_is_in_exactly_one_core_and_partitions_keep_the_mesh_order() {
+        let mesh = strip(50);
+        let cut = Partitioning::new(&mesh, 10);
+        assert!(cut.len() >= 8, "{} partitions", cut.len());
+        let mut owned = vec![0; mesh.vertex_count()];
+        for i in 0..cut.len() {
+            let part = cut.partition(i, 2, usize::MAX).unwrap();
+            assert!(part.vertices.windows(2).all(|w| w[0] < w[1]));
+            for &c in &part.core {
+                owned[part.vertices[c as usize] as usize] += 1;
+            }
+            // Positions and corners are the mesh's, through the id map.
+            for (l, &g) in part.vertices.iter().enumerate() {
+                assert_eq!(
+                    part.mesh.positions[3 * l..3 * l + 3],
+                    mesh.positions[3 * g as usize..3 * g as usize + 3]
+                );
+            }
+            let global: Vec<[u32; 3]> = part
+                .mesh
+                .triangles
+                .chunks_exact(3)
+                .map(|c| [0, 1, 2].map(|k| part.vertices[c[k] as usize]))
+                .collect();
+            let in_mesh: Vec<[u32; 3]> =
+                mesh.triangles.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+            let indices: Vec<usize> =
+                global.iter().map(|t| in_mesh.iter().position(|m| m == t).unwrap()).collect();
+            assert!(indices.windows(2).all(|w| w[0] < w[1]), "triangles keep their order");
+        }
+        assert!(owned.iter().all(|&n| n == 1), "{owned:?}");
+    }
+
+    #[test]
+    fn a_partition_holds_every_triangle_within_its_reach_and_no_more() {
+        let mesh = strip(40);
+        let cut = Partitioning::new(&mesh, 12);
+        let part = cut.partition(1, 3, usize::MAX).unwrap();
+        // Distance in edges from the core, by breadth-first search over the whole mesh.
+        let n = mesh.vertex_count();
+        let mut distance = vec![u32::MAX; n];
+        let mut queue: std::collections::VecDeque<u32> =
+            part.core.iter().map(|&c| part.vertices[c as usize]).collect();
+        for &v in &queue {
+            distance[v as usize] = 0;
+        }
+        while let Some(v) = queue.pop_front() {
+            for c in mesh.triangles.chunks_exact(3).filter(|c| c.contains(&v)) {
+                for &w in c {
+                    if distance[w as usize] == u32::MAX {
+                        distance[w as usize] = distance[v as usize] + 1;
+                        queue.push_back(w);
+                    }
+                }
+            }
+        }
+        let expected = mesh
+            .triangles
+            .chunks_exact(3)
+            .filter(|c| c.iter().any(|&v| distance[v as usize] <= 2))
+            .count();
+        assert_eq!(part.mesh.triangle_count(), expected);
+        assert!(part.mesh.triangle_count() < mesh.triangle_count());
+        // Without rings, the core alone.
+        let bare = cut.partition(1, 0, usize::MAX).unwrap();
+        assert!(cut.partition(1, 3, expected - 1).is_none(), "over its bound");
+        assert_eq!(bare.mesh.triangle_count(), 0);
+        assert_eq!(bare.vertices.len(), bare.core.len());
+    }
+
+    #[test]
+    fn attributes_follow_their_elements_and_unreferenced_vertices_have_a_core() {
+        let mut mesh = strip(20);
+        // Two vertices no triangle uses.
+        mesh.positions.extend_from_slice(&[5.0, 5.0, 5.0, -1.0, 0.0, 0.0]);
+        let n = mesh.vertex_count();
+        let quality: Vec<f32> = (0..n).map(|v| v as f32).collect();
+        let mut attributes = Attributes::default();
+        attributes.insert(Attribute::quality(quality), n, mesh.triangle_count()).unwrap();
+        let mesh = mesh.with_attributes(attributes).unwrap();
+        let cut = Partitioning::new(&mesh, 8);
+        let mut seen = vec![false; n];
+        for i in 0..cut.len() {
+            let part = cut.partition(i, 1, usize::MAX).unwrap();
+            let q = part.mesh.attributes.iter().next().unwrap();
+            for (l, &g) in part.vertices.iter().enumerate() {
+                assert_eq!(q.values.get(l), g as f64);
+            }
+            for &c in &part.core {
+                seen[part.vertices[c as usize] as usize] = true;
+            }
+        }
+        assert!(seen.iter().all(|&s| s));
+    }
+}

@@ -1,0 +1,267 @@
+//! Runs on partitions (issue 33): a filter that declares itself local (`locality.reach`)
+//! runs on a mesh larger than [`Limits::partition_triangles`] one partition at a time, each
+//! in a sandbox of its own (as many at once as there are run slots), and the partitions'
+//! results for their core vertices are merged into one recorded step: one `set-positions`
+//! on the whole mesh, so one edit log, one replay and one result hash, equal to the
+//! whole-mesh run's when the declaration holds.
+//!
+//! [`Limits::partition_triangles`]: crate::Limits::partition_triangles
+
+use std::sync::Arc;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::time::Instant;
+
+use wasmtime::Store;
+use wasmtime::component::{Component, ComponentExportIndex, Instance, TypedFunc};
+
+use super::Plugin;
+use super::bindings::Param;
+use super::state::RunState;
+use super::{MAX_PARTITION_GROWTH, RunError, RunOutput, Runtime, captured, permits};
+use meshflow_mesh::MeshData;
+use meshflow_mesh::partition::Partitioning;
+use meshflow_mesh::store::{MeshStore, Op, OpKind};
+use meshflow_params::ServiceInfo;
+
+/// The optional export a `local-plugin` has.
+const LOCALITY_INTERFACE: &str = "meshflow:geometry/locality@0.1.0";
+
+type ReachFunc = TypedFunc<(String, Vec<Param>), (Option<u32>,)>;
+
+/// How a run on partitions cut the mesh.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Partitions {
+    /// Partitions the mesh was cut into.
+    pub count: usize,
+    /// Rings of overlap around each core (the service's reach).
+    pub rings: u32,
+    /// Triangles of a core at most ([`Limits::partition_triangles`](crate::Limits)).
+    pub core_triangles: usize,
+    /// The most triangles one partition held, its overlap included.
+    pub largest: usize,
+}
+
+/// `locality.reach` of a component that exports it.
+pub(crate) fn reach_export(component: &Component) -> Option<ComponentExportIndex> {
+    let interface = component.get_export_index(None, LOCALITY_INTERFACE)?;
+    component.get_export_index(Some(&interface), "reach")
+}
+
+/// The typed `reach` of an instance: fails when the export has another signature.
+pub(crate) fn reach_func(
+    store: &mut Store<RunState>,
+    instance: &Instance,
+    index: &ComponentExportIndex,
+) -> wasmtime::Result<ReachFunc> {
+    instance.get_typed_func(store, index)
+}
+
+impl Runtime {
+    /// Runs filter `info` of `plugin` on partitions of `mesh` if the plugin says it reaches a
+    /// bounded number of rings with these parameters; `None` if it does not, or if its
+    /// reach would give partitions of most of the mesh (it then runs whole).
+    pub(crate) fn run_partitioned(
+        &self,
+        plugin: &Plugin,
+        info: &ServiceInfo,
+        mesh: &Arc<MeshData>,
+        params: &[Param],
+    ) -> Result<Option<RunOutput>, RunError> {
+        let Some(reach_index) = plugin.reach.as_ref() else { return Ok(None) };
+        let service = info.name.as_str();
+        let started = Instant::now();
+        let (slot, queued) = self.acquire_slot(service)?;
+        let deadline = self.limits.deadline;
+        let (rings, _) = self.call(
+            &slot,
+            &plugin.pre,
+            service,
+            Arc::default(),
+            true,
+            deadline,
+            |store, _, instance, _| {
+                let reach = reach_func(store, instance, reach_index)?;
+                Ok(reach.call(store, (service.to_owned(), params.to_vec()))?.0)
+            },
+        )?;
+        let Some(rings) = rings else { return Ok(None) };
+        let core_triangles = self.limits.partition_triangles();
+        let cut = Partitioning::new(mesh, core_triangles);
+        if cut.len() < 2 {
+            return Ok(None);
+        }
+        let Some(first) = cut.partition(0, rings, MAX_PARTITION_GROWTH * core_triangles) else {
+            return Ok(None);
+        };
+        let merged = Mutex::new(Merged {
+            positions: mesh.positions.clone(),
+            reports: vec![String::new(); cut.len()],
+            stdout: String::new(),
+            stderr: String::new(),
+            largest: 0,
+            guest_peak_bytes: 0,
+            error: None,
+        });
+        let work = Work {
+            runtime: self,
+            plugin,
+            service,
+            params,
+            cut: &cut,
+            rings,
+            first: Mutex::new(Some(first)),
+            next: AtomicUsize::new(0),
+            failed: AtomicBool::new(false),
+            ends: started + deadline,
+            merged: &merged,
+        };
+        let workers = self.limits.concurrent_runs.clamp(1, cut.len());
+        std::thread::scope(|scope| {
+            for _ in 1..workers {
+                scope.spawn(|| {
+                    // The first slot was taken within the queue's bound; the others wait.
+                    let (slot, _) =
+                        self.permits.acquire(None).expect("an unbounded queue has room");
+                    work.run(&slot);
+                });
+            }
+            work.run(&slot);
+        });
+        drop(slot);
+        let merged = merged.into_inner().unwrap_or_else(|e| e.into_inner());
+        if let Some(error) = merged.error {
+            return Err(error);
+        }
+        let mut store = MeshStore::new(Arc::clone(mesh));
+        store.apply(Op::SetPositions { xyz: merged.positions }).map_err(|e| RunError::Failed {
+            service: service.to_owned(),
+            message: e.to_string(),
+        })?;
+        let (edited, log) = store.finish();
+        let partitions =
+            Partitions { count: cut.len(), rings, core_triangles, largest: merged.largest };
+        let report = format!(
+            "{} (on {} partitions of at most {} core triangles and {} rings of overlap, the \
+             largest {} triangles)",
+            merged.reports[0], partitions.count, core_triangles, rings, partitions.largest
+        );
+        Ok(Some(RunOutput {
+            mesh: Some(edited),
+            log,
+            value: None,
+            report,
+            stdout: merged.stdout,
+            stderr: merged.stderr,
+            duration: started.elapsed(),
+            queued,
+            guest_peak_bytes: merged.guest_peak_bytes,
+            partitions: Some(partitions),
+        }))
+    }
+}
+
+/// What the partitions' runs have produced so far.
+struct Merged {
+    /// The mesh's positions, each core's overwritten by its partition's result.
+    positions: Vec<f32>,
+    reports: Vec<String>,
+    stdout: String,
+    stderr: String,
+    largest: usize,
+    guest_peak_bytes: usize,
+    /// The first partition's failure: it fails the step.
+    error: Option<RunError>,
+}
+
+/// The partitions, handed out one at a time to the workers.
+struct Work<'a> {
+    runtime: &'a Runtime,
+    plugin: &'a Plugin,
+    service: &'a str,
+    params: &'a [Param],
+    cut: &'a Partitioning<'a>,
+    rings: u32,
+    /// Partition 0, built already to decide whether to partition at all.
+    first: Mutex<Option<meshflow_mesh::partition::Partition>>,
+    next: AtomicUsize,
+    failed: AtomicBool,
+    /// The whole step's deadline: every partition runs within what is left of it.
+    ends: Instant,
+    merged: &'a Mutex<Merged>,
+}
+
+impl Work<'_> {
+    /// Runs partitions until none is left or one has failed.
+    fn run(&self, slot: &permits::Permit<'_>) {
+        loop {
+            let index = self.next.fetch_add(1, Ordering::Relaxed);
+            if index >= self.cut.len() || self.failed.load(Ordering::Relaxed) {
+                return;
+            }
+            if let Err(error) = self.run_one(slot, index) {
+                self.failed.store(true, Ordering::Relaxed);
+                let mut merged = self.merged.lock().unwrap_or_else(|e| e.into_inner());
+                merged.error.get_or_insert(error);
+                return;
+            }
+        }
+    }
+
+    fn run_one(&self, slot: &permits::Permit<'_>, index: usize) -> Result<(), RunError> {
+        let label = format!("{} (partition {} of {})", self.service, index + 1, self.cut.len());
+        let part = match index {
+            0 => self.first.lock().unwrap_or_else(|e| e.into_inner()).take(),
+            _ => self.cut.partition(index, self.rings, usize::MAX),
+        }
+        .expect("partition 0 was built once, the others have no bound");
+        let left = self.ends.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return Err(RunError::Deadline {
+                service: label,
+                deadline: self.runtime.limits.deadline,
+            });
+        }
+        let triangles = part.mesh.triangle_count();
+        let (outcome, state) = self.runtime.call(
+            slot,
+            &self.plugin.pre,
+            &label,
+            Arc::new(part.mesh),
+            false,
+            left,
+            |store, p, _, mesh| {
+                p.meshflow_geometry_service().call_run(store, self.service, mesh, self.params)
+            },
+        )?;
+        let report =
+            outcome.map_err(|message| RunError::Failed { service: label.clone(), message })?.report;
+        if let Some(op) = state.mesh.log().iter().find(|op| !moves_only(op.kind())) {
+            return Err(RunError::NotLocal { service: label, edit: op.kind().name() });
+        }
+        let positions = state.mesh.positions();
+        let mut guard = self.merged.lock().unwrap_or_else(|e| e.into_inner());
+        let merged = &mut *guard;
+        for &c in &part.core {
+            let (local, global) = (3 * c as usize, 3 * part.vertices[c as usize] as usize);
+            merged.positions[global..global + 3].copy_from_slice(&positions[local..local + 3]);
+        }
+        merged.reports[index] = report;
+        merged.largest = merged.largest.max(triangles);
+        merged.guest_peak_bytes = merged.guest_peak_bytes.max(state.memory.peak_bytes);
+        for (into, pipe) in
+            [(&mut merged.stdout, &state.stdout), (&mut merged.stderr, &state.stderr)]
+        {
+            let text = captured(pipe);
+            if !text.is_empty() && into.len() < super::OUTPUT_CAPTURE_BYTES {
+                into.push_str(&text);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The edits a local service may make: moves of vertices.
+fn moves_only(kind: OpKind) -> bool {
+    matches!(kind, OpKind::MoveVertices | OpKind::SetPositions | OpKind::Transform)
+}

@@ -1,0 +1,85 @@
+//! Runs on partitions: a local service on a mesh cut into partitions (forced small with
+//! `max_partition_triangles`) gives the whole-mesh result bit for bit, whatever order the
+//! mesh lists its vertices in.
+
+mod common;
+
+use meshflow_generate::{ScanSpec, scan, shuffled};
+use meshflow_mesh::MeshData;
+use meshflow_mesh::attributes::{Attribute, Attributes};
+use meshflow_runtime::{Limits, RunOutput, Runtime, Value};
+
+/// A scan with holes, debris and defects, its ids shuffled, with a colour per vertex.
+fn scan_mesh() -> MeshData {
+    let spec = ScanSpec { vertices: 60_000, components: 12, holes: 30, noise: 0.2, seed: 33 };
+    let mesh = shuffled(&scan(&spec));
+    let n = mesh.vertex_count();
+    let colours = (0..4 * n).map(|i| (i * 37 % 251) as u8).collect();
+    let mut attributes = Attributes::default();
+    attributes.insert(Attribute::color(colours), n, mesh.triangle_count()).unwrap();
+    mesh.with_attributes(attributes).unwrap()
+}
+
+fn run(limits: Limits, service: &str, mesh: &MeshData, params: &[(&str, Value)]) -> RunOutput {
+    let runtime = Runtime::new(limits, None).expect("a runtime");
+    let plugin = common::builtin(&runtime, "smoothing");
+    let params: Vec<(String, Value)> =
+        params.iter().map(|(name, value)| (name.to_string(), value.clone())).collect();
+    runtime
+        .run(&plugin, service, mesh.clone(), &params)
+        .unwrap_or_else(|e| panic!("{service}: {e}"))
+}
+
+fn partitioned(triangles: usize) -> Limits {
+    Limits { max_partition_triangles: Some(triangles), concurrent_runs: 2, ..Limits::default() }
+}
+
+#[test]
+fn smoothing_on_partitions_reaches_the_whole_mesh_hash() {
+    let mesh = scan_mesh();
+    let cases: [(&str, Vec<(&str, Value)>); 4] = [
+        ("laplacian-smoothing", vec![("iterations", Value::Integer(3))]),
+        (
+            "laplacian-smoothing",
+            vec![
+                ("iterations", Value::Integer(2)),
+                ("weights", Value::Text("cotangent".into())),
+                ("keep-boundary", Value::Boolean(false)),
+            ],
+        ),
+        ("taubin-smoothing", vec![("iterations", Value::Integer(2))]),
+        ("laplacian-smoothing", vec![("iterations", Value::Integer(1))]),
+    ];
+    for (service, params) in &cases {
+        let whole = run(Limits::default(), service, &mesh, params);
+        assert_eq!(whole.partitions, None, "{service}: the default runs it whole");
+        let parts = run(partitioned(8_000), service, &mesh, params);
+        let cut = parts.partitions.expect("it ran on partitions");
+        assert!(cut.count >= 10, "{service}: {cut:?}");
+        assert!(cut.largest < mesh.triangle_count() / 2, "{service}: {cut:?}");
+        let (whole_mesh, parts_mesh) = (whole.mesh.unwrap(), parts.mesh.unwrap());
+        assert_ne!(whole_mesh.content_hash(), mesh.content_hash(), "{service} moved vertices");
+        assert_eq!(parts_mesh.content_hash(), whole_mesh.content_hash(), "{service} {params:?}");
+        assert_eq!(parts.log, whole.log, "{service}: one set-positions, as the whole run's");
+        assert!(parts.report.contains("partitions"), "{}", parts.report);
+    }
+}
+
+#[test]
+fn a_service_that_is_not_local_runs_whole_and_a_small_mesh_is_not_cut() {
+    let mesh = scan_mesh();
+    let noise = [("amount", Value::Real(0.5)), ("seed", Value::Integer(3))];
+    let output = run(partitioned(8_000), "add-noise", &mesh, &noise);
+    assert_eq!(output.partitions, None, "add-noise draws in vertex order: not local");
+    let small = run(partitioned(mesh.triangle_count()), "laplacian-smoothing", &mesh, &[]);
+    assert_eq!(small.partitions, None);
+}
+
+#[test]
+fn a_reach_over_most_of_the_mesh_runs_it_whole() {
+    let mesh = scan_mesh();
+    // 400 Taubin iterations reach 800 rings: every partition would be most of the mesh.
+    let params = [("iterations", Value::Integer(400))];
+    let output = run(partitioned(8_000), "taubin-smoothing", &mesh, &params);
+    assert_eq!(output.partitions, None);
+}
