@@ -68,6 +68,14 @@ pub enum RunError {
          its `locality.reach`"
     )]
     NotLocal { service: String, edit: &'static str },
+    /// A service that declared itself local gave a partition's core another result when
+    /// the partition had one ring more: its result reaches further than it declared.
+    #[error(
+        "{service}: declared a reach of {rings} rings, but a partition's result changed with \
+         one ring more, so it depends on more of the mesh than it says; run it on a mesh of \
+         at most the partition size, or ask its author to fix its `locality.reach`"
+    )]
+    ReachExceeded { service: String, rings: u32 },
     /// Every run slot is taken and the queue is full: try again later or elsewhere.
     #[error("{service}: all {slots} run slots are taken and {queued} runs wait already")]
     Busy { service: String, slots: usize, queued: usize },

@@ -3,7 +3,10 @@
 //! in a sandbox of its own (as many at once as there are run slots), and the partitions'
 //! results for their core vertices are merged into one recorded step: one `set-positions`
 //! on the whole mesh, so one edit log, one replay and one result hash, equal to the
-//! whole-mesh run's when the declaration holds.
+//! whole-mesh run's when the declaration holds. The declaration is audited on every such
+//! run: the first partition runs a second time with one ring more, and its core must come
+//! out the same bit for bit, or the step fails (a service that reads more of the mesh than
+//! it declared, or depends on the mesh's size, would make the result depend on the cut).
 //!
 //! [`Limits::partition_triangles`]: crate::Limits::partition_triangles
 
@@ -102,6 +105,7 @@ impl Runtime {
             largest: 0,
             guest_peak_bytes: 0,
             error: None,
+            audit: Vec::new(),
         });
         let work = Work {
             runtime: self,
@@ -132,6 +136,12 @@ impl Runtime {
         let merged = merged.into_inner().unwrap_or_else(|e| e.into_inner());
         if let Some(error) = merged.error {
             return Err(error);
+        }
+        let same = |(at, p): &(usize, [f32; 3])| {
+            (0..3).all(|k| merged.positions[at + k].to_bits() == p[k].to_bits())
+        };
+        if !merged.audit.iter().all(same) {
+            return Err(RunError::ReachExceeded { service: service.to_owned(), rings });
         }
         let mut store = MeshStore::new(Arc::clone(mesh));
         store.apply(Op::SetPositions { xyz: merged.positions }).map_err(|e| RunError::Failed {
@@ -172,6 +182,9 @@ struct Merged {
     guest_peak_bytes: usize,
     /// The first partition's failure: it fails the step.
     error: Option<RunError>,
+    /// Partition 0's core as the audit (one ring more) computed it: (coordinate index,
+    /// position), to be equal bit for bit to what partition 0 gave.
+    audit: Vec<(usize, [f32; 3])>,
 }
 
 /// The partitions, handed out one at a time to the workers.
@@ -196,7 +209,7 @@ impl Work<'_> {
     fn run(&self, slot: &permits::Permit<'_>) {
         loop {
             let index = self.next.fetch_add(1, Ordering::Relaxed);
-            if index >= self.cut.len() || self.failed.load(Ordering::Relaxed) {
+            if index > self.cut.len() || self.failed.load(Ordering::Relaxed) {
                 return;
             }
             if let Err(error) = self.run_one(slot, index) {
@@ -208,10 +221,18 @@ impl Work<'_> {
         }
     }
 
+    /// Runs partition `index`, or for `index == len()` the audit: partition 0 again with
+    /// one ring more, whose core must come out the same.
     fn run_one(&self, slot: &permits::Permit<'_>, index: usize) -> Result<(), RunError> {
-        let label = format!("{} (partition {} of {})", self.service, index + 1, self.cut.len());
+        let count = self.cut.len();
+        let audit = index == count;
+        let label = match audit {
+            false => format!("{} (partition {} of {count})", self.service, index + 1),
+            true => format!("{} (partition 1 with one ring more)", self.service),
+        };
         let part = match index {
             0 => self.first.lock().unwrap_or_else(|e| e.into_inner()).take(),
+            _ if audit => self.cut.partition(0, self.rings + 1, usize::MAX),
             _ => self.cut.partition(index, self.rings, usize::MAX),
         }
         .expect("partition 0 was built once, the others have no bound");
@@ -240,10 +261,17 @@ impl Work<'_> {
             return Err(RunError::NotLocal { service: label, edit: op.kind().name() });
         }
         let positions = state.mesh.positions();
+        let cores =
+            part.core.iter().map(|&c| (3 * c as usize, 3 * part.vertices[c as usize] as usize));
         let mut guard = self.merged.lock().unwrap_or_else(|e| e.into_inner());
         let merged = &mut *guard;
-        for &c in &part.core {
-            let (local, global) = (3 * c as usize, 3 * part.vertices[c as usize] as usize);
+        if audit {
+            merged.audit = cores
+                .map(|(local, global)| (global, [0, 1, 2].map(|k| positions[local + k])))
+                .collect();
+            return Ok(());
+        }
+        for (local, global) in cores {
             merged.positions[global..global + 3].copy_from_slice(&positions[local..local + 3]);
         }
         merged.reports[index] = report;

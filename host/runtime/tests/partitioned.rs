@@ -7,7 +7,8 @@ mod common;
 use meshflow_generate::{ScanSpec, scan, shuffled};
 use meshflow_mesh::MeshData;
 use meshflow_mesh::attributes::{Attribute, Attributes};
-use meshflow_runtime::{Limits, RunOutput, Runtime, Value};
+use meshflow_builtin_plugins::fixture;
+use meshflow_runtime::{Limits, RunError, RunOutput, Runtime, Value};
 
 /// A scan with holes, debris and defects, its ids shuffled, with a colour per vertex.
 fn scan_mesh() -> MeshData {
@@ -82,4 +83,21 @@ fn a_reach_over_most_of_the_mesh_runs_it_whole() {
     let params = [("iterations", Value::Integer(400))];
     let output = run(partitioned(8_000), "taubin-smoothing", &mesh, &params);
     assert_eq!(output.partitions, None);
+}
+
+#[test]
+fn a_service_that_claims_locality_wrongly_is_refused_on_partitions() {
+    let mesh = scan_mesh();
+    let runtime = Runtime::new(partitioned(8_000), None).expect("a runtime");
+    let hostile = runtime.load(fixture("hostile")).expect("the hostile fixture loads");
+    assert!(hostile.declares_locality());
+    let error = runtime.run(&hostile, "local-but-adds", mesh.clone(), &[]).expect_err("adds");
+    assert!(matches!(&error, RunError::NotLocal { edit: "add-vertices", .. }), "{error}");
+    assert!(error.to_string().contains("partition"), "{error}");
+    // Its result depends on the partition's size: the audit partition tells.
+    let error = runtime.run(&hostile, "local-but-global", mesh.clone(), &[]).expect_err("global");
+    assert!(matches!(&error, RunError::ReachExceeded { rings: 1, .. }), "{error}");
+    // On a mesh below the partition size both run whole, as any service.
+    let small = MeshData::new(mesh.positions[..300].to_vec(), vec![0, 1, 2]);
+    runtime.run(&hostile, "local-but-global", small, &[]).expect("runs whole");
 }

@@ -116,6 +116,25 @@ fn add_bare_vertex(mesh: &Mesh, _: &Params) -> Result<String> {
     Ok("added a vertex".into())
 }
 
+/// Declares itself local, then adds a vertex: a partition's edits cannot be merged.
+fn local_but_adds(mesh: &Mesh, _: &Params) -> Result<String> {
+    mesh.add_vertex([0.0, 0.0, 2.0])?;
+    Ok("added a vertex".into())
+}
+
+/// Declares a reach of one ring, then moves every vertex by an amount that depends on the
+/// whole mesh (its vertex count): on partitions the result depends on the cut.
+fn local_but_global(mesh: &Mesh, _: &Params) -> Result<String> {
+    let shift = mesh.vertex_count() as f32 * 1e-3;
+    let moved: Vec<f32> = mesh.positions().iter().map(|&c| c + shift).collect();
+    mesh.set_positions(&moved)?;
+    Ok(format!("moved by {shift}"))
+}
+
+fn one_ring(_: &Params) -> Result<u32> {
+    Ok(1)
+}
+
 fn wrong_result_type(_: &Mesh, _: &Params) -> Result<Value> {
     Ok(Value::Text("not an integer".into()))
 }
@@ -161,6 +180,14 @@ fn services() -> Vec<Service> {
             "Adds a vertex without attribute values.",
             add_bare_vertex,
         ),
+        Service::filter("local-but-adds", "Claims to be local, adds a vertex.", local_but_adds)
+            .local(one_ring),
+        Service::filter(
+            "local-but-global",
+            "Claims a reach of one ring, moves by the mesh's vertex count.",
+            local_but_global,
+        )
+        .local(one_ring),
         Service::check(
             "wrong-result-type",
             "Declares an integer, returns text.",
