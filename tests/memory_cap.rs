@@ -16,14 +16,15 @@ use meshflow_runtime::{Runtime, memory_cap_bytes};
 const INITIAL_GUEST_BYTES: u64 = 128 << 20;
 
 #[test]
-fn a_smoothing_run_past_the_cap_is_refused_naming_the_cap_and_the_flag() {
+fn a_run_past_the_cap_is_refused_naming_the_cap_and_the_flag() {
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| dir.path().join(name).display().to_string();
     let (scan, out) = (path("scan.ply"), path("out.ply"));
-    // Large enough that smoothing grows the guest past its initial memory.
+    // Large enough that hole filling grows the guest past its initial memory (a service that
+    // runs whole: smoothing would run on partitions under a cap it does not fit).
     ok(&["generate", "scan", "--vertices", "1500000", "-o", &scan]);
     let apply = |cap: Option<u64>| {
-        let mut args = vec!["apply", "laplacian-smoothing", &scan, "-o", &out, "--json"];
+        let mut args = vec!["apply", "fill-holes", &scan, "-o", &out, "--json"];
         let cap = cap.map(|mib| mib.to_string());
         if let Some(cap) = &cap {
             args.extend(["--memory-cap", cap]);
@@ -44,7 +45,7 @@ fn a_smoothing_run_past_the_cap_is_refused_naming_the_cap_and_the_flag() {
     assert!(!refused.status.success());
     let error = String::from_utf8_lossy(&refused.stderr);
     let expected = format!(
-        "laplacian-smoothing: stopped at the memory limit of {below} MiB \
+        "fill-holes: stopped at the memory limit of {below} MiB \
          (raise it with --memory-cap, at most 4096)"
     );
     assert!(error.contains(&expected), "{error}");

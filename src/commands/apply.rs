@@ -131,6 +131,13 @@ pub fn run(args: &ApplyArgs) -> anyhow::Result<()> {
             "correction_bytes": correction_bytes,
             "quantize_bits": args.quantize,
             "guest_peak_bytes": output.guest_peak_bytes,
+            "report": output.report,
+            "partitions": output.partitions.map(|p| serde_json::json!({
+                "count": p.count,
+                "rings": p.rings,
+                "core_triangles": p.core_triangles,
+                "largest": p.largest,
+            })),
         });
         out!("{summary}");
     } else {

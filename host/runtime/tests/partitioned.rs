@@ -4,10 +4,10 @@
 
 mod common;
 
+use meshflow_builtin_plugins::fixture;
 use meshflow_generate::{ScanSpec, scan, shuffled};
 use meshflow_mesh::MeshData;
 use meshflow_mesh::attributes::{Attribute, Attributes};
-use meshflow_builtin_plugins::fixture;
 use meshflow_runtime::{Limits, RunError, RunOutput, Runtime, Value};
 
 /// A scan with holes, debris and defects, its ids shuffled, with a colour per vertex.
