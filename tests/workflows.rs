@@ -14,6 +14,7 @@ use fake_host::{FakeHost, Script};
 use meshflow_api::HostClient;
 use meshflow_engine::workflow::Workflow;
 use meshflow_host::HostHandle;
+use meshflow_runtime::Limits;
 use serde_json::{Value as Json, json};
 
 /// Each filter family on its own host and the checks with the hole filler, so every example
@@ -599,6 +600,29 @@ fn raw_of(mesh: &meshflow_mesh::MeshData) -> Vec<u8> {
     raw.extend(mesh.positions.iter().flat_map(|v| v.to_le_bytes()));
     raw.extend(mesh.triangles.iter().flat_map(|v| v.to_le_bytes()));
     raw
+}
+
+/// A smoothing step that one host runs on partitions (issue 33) reaches the hosts after it
+/// as its edit log and as a replay they run whole, and every way gives the local,
+/// whole-mesh result: partitioning is the host's business, not the result's.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_step_run_on_partitions_gives_hosts_that_run_it_whole_the_same_hash() {
+    let cut = Limits { max_partition_triangles: Some(4_000), ..Limits::default() };
+    let cluster =
+        Cluster::start_with_limits(
+            SPREAD,
+            |i| if i == 0 { cut.clone() } else { Limits::default() },
+        )
+        .await;
+    let input = Input::scan(25_000, 11);
+    let workflow = example("repair");
+    let expected = locally(&workflow, &input);
+    run_in_modes(&cluster, &workflow, &input, &expected, &["correction", "replay"]).await;
+    let id = cluster.submit(&workflow, &cluster.upload(&input).await).await;
+    let record = cluster.finished(&id).await;
+    let smoothing = steps(&record).iter().find(|s| s["service"] == "laplacian-smoothing").unwrap();
+    assert_eq!(text(&smoothing["host"]), cluster.hosts[0].url, "{smoothing}");
+    assert!(text(&smoothing["report"]).contains("partitions"), "{smoothing}");
 }
 
 /// A scan whose every vertex has its own colour (its index in red, green and blue) and a

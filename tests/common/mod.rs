@@ -14,6 +14,7 @@ use meshflow_engine::EngineHandle;
 use meshflow_host::{HostConfig, HostHandle};
 use meshflow_mesh::MeshData;
 use meshflow_meshio::{self as io, Format};
+use meshflow_runtime::Limits;
 use serde_json::Value as Json;
 use tokio::net::TcpListener;
 
@@ -101,8 +102,22 @@ impl Cluster {
         other_hosts: &[String],
         origins: &[String],
     ) -> Self {
+        Self::start_configured(families, other_hosts, origins, |_| Limits::default()).await
+    }
+
+    /// As [`Cluster::start`], in-process host `i` with the sandbox limits `limits(i)`.
+    pub async fn start_with_limits(families: &[&[&str]], limits: impl Fn(usize) -> Limits) -> Self {
+        Self::start_configured(families, &[], &[], limits).await
+    }
+
+    async fn start_configured(
+        families: &[&[&str]],
+        other_hosts: &[String],
+        origins: &[String],
+        limits: impl Fn(usize) -> Limits,
+    ) -> Self {
         let data = tempfile::tempdir().unwrap();
-        let hosts = start_hosts(families, data.path(), origins).await;
+        let hosts = start_hosts_with(families, data.path(), origins, limits).await;
         let urls: Vec<String> =
             hosts.iter().map(|h| h.url.clone()).chain(other_hosts.iter().cloned()).collect();
         let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
@@ -219,6 +234,16 @@ impl EngineApi {
 /// families it offers), with [`CLUSTER_TOKEN`], inputs also allowed from `origins`;
 /// uploads allowed with [`TOKEN`].
 pub async fn start_hosts(families: &[&[&str]], data: &Path, origins: &[String]) -> Vec<HostHandle> {
+    start_hosts_with(families, data, origins, |_| Limits::default()).await
+}
+
+/// [`start_hosts`], host `i` with the sandbox limits `limits(i)`.
+pub async fn start_hosts_with(
+    families: &[&[&str]],
+    data: &Path,
+    origins: &[String],
+    limits: impl Fn(usize) -> Limits,
+) -> Vec<HostHandle> {
     let mut hosts = Vec::new();
     for (index, names) in families.iter().enumerate() {
         let config = HostConfig {
@@ -227,6 +252,7 @@ pub async fn start_hosts(families: &[&[&str]], data: &Path, origins: &[String]) 
             token: Some(TOKEN.into()),
             cluster_token: Some(CLUSTER_TOKEN.into()),
             allow_input_from: origins.to_vec(),
+            limits: limits(index),
             ..HostConfig::new(data.join(format!("host-{index}")))
         };
         let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
