@@ -25,7 +25,10 @@ mod common;
 use std::sync::Arc;
 use std::time::Duration;
 
-use common::{SCAN_1M, best, meshlab_available, meshlab_time, ms, ratio};
+use common::{
+    MESHLAB_DEGENERATE, MESHLAB_FILL_HOLES, MESHLAB_LAPLACIAN, MESHLAB_REMOVE_COMPONENTS, SCAN_1M,
+    best, meshlab_available, meshlab_time, ms, ratio,
+};
 use meshflow_builtin_plugins::PLUGINS;
 use meshflow_codec::{correction, pack};
 use meshflow_generate::{scan, shuffled};
@@ -84,7 +87,7 @@ const FILTERS: [Filter; 6] = [
             Outcome { triangles: m.triangle_count() - removal.triangles.len(), positions: None }
         },
         meshlab_issue: Some(Duration::from_millis(1940)),
-        meshlab: "ms.meshing_remove_connected_component_by_face_number(mincomponentsize=10000)",
+        meshlab: MESHLAB_REMOVE_COMPONENTS,
     },
     Filter {
         plugin: "cleanup",
@@ -95,7 +98,7 @@ const FILTERS: [Filter; 6] = [
             Outcome { triangles: live.count(), positions: None }
         },
         meshlab_issue: Some(Duration::from_millis(630)),
-        meshlab: "ms.meshing_remove_null_faces(); ms.meshing_remove_duplicate_faces()",
+        meshlab: MESHLAB_DEGENERATE,
     },
     Filter {
         plugin: "smoothing",
@@ -105,8 +108,7 @@ const FILTERS: [Filter; 6] = [
             moved(xyz, m)
         },
         meshlab_issue: Some(Duration::from_millis(1430)),
-        meshlab: "ms.apply_coord_laplacian_smoothing(stepsmoothnum=1, boundary=True, \
-                  cotangentweight=False)",
+        meshlab: MESHLAB_LAPLACIAN,
     },
     TAUBIN,
     Filter {
@@ -135,7 +137,7 @@ const FILTERS: [Filter; 6] = [
             }
         },
         meshlab_issue: Some(Duration::from_millis(1760)),
-        meshlab: "ms.meshing_close_holes(maxholesize=500)",
+        meshlab: MESHLAB_FILL_HOLES,
     },
 ];
 

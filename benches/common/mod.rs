@@ -37,8 +37,18 @@ pub fn ratio(a: Duration, b: Duration) -> f64 {
     a.as_secs_f64() / b.as_secs_f64()
 }
 
+/// The pymeshlab statements doing what the repair workflow's steps do, on a `MeshSet` `ms`
+/// (each bench that sets MeshLab beside meshflow uses these).
+pub const MESHLAB_REMOVE_COMPONENTS: &str =
+    "ms.meshing_remove_connected_component_by_face_number(mincomponentsize=10000)";
+pub const MESHLAB_LAPLACIAN: &str =
+    "ms.apply_coord_laplacian_smoothing(stepsmoothnum=1, boundary=True, cotangentweight=False)";
+pub const MESHLAB_FILL_HOLES: &str = "ms.meshing_close_holes(maxholesize=500)";
+pub const MESHLAB_DEGENERATE: &str =
+    "ms.meshing_remove_null_faces(); ms.meshing_remove_duplicate_faces()";
+
 /// The Python that runs pymeshlab: `$PYMESHLAB_PYTHON`, else `python3`.
-fn python() -> String {
+pub fn python() -> String {
     std::env::var("PYMESHLAB_PYTHON").unwrap_or_else(|_| "python3".into())
 }
 

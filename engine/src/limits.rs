@@ -72,8 +72,10 @@ pub const BUSY_MAX_PAUSE: Duration = Duration::from_secs(8);
 
 // ---- downloads in the user's format ----
 
-/// Largest mesh file the engine takes from a host for a download (`POST /meshes/convert`).
-pub const MAX_DOWNLOAD_FETCH_BYTES: u64 = 1 << 30;
+/// Largest mesh file the engine takes from a host for a download (`POST /meshes/convert`),
+/// spooled to disk: a `raw` mesh is 12 bytes per vertex and per triangle, so a 60M-triangle
+/// scan (issue 33) needs 1.1 GB and 4 GiB holds 200M triangles.
+pub const MAX_DOWNLOAD_FETCH_BYTES: u64 = 4 << 30;
 /// Longest the engine waits for a host's written mesh, connection to last byte (a binary PLY
 /// of a million vertices is 37 MB: a minute at 5 Mbit/s).
 pub const DOWNLOAD_FETCH_TIMEOUT: Duration = Duration::from_secs(300);
