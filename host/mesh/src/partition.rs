@@ -78,7 +78,22 @@ impl<'a> Partitioning<'a> {
     /// more than `max_triangles`. `rings == 0` gives the core alone. Panics if
     /// `index >= self.len()`.
     pub fn partition(&self, index: usize, rings: u32, max_triangles: usize) -> Option<Partition> {
-        let mut core = self.order[self.bounds[index]..self.bounds[index + 1]].to_vec();
+        let core = self.order[self.bounds[index]..self.bounds[index + 1]].to_vec();
+        self.grown(core, rings, max_triangles)
+    }
+
+    /// A partition whose core is the first `vertices` of partition `index`'s core (in
+    /// Morton order: a compact patch of it), grown by `rings`: a small piece to run again
+    /// and compare with what partition `index` gave its vertices.
+    pub fn sample(&self, index: usize, vertices: usize, rings: u32) -> Partition {
+        let start = self.bounds[index];
+        let end = self.bounds[index + 1].min(start + vertices.max(1));
+        self.grown(self.order[start..end].to_vec(), rings, usize::MAX)
+            .expect("no bound on its triangles")
+    }
+
+    /// The partition with `core` (any vertex ids) grown by `rings`.
+    fn grown(&self, mut core: Vec<u32>, rings: u32, max_triangles: usize) -> Option<Partition> {
         core.sort_unstable();
         let mut vertices = core.clone();
         let mut triangles: Vec<u32> = Vec::new();
@@ -310,6 +325,10 @@ mod tests {
             .count();
         assert_eq!(part.mesh.triangle_count(), expected);
         assert!(part.mesh.triangle_count() < mesh.triangle_count());
+        // A sample of the core: its first vertices, grown the same way.
+        let sample = cut.sample(1, 3, 2);
+        assert_eq!(sample.core.len(), 3);
+        assert!(sample.core.iter().all(|&c| part.vertices.contains(&sample.vertices[c as usize])));
         // Without rings, the core alone.
         let bare = cut.partition(1, 0, usize::MAX).unwrap();
         assert!(cut.partition(1, 3, expected - 1).is_none(), "over its bound");
