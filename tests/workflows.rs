@@ -625,6 +625,62 @@ async fn a_step_run_on_partitions_gives_hosts_that_run_it_whole_the_same_hash() 
     assert!(text(&smoothing["report"]).contains("partitions"), "{smoothing}");
 }
 
+/// Code moves to the data (issue 34 item 3): after a long smoothing step, the check and
+/// the branch's filter planned on another host run on the smoothing host instead, its
+/// plugins fetched there, because the other host would first have to re-run the smoothing;
+/// the result is the local one, and the record says where each step was planned and why it
+/// moved. A host started with `--no-foreign-plugins` is never moved to: then the run keeps
+/// its plan.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_step_runs_where_the_mesh_is_when_bringing_the_mesh_over_would_take_longer() {
+    let workflow = json!({
+        "steps": [
+            {"run": "taubin-smoothing", "params": {"iterations": 1000}},
+            {
+                "if": {"check": "is-manifold", "op": "==", "value": true},
+                "then": [{"run": "remove-degenerate-triangles"}],
+                "else": [{"run": "remove-smallest-components"}]
+            }
+        ],
+        "transfer": "replay"
+    });
+    let input = Input::scan(120_000, 21);
+    let expected = locally(&workflow, &input);
+    for foreign in [true, false] {
+        let data = tempfile::tempdir().unwrap();
+        let hosts = common::start_hosts_configured(
+            &[&["smoothing"], &["checks", "cleanup"]],
+            data.path(),
+            |i, config| config.foreign_plugins = foreign || i != 0,
+        )
+        .await;
+        let cluster = Cluster::around(hosts, data).await;
+        let smoothing = cluster.hosts[0].url.clone();
+        let id = cluster.submit(&workflow, &cluster.upload(&input).await).await;
+        let record = cluster.finished(&id).await;
+        assert_eq!(record["status"], "completed", "{}", record["error"]);
+        assert_eq!(executed(&record), expected.steps);
+        assert_eq!(text(&record["result"]["hash"]), expected.hash());
+        let steps = steps(&record);
+        let smoothed = steps[0]["compute_ms"].as_f64().unwrap();
+        for step in &steps[1..] {
+            match foreign {
+                true => {
+                    assert_eq!(text(&step["host"]), smoothing, "{foreign}: {step}");
+                    let why = text(&step["moved"]["why"]);
+                    assert_eq!(step["moved"]["planned"], cluster.hosts[1].url.as_str(), "{step}");
+                    assert!(why.contains("holds the current mesh"), "{why}");
+                }
+                false => {
+                    assert_eq!(text(&step["host"]), cluster.hosts[1].url, "{foreign}: {step}");
+                    assert_eq!(step["moved"], Json::Null, "{step}");
+                }
+            }
+        }
+        assert!(smoothed > 1_000.0, "the smoothing must outlast a plugin's fetch: {smoothed} ms");
+    }
+}
+
 /// A scan whose every vertex has its own colour (its index in red, green and blue) and a
 /// quality: the repair keeps both through every way a result travels. Vertices that
 /// survive keep their values bit for bit and their order; new ones come after them.

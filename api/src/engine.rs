@@ -375,6 +375,17 @@ pub struct StepRecord {
     /// Who checked the step's result and how (`replay`, `spot-check`, `arbitration`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub verified_by: Vec<Verification>,
+    /// Set when the step ran on the host holding the mesh rather than the one planned (code
+    /// moved to the data): which host was planned, and why it did not run there.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub moved: Option<MovedToData>,
+}
+
+/// A step run where the mesh was, its plugin fetched there, instead of on its planned host.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MovedToData {
+    pub planned: String,
+    pub why: String,
 }
 
 /// What one host claimed about a step: the mesh hash (a check's value as JSON text) it
@@ -525,6 +536,7 @@ mod tests {
             claims: vec![],
             verdict: None,
             verified_by: vec![],
+            moved: None,
         });
         let json = serde_json::to_value(&record).unwrap();
         assert_eq!(json["transfer"], "full");

@@ -13,6 +13,15 @@ pub struct Health {
     /// Runs in progress: the engine's measure of load.
     pub running: usize,
     pub sessions: usize,
+    /// Whether the host runs plugins it fetched from the cluster by digest (replays, and
+    /// steps the engine moves to the mesh); `false` with `--no-foreign-plugins`. Hosts from
+    /// before this field did.
+    #[serde(default = "yes")]
+    pub foreign_plugins: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 /// One entry of `GET /services`.

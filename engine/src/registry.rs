@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use meshflow_api::fetch_rules::{check_address, guarded_client, origin};
 use meshflow_api::host::ServiceEntry;
-use meshflow_api::params::ServiceInfo;
+use meshflow_api::params::{ServiceInfo, ServiceKind};
 use meshflow_api::{CONNECT_TIMEOUT, ClusterAccess, HostClient};
 use serde::Serialize;
 
@@ -43,6 +43,9 @@ pub struct HostState {
     /// Tasks this engine has triggered there and not yet seen finish.
     pub assigned: u32,
     pub last_error: Option<String>,
+    /// Whether it runs plugins fetched from other hosts (replays, steps moved to it); a
+    /// host started with `--no-foreign-plugins` does not.
+    pub foreign_plugins: bool,
 }
 
 impl HostEntry {
@@ -128,6 +131,26 @@ impl HostEntry {
         self.state.lock().unwrap().services.iter().any(|s| s.plugin == digest)
     }
 
+    /// Whether the host runs plugins it fetches by digest (a host not yet heard from is
+    /// taken not to).
+    pub fn runs_foreign_plugins(&self) -> bool {
+        self.state.lock().unwrap().foreign_plugins
+    }
+
+    /// The plugin (digest) the host runs `service` with, and the service's kind: the one
+    /// `pin` (a digest or its prefix) names, or the one serving unpinned requests.
+    pub fn plugin_for(&self, service: &str, pin: Option<&str>) -> Option<(String, ServiceKind)> {
+        let state = self.state.lock().unwrap();
+        let entry = state.services.iter().find(|s| {
+            s.info.name == service
+                && match pin {
+                    Some(pin) => s.plugin.starts_with(pin),
+                    None => !s.pinned_only,
+                }
+        })?;
+        Some((entry.plugin.clone(), entry.info.kind))
+    }
+
     /// The component size of the plugin `digest`, if the host offers it and said.
     pub fn plugin_bytes(&self, digest: &str) -> Option<u64> {
         let state = self.state.lock().unwrap();
@@ -199,6 +222,7 @@ impl HostEntry {
                 state.up = true;
                 state.running = u32::try_from(health.running).unwrap_or(u32::MAX);
                 state.services = services;
+                state.foreign_plugins = health.foreign_plugins;
                 state.last_error = None;
             }
             Err(error) => {

@@ -88,6 +88,10 @@ pub struct HostConfig {
     /// Compiled-component cache; `data_dir/cache` by default. Hosts may share one.
     pub artefact_cache: Option<PathBuf>,
     pub limits: Limits,
+    /// Run and replay plugins fetched from the cluster's hosts by digest (DESIGN §4; a step
+    /// the engine moves to this host because it holds the mesh). `false`
+    /// (`--no-foreign-plugins`): only the plugins this host loaded itself run here.
+    pub foreign_plugins: bool,
     pub max_download_bytes: u64,
     pub session_ttl: Duration,
     pub blob_budget_bytes: u64,
@@ -110,6 +114,7 @@ impl HostConfig {
             builtins: Vec::new(),
             artefact_cache: None,
             limits: Limits::default(),
+            foreign_plugins: true,
             max_download_bytes: DEFAULT_MAX_DOWNLOAD_BYTES,
             session_ttl: DEFAULT_SESSION_TTL,
             blob_budget_bytes: DEFAULT_BLOB_BUDGET_BYTES,

@@ -19,6 +19,8 @@ pub enum PluginSetError {
     Run(#[from] RunError),
     #[error("no plugin `{0}`")]
     NotFound(String),
+    #[error("no plugin `{0}`: {1}")]
+    NotFoundBecause(String, String),
     #[error("plugin {digest} has no service `{service}`; it offers: {offered}")]
     NoSuchService { digest: String, service: String, offered: String },
     #[error(

@@ -29,6 +29,10 @@ use crate::config::DOWNLOAD_TIMEOUT;
 use crate::meshes::CurrentMesh;
 use crate::plugins::{MAX_PLUGIN_BYTES, PluginSet};
 
+/// What a host started with `--no-foreign-plugins` says when a plugin it lacks is asked for.
+pub const NO_FOREIGN_PLUGINS: &str =
+    "this host runs only the plugins it loaded itself (--no-foreign-plugins)";
+
 /// Why a replay did not give the step's result; the host then falls back to the edit log.
 #[derive(Debug, thiserror::Error)]
 pub enum ReplayFailure {
@@ -79,6 +83,8 @@ pub(crate) struct ReplayPlugins {
     pending: Mutex<HashMap<String, Arc<tokio::sync::OnceCell<Plugin>>>>,
     /// Prefetches compiling at once; a replay that needs a plugin never waits for this.
     prefetching: tokio::sync::Semaphore,
+    /// Whether plugins this host did not load itself may run here (`--no-foreign-plugins`).
+    foreign: bool,
 }
 
 /// What a replay's update did: the mesh, and how long it waited for its plugin when the
@@ -100,13 +106,16 @@ pub enum PrefetchError {
     TimedOut(Duration),
     #[error("the host is stopping")]
     Stopping,
+    #[error("{NO_FOREIGN_PLUGINS}")]
+    NoForeignPlugins,
     #[error(transparent)]
     Plugin(#[from] ReplayFailure),
 }
 
 impl ReplayPlugins {
-    pub fn new(dir: PathBuf, runtime: Arc<Runtime>, http: reqwest::Client) -> Self {
+    pub fn new(dir: PathBuf, runtime: Arc<Runtime>, http: reqwest::Client, foreign: bool) -> Self {
         Self {
+            foreign,
             dir,
             runtime,
             http,
@@ -293,6 +302,10 @@ impl ReplayPlugins {
         if let Some(plugin) = self.ready(offered, digest) {
             return Ok((plugin, None));
         }
+        if !self.foreign {
+            let message = NO_FOREIGN_PLUGINS.to_owned();
+            return Err(ReplayFailure::Plugin { digest: digest.to_owned(), message });
+        }
         let started = Instant::now();
         let pending = self.pending(digest);
         let plugin = pending.get_or_try_init(|| self.obtain(source, digest)).await.cloned();
@@ -300,9 +313,22 @@ impl ReplayPlugins {
         Ok((plugin?, Some(started.elapsed())))
     }
 
-    /// The plugin with `digest` if it is compiled here: offered, or loaded for a replay.
+    /// The plugin with `digest` if it is compiled here: offered, or loaded for a replay
+    /// (when foreign plugins may run here).
     fn ready(&self, offered: &PluginSet, digest: &str) -> Option<Plugin> {
-        offered.by_digest(digest).or_else(|| self.get(digest))
+        offered.by_digest(digest).or_else(|| self.fetched(digest))
+    }
+
+    /// A plugin this host did not load itself but fetched for a replay or a prefetch, ready
+    /// to run: what a step the engine moved here runs with. `None` with
+    /// `--no-foreign-plugins`.
+    pub fn fetched(&self, digest: &str) -> Option<Plugin> {
+        self.foreign.then(|| self.get(digest)).flatten()
+    }
+
+    /// Whether plugins fetched from other hosts may run here.
+    pub fn runs_foreign(&self) -> bool {
+        self.foreign
     }
 
     /// Makes the plugin `wanted` names ready for a replay to come: nothing if it is
@@ -363,6 +389,9 @@ impl ReplayPlugins {
         }
         if self.ready(offered, digest).is_some() {
             return Ok(PrefetchOutcome::Present);
+        }
+        if !self.foreign {
+            return Err(PrefetchError::NoForeignPlugins);
         }
         let from = cluster_origin(scope, &wanted.from)?;
         let work = async {

@@ -83,6 +83,7 @@ impl Host {
             dirs.replay_plugins.clone(),
             runtime.clone(),
             downloads.client().clone(),
+            config.foreign_plugins,
         );
         let blobs =
             BlobStore::new(dirs.blobs.clone(), config.blob_budget_bytes, config.recent_outputs);

@@ -17,7 +17,7 @@ use meshflow_codec::quantize::{Grid, snap_step};
 use meshflow_mesh::ContentHash;
 use meshflow_mesh::store::EditError;
 use meshflow_params::{ParamError, from_json as params_from_json, value_json};
-use meshflow_runtime::{Invocation, RunError, ServiceKind};
+use meshflow_runtime::{Invocation, Plugin, RunError, ServiceInfo, ServiceKind};
 
 use crate::blobs::{BlobError, Stored};
 use crate::downloads::PeersError;
@@ -295,10 +295,39 @@ async fn apply_correction(
     Ok(CurrentMesh { mesh: Arc::new(next), hash: expected.to_ascii_lowercase() })
 }
 
+/// The plugin and service a run request names: from the plugins this host offers, or, for a
+/// request pinned to a digest it does not offer, a plugin it fetched (the engine moved the
+/// step here, where the mesh is, and made the plugin ready first), unless this host runs
+/// only its own plugins.
+fn plugin_for_run(host: &Host, request: &RunRequest) -> Result<(Plugin, ServiceInfo), StepError> {
+    let offered = host.plugins.find(&request.service, request.plugin.as_deref());
+    match (offered, request.plugin.as_deref()) {
+        (Err(PluginSetError::NotFound(_)), Some(digest)) => {
+            let Some(plugin) = host.replay_plugins.fetched(digest) else {
+                let why = match host.replay_plugins.runs_foreign() {
+                    true => "neither offered nor fetched here".to_owned(),
+                    false => crate::replay::NO_FOREIGN_PLUGINS.to_owned(),
+                };
+                return Err(PluginSetError::NotFoundBecause(digest.to_owned(), why).into());
+            };
+            let info = plugin.service(&request.service).cloned().ok_or_else(|| {
+                let offered: Vec<&str> = plugin.services.iter().map(|s| s.name.as_str()).collect();
+                PluginSetError::NoSuchService {
+                    digest: digest.to_owned(),
+                    service: request.service.clone(),
+                    offered: offered.join(", "),
+                }
+            })?;
+            Ok((plugin, info))
+        }
+        (found, _) => Ok(found?),
+    }
+}
+
 /// Runs a service on session `id`: a filter replaces the session's mesh and yields a
 /// correction, a replay and a full-mesh URL; a check yields its value.
 pub async fn run(host: &Host, id: &str, request: RunRequest) -> Result<RunResult, StepError> {
-    let (plugin, info) = host.plugins.find(&request.service, request.plugin.as_deref())?;
+    let (plugin, info) = plugin_for_run(host, &request)?;
     let given = params_from_json(&info, &request.params)?;
     // The service is looked up and its parameters resolved here, once: the answer, the
     // replay, the edit log's estimate and the run itself all take these.

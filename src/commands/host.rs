@@ -34,6 +34,11 @@ pub struct HostArgs {
     /// use it).
     #[arg(long)]
     insecure_no_auth: bool,
+    /// Run only the plugins this host loaded itself (built in or uploaded here): no replays
+    /// of other hosts' plugins (they reach it as edit logs or full meshes instead), and no
+    /// steps the engine would move here because the mesh is here.
+    #[arg(long)]
+    no_foreign_plugins: bool,
     /// Engine to register with at start.
     #[arg(long, value_name = "URL")]
     engine: Option<String>,
@@ -67,6 +72,7 @@ pub fn run(args: HostArgs) -> anyhow::Result<()> {
         cluster_token: args.cluster.token.get()?,
         allow_input_from: args.cluster.allow_input_from,
         insecure_no_auth: args.insecure_no_auth,
+        foreign_plugins: !args.no_foreign_plugins,
         engine: args.engine,
         public_url: args.public_url,
         tls: args.ops.tls.files(),

@@ -118,6 +118,20 @@ impl Cluster {
     ) -> Self {
         let data = tempfile::tempdir().unwrap();
         let hosts = start_hosts_with(families, data.path(), origins, limits).await;
+        Self::around_allowing(hosts, data, other_hosts, origins).await
+    }
+
+    /// An engine over hosts started already, whose data lives in `data`.
+    pub async fn around(hosts: Vec<HostHandle>, data: tempfile::TempDir) -> Self {
+        Self::around_allowing(hosts, data, &[], &[]).await
+    }
+
+    async fn around_allowing(
+        hosts: Vec<HostHandle>,
+        data: tempfile::TempDir,
+        other_hosts: &[String],
+        origins: &[String],
+    ) -> Self {
         let urls: Vec<String> =
             hosts.iter().map(|h| h.url.clone()).chain(other_hosts.iter().cloned()).collect();
         let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
@@ -244,6 +258,25 @@ pub async fn start_hosts_with(
     origins: &[String],
     limits: impl Fn(usize) -> Limits,
 ) -> Vec<HostHandle> {
+    start_hosts_configured_allowing(families, data, origins, |i, config| config.limits = limits(i))
+        .await
+}
+
+/// [`start_hosts`], host `i`'s configuration changed by `configure(i, config)` first.
+pub async fn start_hosts_configured(
+    families: &[&[&str]],
+    data: &Path,
+    configure: impl Fn(usize, &mut HostConfig),
+) -> Vec<HostHandle> {
+    start_hosts_configured_allowing(families, data, &[], configure).await
+}
+
+async fn start_hosts_configured_allowing(
+    families: &[&[&str]],
+    data: &Path,
+    origins: &[String],
+    configure: impl Fn(usize, &mut HostConfig),
+) -> Vec<HostHandle> {
     let mut hosts = Vec::new();
     for (index, names) in families.iter().enumerate() {
         let config = HostConfig {
@@ -252,9 +285,10 @@ pub async fn start_hosts_with(
             token: Some(TOKEN.into()),
             cluster_token: Some(CLUSTER_TOKEN.into()),
             allow_input_from: origins.to_vec(),
-            limits: limits(index),
             ..HostConfig::new(data.join(format!("host-{index}")))
         };
+        let mut config = config;
+        configure(index, &mut config);
         let listener = TcpListener::bind("127.0.0.1:0").await.unwrap();
         hosts.push(meshflow_host::start(config, listener).await.unwrap());
     }

@@ -36,7 +36,7 @@ pub enum PluginAt {
 
 impl PluginAt {
     /// Expected milliseconds before a replay can start over `link`.
-    fn ready_ms(self, link: &Link) -> f64 {
+    pub fn ready_ms(self, link: &Link) -> f64 {
         match self {
             PluginAt::Ready => 0.0,
             PluginAt::Missing { bytes } => {
@@ -88,6 +88,15 @@ pub fn estimate(step: &StepOutput, receiver: &Receiver) -> TransferEstimates {
 
 /// The way a workflow's `transfer` asks for; for `auto`, the least expected time (the edit
 /// log on a tie: it needs no plugin and no compute slot).
+/// What the estimates expect of `way`.
+pub fn expected_ms(estimates: &TransferEstimates, way: Use) -> f64 {
+    match way {
+        Use::Correction => estimates.correction_ms,
+        Use::Replay => estimates.replay_ms,
+        Use::Full => estimates.full_ms,
+    }
+}
+
 pub fn choose(transfer: Transfer, estimates: &TransferEstimates) -> Use {
     match transfer {
         Transfer::Correction => Use::Correction,

@@ -63,7 +63,7 @@ impl Executor {
                     cost::PluginAt::Missing { bytes: self.registry.plugin_bytes(&filter.plugin) }
                 }
             };
-            let estimates = cost::estimate(
+            let mut estimates = cost::estimate(
                 &output,
                 &cost::Receiver {
                     link: measured.link(&host.url, &receiver.url),
@@ -72,11 +72,18 @@ impl Executor {
                     load: receiver.load(),
                 },
             );
+            if !has_plugin && !receiver.runs_foreign_plugins() {
+                // It would refuse to fetch the plugin and fall back to the edit log. (The
+                // largest finite number: the record keeps estimates as JSON numbers.)
+                estimates.replay_ms = f64::MAX;
+            }
+            let use_ = cost::choose(self.transfer, &estimates);
+            let expected_ms = cost::expected_ms(&estimates, use_);
             let update = Update {
                 correction: Some(filter.correction.clone()),
                 replay: Some(filter.replay.clone()),
                 full: filter.full.clone(),
-                use_: cost::choose(self.transfer, &estimates),
+                use_,
             };
             let forwarded = replica::Forwarded {
                 update,
@@ -88,7 +95,7 @@ impl Executor {
                 registry: self.registry.clone(),
                 disputes: self.disputes.clone(),
             };
-            replica.forward(&self.run, index, forwarded, &hash, &host);
+            replica.forward(&self.run, index, forwarded, &hash, &host, expected_ms);
         }
         Ok(())
     }

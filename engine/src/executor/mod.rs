@@ -29,6 +29,7 @@ mod resume;
 mod session;
 mod step_record;
 mod task;
+mod to_data;
 mod verify;
 mod words;
 

@@ -115,22 +115,16 @@ fn wanted(plan: &Plan, workflow: &Workflow) -> Vec<(Arc<HostEntry>, Vec<WantedPl
             }
         }
     }
-    wanted.retain(|(_, plugins)| !plugins.is_empty());
+    // A host that runs only its own plugins would refuse them.
+    wanted.retain(|(host, plugins)| !plugins.is_empty() && host.runs_foreign_plugins());
     wanted
 }
 
 /// The digest of the plugin `host` runs the filter `service` from (pinned to a digest
 /// starting with `pin`, else the one serving the name to unpinned runs); none for a check.
 fn filter_plugin(host: &HostEntry, service: &str, pin: Option<&str>) -> Option<String> {
-    let state = host.state();
-    let entry = state.services.iter().find(|s| {
-        s.info.name == service
-            && match pin {
-                Some(pin) => s.plugin.starts_with(pin),
-                None => !s.pinned_only,
-            }
-    })?;
-    (entry.info.kind == ServiceKind::Filter).then(|| entry.plugin.clone())
+    let (plugin, kind) = host.plugin_for(service, pin)?;
+    (kind == ServiceKind::Filter).then_some(plugin)
 }
 
 /// A prefetch asked for and not answered yet (the record keeps it if the run ends first).

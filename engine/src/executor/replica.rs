@@ -5,6 +5,7 @@
 //! reaches another mesh, disagrees with the producer, and `arbitrate` settles who is right.
 
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use meshflow_api::ClientError;
 use meshflow_api::engine::TransferEstimates;
@@ -41,15 +42,19 @@ pub struct Replica {
     pub hash: String,
     /// The last update forwarded, which waits for the ones before it.
     pending: Option<JoinHandle<Result<Updated, ClientError>>>,
+    /// When the cost model expects `pending` to be done (its chosen way's estimate after
+    /// the updates before it).
+    expected_done: Option<Instant>,
 }
 
 impl Replica {
     pub fn new(host: Arc<HostEntry>, session: String, hash: String) -> Self {
-        Self { host, session, hash, pending: None }
+        Self { host, session, hash, pending: None, expected_done: None }
     }
 
     /// Queues an update (from `producer`, announcing mesh `hash`) after the updates already
-    /// forwarded; the transfer is recorded under step `step` of `run`, and measured.
+    /// forwarded, expected to take `expected_ms` once they are done; the transfer is recorded
+    /// under step `step` of `run`, and measured.
     pub fn forward(
         &mut self,
         run: &Arc<Run>,
@@ -57,7 +62,12 @@ impl Replica {
         forwarded: Forwarded,
         hash: &str,
         producer: &Arc<HostEntry>,
+        expected_ms: f64,
     ) {
+        let now = Instant::now();
+        let after =
+            self.expected_done.filter(|_| self.pending.is_some()).map_or(now, |t| t.max(now));
+        self.expected_done = Some(after + Duration::from_secs_f64(expected_ms.max(0.0) / 1e3));
         let previous = self.pending.take();
         let (run, receiver, producer) = (run.clone(), self.host.clone(), producer.clone());
         let (session, announced) = (self.session.clone(), hash.to_owned());
@@ -96,6 +106,22 @@ impl Replica {
             outcome
         }));
         self.hash = hash.to_owned();
+    }
+
+    /// How long until the session is expected to hold `hash`, as of `now`: 0 once its
+    /// updates are done; `None` when no update of `hash` is on its way (the host must fetch
+    /// the mesh whole, which the engine does not estimate here).
+    pub fn expected_wait_ms(&self, hash: &str, now: Instant) -> Option<f64> {
+        if self.hash != hash {
+            return None;
+        }
+        match &self.pending {
+            Some(pending) if !pending.is_finished() => {
+                let done = self.expected_done?;
+                Some(done.saturating_duration_since(now).as_secs_f64() * 1e3)
+            }
+            _ => Some(0.0),
+        }
     }
 
     /// Waits for the forwarded updates; true when the session then holds `hash`.

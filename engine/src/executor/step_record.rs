@@ -5,6 +5,7 @@
 use super::words::bounded_words;
 use std::sync::Arc;
 
+use meshflow_api::engine::MovedToData;
 use meshflow_api::host::{FilterResult, RunResult};
 use serde_json::{Map, Value as Json};
 
@@ -66,6 +67,8 @@ pub(super) struct Ran<'a> {
     pub overhead_ms: f64,
     /// The hosts the task failed on before.
     pub failed: &'a [Arc<HostEntry>],
+    /// Why it ran here and not on its planned host, if it moved to the data.
+    pub moved: Option<MovedToData>,
 }
 
 impl Ran<'_> {
@@ -107,6 +110,7 @@ impl Ran<'_> {
             claims: Vec::new(),
             verdict: None,
             verified_by: Vec::new(),
+            moved: self.moved,
         }
     }
 }

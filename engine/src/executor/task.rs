@@ -11,6 +11,7 @@ use meshflow_api::params::ValueType;
 use super::error::ExecError;
 use super::failure::{Failure, StepFailed};
 use super::step_record::{Answer, Ran};
+use super::to_data::Move;
 use super::{Executor, busy, verify};
 use crate::limits::MAX_STEPS_PER_RUN;
 use crate::plan::{offering_pinned, pick, placed_by_link};
@@ -30,8 +31,14 @@ impl Executor {
         let mut failed: Vec<Arc<HostEntry>> = Vec::new();
         // What went wrong on each failed host, for the error if none is left.
         let mut reasons: Vec<String> = Vec::new();
+        // Tried first, once: the host holding the mesh, when it is expected much sooner.
+        let planned = self.plan.host(&task.path).clone();
+        let mut moved = self.move_to_data(task, &planned).await;
         loop {
-            let host = self.plan.host(&task.path).clone();
+            let host = match &moved {
+                Some(moved) => moved.host.clone(),
+                None => self.plan.host(&task.path).clone(),
+            };
             let known = failed.iter().any(|h| Arc::ptr_eq(h, &host));
             if !known && (!host.is_up() || host.is_suspect()) {
                 let why = host.suspicion().unwrap_or_else(|| "down".into());
@@ -56,8 +63,14 @@ impl Executor {
                 self.plan.assign(&task.path, replacement);
                 continue;
             }
-            match self.attempt(task, kind, &host, &failed).await {
-                Ok((index, result)) => return Ok((index, result, host)),
+            match self.attempt(task, kind, &host, &failed, moved.as_ref()).await {
+                Ok((index, result)) => {
+                    // Its later runs (a WHILE body's next round) start where the mesh is too.
+                    if moved.is_some() {
+                        self.plan.assign(&task.path, host.clone());
+                    }
+                    return Ok((index, result, host));
+                }
                 Err(failure) => {
                     let busy = matches!(failure, Failure::Busy(_));
                     let message = failure.set_aside(&host).map_err(|StepFailed(message)| {
@@ -74,19 +87,22 @@ impl Executor {
                     }
                     reasons.push(format!("{}: {message}", host.url));
                     failed.push(host);
+                    moved = None;
                 }
             }
         }
     }
 
     /// Runs the task on `host` once its session holds the current mesh, checks the answer
-    /// and records the step; its index and the answer.
+    /// and records the step; its index and the answer. A task `moved` to the data runs the
+    /// plugin its planned host would have, and is held to that host's declaration.
     async fn attempt(
         &mut self,
         task: &Task,
         kind: &'static str,
         host: &Arc<HostEntry>,
         failed: &[Arc<HostEntry>],
+        moved: Option<&Move>,
     ) -> Result<(usize, RunResult), Failure> {
         let waiting = Instant::now();
         let session = self.bring_up_to_date(host).await?;
@@ -95,7 +111,7 @@ impl Executor {
         let request = RunRequest {
             service: task.service.clone(),
             params: task.params.clone(),
-            plugin: task.plugin.clone(),
+            plugin: moved.map(|m| m.plugin.clone()).or_else(|| task.plugin.clone()),
         };
         let started_ms = self.run.elapsed_ms();
         let (result, busy) = {
@@ -112,10 +128,16 @@ impl Executor {
         };
         match &result {
             RunResult::Filter(filter) => asked.filter(filter)?,
-            RunResult::Check(check) => asked.check(check, declared_type(host, &task.service)?)?,
+            RunResult::Check(check) => {
+                let declaring = moved.map_or(host, |m| &m.planned);
+                asked.check(check, declared_type(declaring, &task.service)?)?
+            }
         }
         let answer = Answer::of(&result);
         verify::ran_pinned(answer.plugin, task.plugin.as_deref())?;
+        if let Some(moved) = moved {
+            verify::ran_pinned(answer.plugin, Some(&moved.plugin))?;
+        }
         let ran = Ran {
             task,
             kind,
@@ -127,6 +149,7 @@ impl Executor {
             wait_ms,
             overhead_ms,
             failed,
+            moved: moved.map(|m| m.record.clone()),
         };
         let took = Duration::from_secs_f64((ran.finished_ms - ran.started_ms).max(0.0) / 1e3);
         self.registry.metrics.step(kind, took);

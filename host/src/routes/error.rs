@@ -61,7 +61,7 @@ impl From<PluginSetError> for ApiError {
     fn from(error: PluginSetError) -> Self {
         match error {
             PluginSetError::Run(error) => run_refused(error),
-            PluginSetError::NotFound(_) => {
+            PluginSetError::NotFound(_) | PluginSetError::NotFoundBecause(..) => {
                 Self::new(StatusCode::NOT_FOUND, "not-found", error.to_string())
             }
             PluginSetError::NoSuchService { .. } => {

@@ -70,5 +70,6 @@ async fn health(State(host): State<Arc<Host>>) -> axum::Json<Health> {
         version: env!("CARGO_PKG_VERSION").into(),
         running: host.running(),
         sessions: host.sessions.count(),
+        foreign_plugins: host.replay_plugins.runs_foreign(),
     })
 }

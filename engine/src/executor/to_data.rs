@@ -1,0 +1,91 @@
+//! Code moves to the data (issue 34 item 3): a task whose planned host is still catching up
+//! with the current mesh — re-running the step before, or downloading it — runs instead on
+//! the host that produced that mesh, which fetches the task's plugin by digest (as hosts do
+//! for replays), when the cost model expects that sooner by a clear margin. The plugin is
+//! the one the planned host would have run (a pin still holds), so the step's result is the
+//! same; the record says where the step ran and why. Only in `auto` and `replay` transfers
+//! (the others name the protocol the user asked for), only to a host that runs fetched
+//! plugins (not one started with `--no-foreign-plugins`) and that the admin trusts fully.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use meshflow_api::engine::MovedToData;
+use meshflow_api::host::{PrefetchOutcome, WantedPlugin};
+
+use super::{Executor, cost};
+use crate::registry::HostEntry;
+use crate::trust::Trust;
+use crate::workflow::{Task, Transfer};
+
+/// How much sooner the host holding the mesh must be expected to start the task before it
+/// moves there: a move gives up the planned host's copy as a second opinion and piles the
+/// run onto one host, so a few hundred milliseconds of estimate are not worth it.
+pub const MOVE_MARGIN_MS: f64 = 500.0;
+
+/// Where a task moves, with what, and why.
+pub(super) struct Move {
+    pub host: Arc<HostEntry>,
+    /// The host it was planned on, whose declaration of the service the answer is held to.
+    pub planned: Arc<HostEntry>,
+    /// The plugin the planned host would have run the task with.
+    pub plugin: String,
+    pub record: MovedToData,
+}
+
+impl Executor {
+    /// Whether `task`, planned on `planned`, should run on the producer of the current mesh
+    /// instead; when it should, the plugin is made ready there first.
+    pub(super) async fn move_to_data(&self, task: &Task, planned: &Arc<HostEntry>) -> Option<Move> {
+        if !matches!(self.transfer, Transfer::Auto | Transfer::Replay) {
+            return None;
+        }
+        let producer = self.registry.host(self.current.producer.as_deref()?)?;
+        let usable = producer.is_up()
+            && !producer.is_suspect()
+            && producer.trust() == Trust::Trusted
+            && producer.runs_foreign_plugins();
+        if Arc::ptr_eq(&producer, planned) || !usable {
+            return None;
+        }
+        // The planned host's copy: how long until it holds the current mesh.
+        let replica = self.replicas.iter().find(|r| Arc::ptr_eq(&r.host, planned))?;
+        let waiting_ms = replica.expected_wait_ms(&self.current.hash, Instant::now())?;
+        let (plugin, _) = planned.plugin_for(&task.service, task.plugin.as_deref())?;
+        let measured = &self.registry.measured;
+        let ready = producer.has_plugin(&plugin)
+            || measured.has_fetched(&producer.url, &plugin)
+            || self.prefetches.ready(&producer.url, &plugin);
+        let plugin_ms = match ready {
+            true => 0.0,
+            false => cost::PluginAt::Missing { bytes: self.registry.plugin_bytes(&plugin) }
+                .ready_ms(&measured.link(&planned.url, &producer.url)),
+        };
+        if plugin_ms + MOVE_MARGIN_MS >= waiting_ms {
+            return None;
+        }
+        if !ready {
+            let wanted = vec![WantedPlugin { digest: plugin.clone(), from: planned.url.clone() }];
+            let answer = producer.client.prefetch_plugins(wanted).await.ok()?;
+            let made_ready = answer.plugins.first().is_some_and(|p| {
+                matches!(
+                    p.outcome,
+                    PrefetchOutcome::Present | PrefetchOutcome::Loaded | PrefetchOutcome::Fetched
+                )
+            });
+            if !made_ready {
+                return None;
+            }
+            measured.prefetched(&producer.url, &plugin);
+        }
+        let record = MovedToData {
+            planned: planned.url.clone(),
+            why: format!(
+                "{} holds the current mesh; {} was expected to hold it in {:.0} ms, the \
+                 plugin to be ready here in {:.0} ms",
+                producer.url, planned.url, waiting_ms, plugin_ms
+            ),
+        };
+        Some(Move { host: producer, planned: planned.clone(), plugin, record })
+    }
+}
