@@ -103,7 +103,7 @@ pub fn placed_by_link(placement: Placement, registry: &Registry) -> Option<&Meas
 /// about a million vertices, packed.
 const REFERENCE_MESH_BYTES: u64 = 4 << 20;
 /// What each task already running or assigned on a host adds to a new task's wait there.
-const QUEUE_MS_PER_TASK: f64 = 500.0;
+pub const QUEUE_MS_PER_TASK: f64 = 500.0;
 
 /// Among the hosts that are up and offer `service` (and are not excluded), one already in
 /// the plan if any (few distinct hosts, few transfers); else, with `measured` links, the

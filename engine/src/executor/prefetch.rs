@@ -95,7 +95,9 @@ impl Prefetches {
 /// Per receiving host, the plugins it may replay and the host each is to come from: for
 /// every filter task, its plugin (the pin, or what its planned host serves the service
 /// from), wanted by every host that lacks it and has a task that may come after it (a
-/// later one, or any at all for a task in a WHILE body, which may run again).
+/// later one, or any at all for a task in a WHILE body, which may run again); and for every
+/// task, its plugin, wanted by every host that lacks it and produces a filter that may
+/// come before it (the task may move there, where the mesh is).
 fn wanted(plan: &Plan, workflow: &Workflow) -> Vec<(Arc<HostEntry>, Vec<WantedPlugin>)> {
     let tasks = workflow.tasks();
     let mut wanted: Vec<(Arc<HostEntry>, Vec<WantedPlugin>)> =
@@ -112,6 +114,27 @@ fn wanted(plan: &Plan, workflow: &Workflow) -> Vec<(Arc<HostEntry>, Vec<WantedPl
             let lacks = !Arc::ptr_eq(receiver, producer) && !receiver.has_plugin(&digest);
             if receives && lacks && !plugins.iter().any(|w| w.digest == digest) {
                 plugins.push(WantedPlugin { digest: digest.clone(), from: producer.url.clone() });
+            }
+        }
+    }
+    // A task may also move to the host holding the mesh (`to_data`): every host producing a
+    // filter that may come before a task planned elsewhere makes that task's plugin ready.
+    for (index, task) in tasks.iter().enumerate() {
+        let home = plan.host(&task.path);
+        let Some((digest, _)) = home.plugin_for(&task.service, plan.pin(&task.path)) else {
+            continue;
+        };
+        let repeats = task.path.contains(".do[") || task.path.contains(".while");
+        let before = if repeats { &tasks[..] } else { &tasks[..index] };
+        for (producer, plugins) in &mut wanted {
+            let produces = before.iter().any(|t| {
+                let host = plan.host(&t.path);
+                Arc::ptr_eq(host, producer)
+                    && filter_plugin(host, &t.service, plan.pin(&t.path)).is_some()
+            });
+            let lacks = !Arc::ptr_eq(producer, home) && !producer.has_plugin(&digest);
+            if produces && lacks && !plugins.iter().any(|w| w.digest == digest) {
+                plugins.push(WantedPlugin { digest: digest.clone(), from: home.url.clone() });
             }
         }
     }

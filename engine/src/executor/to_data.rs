@@ -14,14 +14,16 @@ use meshflow_api::engine::MovedToData;
 use meshflow_api::host::{PrefetchOutcome, WantedPlugin};
 
 use super::{Executor, cost};
+use crate::plan::QUEUE_MS_PER_TASK;
 use crate::registry::HostEntry;
 use crate::trust::Trust;
 use crate::workflow::{Task, Transfer};
 
 /// How much sooner the host holding the mesh must be expected to start the task before it
-/// moves there: a move gives up the planned host's copy as a second opinion and piles the
-/// run onto one host, so a few hundred milliseconds of estimate are not worth it.
-pub const MOVE_MARGIN_MS: f64 = 500.0;
+/// moves there: a move piles the run onto one host, and estimates err; a replay of a
+/// cotangent smoothing step of a 1M-vertex scan (~400 ms) is worth moving for, the tens of
+/// milliseconds a small mesh's update takes on loopback are not.
+pub const MOVE_MARGIN_MS: f64 = 250.0;
 
 /// Where a task moves, with what, and why.
 pub(super) struct Move {
@@ -61,7 +63,9 @@ impl Executor {
             false => cost::PluginAt::Missing { bytes: self.registry.plugin_bytes(&plugin) }
                 .ready_ms(&measured.link(&planned.url, &producer.url)),
         };
-        if plugin_ms + MOVE_MARGIN_MS >= waiting_ms {
+        // The producer may be busy with other runs' tasks: as the planner counts them.
+        let queue_ms = QUEUE_MS_PER_TASK * f64::from(producer.load());
+        if plugin_ms + queue_ms + MOVE_MARGIN_MS >= waiting_ms {
             return None;
         }
         if !ready {
