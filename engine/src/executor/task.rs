@@ -66,8 +66,8 @@ impl Executor {
             match self.attempt(task, kind, &host, &failed, moved.as_ref()).await {
                 Ok((index, result)) => {
                     // Its later runs (a WHILE body's next round) start where the mesh is too.
-                    if moved.is_some() {
-                        self.plan.assign(&task.path, host.clone());
+                    if let Some(moved) = moved {
+                        self.plan.move_task(&task.path, host.clone(), moved.plugin);
                     }
                     return Ok((index, result, host));
                 }
@@ -95,7 +95,7 @@ impl Executor {
 
     /// Runs the task on `host` once its session holds the current mesh, checks the answer
     /// and records the step; its index and the answer. A task `moved` to the data runs the
-    /// plugin its planned host would have, and is held to that host's declaration.
+    /// plugin its planned host would have.
     async fn attempt(
         &mut self,
         task: &Task,
@@ -111,7 +111,11 @@ impl Executor {
         let request = RunRequest {
             service: task.service.clone(),
             params: task.params.clone(),
-            plugin: moved.map(|m| m.plugin.clone()).or_else(|| task.plugin.clone()),
+            // The workflow's pin, or the plugin a task moved to the data runs.
+            plugin: moved
+                .map(|m| m.plugin.as_str())
+                .or(self.plan.pin(&task.path))
+                .map(str::to_owned),
         };
         let started_ms = self.run.elapsed_ms();
         let (result, busy) = {
@@ -129,15 +133,13 @@ impl Executor {
         match &result {
             RunResult::Filter(filter) => asked.filter(filter)?,
             RunResult::Check(check) => {
-                let declaring = moved.map_or(host, |m| &m.planned);
-                asked.check(check, declared_type(declaring, &task.service)?)?
+                let declared = self.declared_type(host, &check.plugin, &task.service)?;
+                asked.check(check, declared)?
             }
         }
         let answer = Answer::of(&result);
         verify::ran_pinned(answer.plugin, task.plugin.as_deref())?;
-        if let Some(moved) = moved {
-            verify::ran_pinned(answer.plugin, Some(&moved.plugin))?;
-        }
+        verify::ran_pinned(answer.plugin, request.plugin.as_deref())?;
         let ran = Ran {
             task,
             kind,
@@ -158,12 +160,28 @@ impl Executor {
     }
 }
 
-/// The result type `host` declares for the check `service`; a host answering a check it
-/// does not declare is not to be believed.
-fn declared_type(host: &HostEntry, service: &str) -> Result<ValueType, Failure> {
-    let services = host.state().services;
-    let declared = services.iter().find(|s| s.info.name == service);
-    declared.and_then(|s| s.info.result_type).ok_or_else(|| {
-        Failure::Suspect(format!("answered the check {service:?}, which it does not declare"))
-    })
+impl Executor {
+    /// The result type of the check `service` of plugin `digest`, as declared by `host` or,
+    /// for a plugin it fetched (a task moved to the data), by a host that offers that plugin:
+    /// a description is the component's own, the same wherever it loads. A host answering a
+    /// check nobody declares is not to be believed.
+    fn declared_type(
+        &self,
+        host: &HostEntry,
+        digest: &str,
+        service: &str,
+    ) -> Result<ValueType, Failure> {
+        let declared = |h: &HostEntry| {
+            let services = h.state().services;
+            let entry = services.iter().find(|s| s.info.name == service && s.plugin == digest);
+            entry.and_then(|s| s.info.result_type)
+        };
+        declared(host)
+            .or_else(|| self.registry.hosts().iter().find_map(|h| declared(h)))
+            .ok_or_else(|| {
+                Failure::Suspect(format!(
+                    "answered the check {service:?}, which no host declares for plugin {digest:.12}"
+                ))
+            })
+    }
 }

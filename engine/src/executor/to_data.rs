@@ -28,8 +28,6 @@ pub const MOVE_MARGIN_MS: f64 = 250.0;
 /// Where a task moves, with what, and why.
 pub(super) struct Move {
     pub host: Arc<HostEntry>,
-    /// The host it was planned on, whose declaration of the service the answer is held to.
-    pub planned: Arc<HostEntry>,
     /// The plugin the planned host would have run the task with.
     pub plugin: String,
     pub record: MovedToData,
@@ -90,6 +88,6 @@ impl Executor {
                 producer.url, planned.url, waiting_ms, plugin_ms
             ),
         };
-        Some(Move { host: producer, planned: planned.clone(), plugin, record })
+        Some(Move { host: producer, plugin, record })
     }
 }
