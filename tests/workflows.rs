@@ -627,8 +627,8 @@ async fn a_step_run_on_partitions_gives_hosts_that_run_it_whole_the_same_hash() 
 
 /// Code moves to the data (issue 34 item 3): after a long smoothing step, the WHILE test
 /// planned on another host runs on the smoothing host instead, its plugin fetched there,
-/// because the other host would first have to re-run the smoothing; its later rounds stay
-/// there. The result is the local one, and the record says where the step was planned and
+/// because the other host would first have to re-run the smoothing; its later rounds decide
+/// again with the same plugin. The result is the local one, and the record says where the step was planned and
 /// why it moved. A host started with `--no-foreign-plugins` is never moved to: then the run
 /// keeps its plan.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -681,10 +681,11 @@ async fn a_step_runs_where_the_mesh_is_when_bringing_the_mesh_over_would_take_lo
                     (&*smoothing, &*other)
                 );
                 assert!(text(&moved["why"]).contains("holds the current mesh"), "{moved}");
-                // Its next rounds are planned where it moved, with the plugin it fetched.
+                // Each later round decides again (the other host keeps taking the results:
+                // it is still re-running the Taubin step): where the mesh is, the same plugin.
                 for check in &checks[1..] {
-                    assert_eq!(text(&check["host"]), smoothing, "{check}");
-                    assert_eq!(check["moved"], Json::Null, "{check}");
+                    let here = text(&check["host"]) == smoothing;
+                    assert_eq!(here, !check["moved"].is_null(), "{check}");
                     assert_eq!(check["plugin"], checks[0]["plugin"], "{check}");
                 }
             }

@@ -64,13 +64,6 @@ impl Plan {
         }
     }
 
-    /// Moves a task to `host`, where it runs the plugin `digest` fetched there (code moved
-    /// to the data): its later runs go there too, pinned to that plugin.
-    pub fn move_task(&mut self, task_path: &str, host: Arc<HostEntry>, digest: String) {
-        self.assign(task_path, host);
-        self.pins.insert(task_path.to_owned(), digest);
-    }
-
     /// The paths of the tasks planned on `host`.
     pub fn tasks_on(&self, host: &Arc<HostEntry>) -> Vec<String> {
         let mut paths: Vec<String> = self

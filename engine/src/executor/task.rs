@@ -64,13 +64,9 @@ impl Executor {
                 continue;
             }
             match self.attempt(task, kind, &host, &failed, moved.as_ref()).await {
-                Ok((index, result)) => {
-                    // Its later runs (a WHILE body's next round) start where the mesh is too.
-                    if let Some(moved) = moved {
-                        self.plan.move_task(&task.path, host.clone(), moved.plugin);
-                    }
-                    return Ok((index, result, host));
-                }
+                // The plan stays: the planned host keeps taking the results (it holds the
+                // run's second copy at its end), and a later round decides afresh.
+                Ok((index, result)) => return Ok((index, result, host)),
                 Err(failure) => {
                     let busy = matches!(failure, Failure::Busy(_));
                     let message = failure.set_aside(&host).map_err(|StepFailed(message)| {
