@@ -59,7 +59,7 @@ fn smoothing_a_2m_vertex_scan_on_partitions_gives_the_whole_mesh_hash() {
             service,
             &[&params[..], &["--max-partition-triangles", NEVER], &on_replay].concat(),
         );
-        let rerun = ok(&["correction", "apply", &scan, &replay, "-o", &replayed, &cut[0], cut[1]]);
+        let rerun = ok(&["correction", "apply", &scan, &replay, "-o", &replayed, cut[0], cut[1]]);
         assert!(rerun.contains(&hash), "{service}: {rerun}");
         apply(&scan, &parts_out, service, &[&params[..], &cut, &on_replay].concat());
         let rerun = ok(&[

@@ -200,10 +200,11 @@ impl Runtime {
             .map(|(name, value)| Param { name: name.clone(), value: value.clone().into() })
             .collect();
         let is_check = info.kind == ServiceKind::Check;
-        if !is_check && mesh.triangle_count() > self.limits.partition_triangles() {
-            if let Some(output) = self.run_partitioned(plugin, info, &mesh, &params)? {
-                return Ok(output);
-            }
+        if !is_check
+            && mesh.triangle_count() > self.limits.partition_triangles()
+            && let Some(output) = self.run_partitioned(plugin, info, &mesh, &params)?
+        {
+            return Ok(output);
         }
         let (slot, queued) = self.acquire_slot(service)?;
         let started = Instant::now();
