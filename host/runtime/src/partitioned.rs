@@ -129,10 +129,11 @@ impl Runtime {
         std::thread::scope(|scope| {
             for _ in 1..workers {
                 scope.spawn(|| {
-                    // The first slot was taken within the queue's bound; the others wait.
-                    let (slot, _) =
-                        self.permits.acquire(None).expect("an unbounded queue has room");
-                    work.run(&slot);
+                    // The first slot was taken within the queue's bound; the others wait for
+                    // one only while work is left (other runs may hold every slot for long).
+                    if let Some(slot) = self.permits.acquire_while(|| work.has_more()) {
+                        work.run(&slot);
+                    }
                 });
             }
             work.run(&slot);
@@ -211,6 +212,11 @@ struct Work<'a> {
 
 impl Work<'_> {
     /// Runs partitions until none is left or one has failed.
+    /// Whether a partition (or the audit) is still to be taken and none has failed.
+    fn has_more(&self) -> bool {
+        self.next.load(Ordering::Relaxed) <= self.cut.len() && !self.failed.load(Ordering::Relaxed)
+    }
+
     fn run(&self, slot: &permits::Permit<'_>) {
         loop {
             let index = self.next.fetch_add(1, Ordering::Relaxed);

@@ -51,6 +51,29 @@ impl Permits {
     }
 }
 
+impl Permits {
+    /// A slot, waited for (with no bound on the queue) only as long as `keep_waiting`
+    /// holds, which is asked again every [`RECHECK`]; `None` once it does not.
+    pub(crate) fn acquire_while(&self, keep_waiting: impl Fn() -> bool) -> Option<Permit<'_>> {
+        let mut counts = self.counts.lock().unwrap_or_else(|e| e.into_inner());
+        counts.waiting += 1;
+        while counts.free == 0 {
+            if !keep_waiting() {
+                counts.waiting -= 1;
+                return None;
+            }
+            counts =
+                self.released.wait_timeout(counts, RECHECK).unwrap_or_else(|e| e.into_inner()).0;
+        }
+        counts.waiting -= 1;
+        counts.free -= 1;
+        Some(Permit(self))
+    }
+}
+
+/// How often a waiter of [`Permits::acquire_while`] asks whether it still wants a slot.
+const RECHECK: Duration = Duration::from_millis(20);
+
 impl Drop for Permit<'_> {
     fn drop(&mut self) {
         self.0.counts.lock().unwrap_or_else(|e| e.into_inner()).free += 1;
@@ -83,5 +106,18 @@ mod tests {
         assert!(queued.join().unwrap().unwrap() >= Duration::from_millis(50));
         // With no bound (plugin loads), a caller always gets in line.
         assert!(permits.acquire(None).is_ok());
+    }
+
+    #[test]
+    fn a_waiter_that_no_longer_wants_a_slot_stops_waiting() {
+        let permits = Permits::new(1);
+        let (held, _) = permits.acquire(None).unwrap();
+        let started = Instant::now();
+        let wanted_until = started + Duration::from_millis(60);
+        assert!(permits.acquire_while(|| Instant::now() < wanted_until).is_none());
+        assert!(started.elapsed() < Duration::from_secs(2));
+        assert_eq!(permits.counts.lock().unwrap().waiting, 0, "it left the queue");
+        drop(held);
+        assert!(permits.acquire_while(|| true).is_some());
     }
 }
