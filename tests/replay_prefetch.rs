@@ -140,3 +140,36 @@ async fn a_prefetch_of_what_a_host_should_not_fetch_is_refused_and_harms_no_run(
     let replay = &steps(&record)[0]["transfers"][0];
     assert_eq!(replay["via"], "replay", "{replay:#}");
 }
+
+/// A host started with `--no-foreign-plugins` says so, and refuses to fetch a plugin it did
+/// not load, even from a host of its cluster; its own plugins are still "present".
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_host_that_runs_only_its_own_plugins_refuses_to_fetch_others() {
+    let data = tempfile::tempdir().unwrap();
+    let hosts =
+        common::start_hosts_configured(&[&["smoothing"], &["holes"]], data.path(), |i, c| {
+            c.foreign_plugins = i != 1
+        })
+        .await;
+    let (producer, closed) = (hosts[0].url.clone(), hosts[1].url.clone());
+    let access = ClusterAccess::new(Some(CLUSTER_TOKEN.into()));
+    access.set_peers(vec![producer.clone()]);
+    let client = HostClient::new(&closed).with_access(access.clone());
+    let other = HostClient::new(&producer).with_access(access);
+    assert!(!client.health().await.unwrap().foreign_plugins);
+    assert!(other.health().await.unwrap().foreign_plugins);
+    let smoothing = other.services().await.unwrap()[0].plugin.clone();
+    let holes = client.services().await.unwrap()[0].plugin.clone();
+    let answer = client
+        .prefetch_plugins(vec![
+            WantedPlugin { digest: smoothing, from: producer.clone() },
+            WantedPlugin { digest: holes, from: producer.clone() },
+        ])
+        .await
+        .unwrap();
+    let outcomes: Vec<PrefetchOutcome> = answer.plugins.iter().map(|p| p.outcome).collect();
+    assert_eq!(outcomes, [PrefetchOutcome::Failed, PrefetchOutcome::Present], "{answer:#?}");
+    let error = answer.plugins[0].error.as_deref().unwrap();
+    assert!(error.contains("--no-foreign-plugins"), "{error}");
+    drop(data);
+}

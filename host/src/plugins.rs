@@ -154,15 +154,7 @@ impl PluginSet {
             .iter()
             .find(|p| p.digest == digest)
             .ok_or_else(|| PluginSetError::NotFound(digest.to_owned()))?;
-        let info = plugin.service(service).ok_or_else(|| {
-            let offered: Vec<&str> = plugin.services.iter().map(|s| s.name.as_str()).collect();
-            PluginSetError::NoSuchService {
-                digest: digest.to_owned(),
-                service: service.to_owned(),
-                offered: offered.join(", "),
-            }
-        })?;
-        Ok((plugin.clone(), info.clone()))
+        with_service(plugin.clone(), service)
     }
 
     /// Every service of every plugin; those another plugin replaced are `pinned_only`.
@@ -306,4 +298,20 @@ impl PluginSet {
         std::fs::remove_file(self.dir.join(format!("{digest}.wasm")))
             .map_err(|e| PluginSetError::Storage(format!("deleting the stored plugin: {e}")))
     }
+}
+
+/// `plugin` with its description of `service`, or why it has none.
+pub fn with_service(
+    plugin: Plugin,
+    service: &str,
+) -> Result<(Plugin, ServiceInfo), PluginSetError> {
+    let Some(info) = plugin.service(service).cloned() else {
+        let offered: Vec<&str> = plugin.services.iter().map(|s| s.name.as_str()).collect();
+        return Err(PluginSetError::NoSuchService {
+            digest: plugin.digest.clone(),
+            service: service.to_owned(),
+            offered: offered.join(", "),
+        });
+    };
+    Ok((plugin, info))
 }

@@ -310,15 +310,7 @@ fn plugin_for_run(host: &Host, request: &RunRequest) -> Result<(Plugin, ServiceI
                 };
                 return Err(PluginSetError::NotFoundBecause(digest.to_owned(), why).into());
             };
-            let info = plugin.service(&request.service).cloned().ok_or_else(|| {
-                let offered: Vec<&str> = plugin.services.iter().map(|s| s.name.as_str()).collect();
-                PluginSetError::NoSuchService {
-                    digest: digest.to_owned(),
-                    service: request.service.clone(),
-                    offered: offered.join(", "),
-                }
-            })?;
-            Ok((plugin, info))
+            Ok(crate::plugins::with_service(plugin, &request.service)?)
         }
         (found, _) => Ok(found?),
     }

@@ -54,15 +54,8 @@ impl Executor {
                 continue;
             }
             let receiver = &replica.host;
-            let has_plugin = receiver.has_plugin(&filter.plugin)
-                || measured.has_fetched(&receiver.url, &filter.plugin)
-                || self.prefetches.ready(&receiver.url, &filter.plugin);
-            let plugin = match has_plugin {
-                true => cost::PluginAt::Ready,
-                false => {
-                    cost::PluginAt::Missing { bytes: self.registry.plugin_bytes(&filter.plugin) }
-                }
-            };
+            let plugin = self.prefetches.plugin_at(&self.registry, receiver, &filter.plugin);
+            let has_plugin = plugin == cost::PluginAt::Ready;
             let mut estimates = cost::estimate(
                 &output,
                 &cost::Receiver {

@@ -16,6 +16,7 @@ use meshflow_api::host::{PrefetchOutcome, PrefetchedPlugins, WantedPlugin};
 use meshflow_api::params::ServiceKind;
 use serde_json::json;
 
+use super::cost::PluginAt;
 use crate::plan::Plan;
 use crate::record::PrefetchRecord;
 use crate::registry::{HostEntry, Registry};
@@ -89,6 +90,18 @@ impl Prefetches {
     /// Whether a prefetch made the plugin `digest` ready on `host` in this run.
     pub fn ready(&self, host: &str, digest: &str) -> bool {
         self.ready.lock().unwrap().contains(&(host.to_owned(), digest.to_owned()))
+    }
+
+    /// Whether `host` can run the plugin `digest` at once (it offers it, fetched it for an
+    /// earlier replay, or a prefetch made it ready), or must fetch it first.
+    pub fn plugin_at(&self, registry: &Registry, host: &HostEntry, digest: &str) -> PluginAt {
+        let ready = host.has_plugin(digest)
+            || registry.measured.has_fetched(&host.url, digest)
+            || self.ready(&host.url, digest);
+        match ready {
+            true => PluginAt::Ready,
+            false => PluginAt::Missing { bytes: registry.plugin_bytes(digest) },
+        }
     }
 }
 

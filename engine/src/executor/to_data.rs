@@ -53,14 +53,9 @@ impl Executor {
         let waiting_ms = replica.expected_wait_ms(&self.current.hash, Instant::now())?;
         let (plugin, _) = planned.plugin_for(&task.service, task.plugin.as_deref())?;
         let measured = &self.registry.measured;
-        let ready = producer.has_plugin(&plugin)
-            || measured.has_fetched(&producer.url, &plugin)
-            || self.prefetches.ready(&producer.url, &plugin);
-        let plugin_ms = match ready {
-            true => 0.0,
-            false => cost::PluginAt::Missing { bytes: self.registry.plugin_bytes(&plugin) }
-                .ready_ms(&measured.link(&planned.url, &producer.url)),
-        };
+        let at = self.prefetches.plugin_at(&self.registry, &producer, &plugin);
+        let ready = at == cost::PluginAt::Ready;
+        let plugin_ms = at.ready_ms(&measured.link(&planned.url, &producer.url));
         // The producer may be busy with other runs' tasks: as the planner counts them.
         let queue_ms = QUEUE_MS_PER_TASK * f64::from(producer.load());
         if plugin_ms + queue_ms + MOVE_MARGIN_MS >= waiting_ms {

@@ -119,6 +119,7 @@ impl Runtime {
             params,
             cut: &cut,
             rings,
+            core_triangles,
             first: Mutex::new(Some(first)),
             next: AtomicUsize::new(0),
             failed: AtomicBool::new(false),
@@ -201,6 +202,8 @@ struct Work<'a> {
     params: &'a [Param],
     cut: &'a Partitioning<'a>,
     rings: u32,
+    /// Triangles of a core at most.
+    core_triangles: usize,
     /// Partition 0, built already to decide whether to partition at all.
     first: Mutex<Option<meshflow_mesh::partition::Partition>>,
     next: AtomicUsize,
@@ -241,12 +244,23 @@ impl Work<'_> {
             false => format!("{} (partition {} of {count})", self.service, index + 1),
             true => format!("{} (a patch of partition 1 with one ring more)", self.service),
         };
+        // Partition 1 decided that the reach keeps partitions within MAX_PARTITION_GROWTH
+        // times their cores; a denser part of the mesh may take twice that, no more, so the
+        // host's memory stays bounded whatever a plugin declares.
+        let bound = 2 * MAX_PARTITION_GROWTH * self.core_triangles;
         let part = match index {
             0 => self.first.lock().unwrap_or_else(|e| e.into_inner()).take(),
             _ if audit => Some(self.cut.sample(0, AUDIT_VERTICES, self.rings + 1)),
-            _ => self.cut.partition(index, self.rings, usize::MAX),
-        }
-        .expect("partition 0 was built once, the others have no bound");
+            _ => self.cut.partition(index, self.rings, bound),
+        };
+        let Some(part) = part else {
+            let message = format!(
+                "with {} rings of overlap the partition holds more than {bound} triangles; \
+                 the service reaches too far to run on partitions of this mesh",
+                self.rings
+            );
+            return Err(RunError::Failed { service: label, message });
+        };
         let left = self.ends.saturating_duration_since(Instant::now());
         if left.is_zero() {
             return Err(RunError::Deadline {
