@@ -83,9 +83,11 @@ fn every_check_on_one_load_gives_what_each_gives_alone() {
                 assert!(check["value"].is_null() && why.contains(error), "{error} / {why}");
             }
         }
+        // All together: at least the longest check (they may run side by side).
         let run = all["timings_ms"]["run"].as_f64().unwrap();
-        let sum: f64 = checks.iter().map(|c| c["timings_ms"]["run"].as_f64().unwrap()).sum();
-        assert!(run >= sum && all["timings_ms"]["load"].as_f64().unwrap() >= 0.0, "{all}");
+        let longest =
+            checks.iter().map(|c| c["timings_ms"]["run"].as_f64().unwrap()).fold(0.0, f64::max);
+        assert!(run >= longest && all["timings_ms"]["load"].as_f64().unwrap() >= 0.0, "{all}");
     }
 }
 

@@ -58,7 +58,7 @@ pub use attributes::{
 };
 pub use bindings::meshflow::geometry::types::{Value, ValueType};
 pub use error::{Error, Result};
-pub use mesh::{Mesh, REMOVED};
+pub use mesh::{Mesh, MeshKey, REMOVED};
 pub use service::{CheckFn, FilterFn, ParamSpec, Params, ReachFn, Service, describe, reach, run};
 
 /// Exports the services returned by a `fn() -> Vec<Service>` as this component's

@@ -13,6 +13,15 @@ use crate::bindings::meshflow::geometry::mesh::Mesh as RawMesh;
 /// What [`Mesh::triangles`] shows in all three corners of a triangle removed in this run.
 pub const REMOVED: u32 = u32::MAX;
 
+/// What [`Mesh::instance_key`] returns: the handle, and the mesh's sizes as a second
+/// safeguard.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MeshKey {
+    handle: u64,
+    vertex_slots: usize,
+    triangle_slots: usize,
+}
+
 /// A borrowed handle to the mesh a service runs on: the host's, or with the `native`
 /// feature an in-process one (see [`crate::native`]).
 #[derive(Clone, Copy)]
@@ -47,6 +56,20 @@ impl<'a> Mesh<'a> {
     #[cfg(feature = "native")]
     pub(crate) fn native(native: &'a crate::native::NativeMesh) -> Self {
         Self { backend: Backend::Native(native) }
+    }
+
+    /// Which mesh this is, among those one instance of the plugin is given: equal keys
+    /// within one instance are the same mesh. A check (read-only: its mesh cannot change)
+    /// may keep what it derived under this key for the checks that follow in the same
+    /// instance, as `meshflow check --all` runs them; every other run is an instance of
+    /// its own.
+    pub fn instance_key(&self) -> MeshKey {
+        let handle = match self.backend {
+            Backend::Host(raw) => u64::from(raw.handle()),
+            #[cfg(feature = "native")]
+            Backend::Native(native) => std::ptr::from_ref(native) as u64,
+        };
+        MeshKey { handle, vertex_slots: self.vertex_slots(), triangle_slots: self.triangle_slots() }
     }
 
     // ---- bulk reads ------------------------------------------------------------------------

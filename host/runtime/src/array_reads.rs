@@ -18,7 +18,6 @@ use wasmtime::component::__internal::{
 };
 use wasmtime::component::{ComponentType, Linker, Lower, Resource};
 
-use super::connectivity_cache::derive;
 use super::state::{MeshHandle, RunState};
 use meshflow_topology::Connectivity;
 
@@ -110,6 +109,6 @@ fn connectivity(state: &RunState) -> Arc<Connectivity> {
     let mesh = state.mesh.shared_slots();
     match state.read_only {
         true => state.connectivity.get(&mesh),
-        false => Arc::new(derive(&mesh)),
+        false => Arc::new(state.connectivity.derive(&mesh)),
     }
 }

@@ -25,6 +25,7 @@ mod permits;
 mod plugin;
 mod several;
 mod state;
+mod work_queue;
 
 pub use catalog::Catalog;
 pub use connectivity_cache::CACHED_MESH_VERSIONS;
@@ -82,7 +83,7 @@ pub struct Runtime {
     linker: Linker<RunState>,
     limits: Limits,
     cache: Option<ArtifactCache>,
-    permits: permits::Permits,
+    permits: Arc<permits::Permits>,
     /// Derived once per mesh version, shared by the read-only runs that follow on it.
     connectivity: Arc<connectivity_cache::ConnectivityCache>,
 }
@@ -101,8 +102,9 @@ impl Runtime {
             .map_err(|e| PluginError::World(e.to_string()))?;
         start_epoch_ticker(&engine);
         let cache = cache_dir.map(|dir| ArtifactCache::new(dir, &engine)).transpose()?;
-        let permits = permits::Permits::new(limits.concurrent_runs);
-        let connectivity = Arc::default();
+        let permits = Arc::new(permits::Permits::new(limits.concurrent_runs));
+        let connectivity =
+            Arc::new(connectivity_cache::ConnectivityCache::new(Arc::clone(&permits)));
         Ok(Self { engine, linker, limits, cache, permits, connectivity })
     }
 

@@ -13,7 +13,6 @@
 
 use std::sync::Arc;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Instant;
 
 use wasmtime::Store;
@@ -22,6 +21,7 @@ use wasmtime::component::{Component, ComponentExportIndex, Instance, TypedFunc};
 use super::Plugin;
 use super::bindings::Param;
 use super::state::RunState;
+use super::work_queue::{End, WorkQueue};
 use super::{MAX_PARTITION_GROWTH, RunError, RunOutput, Runtime, captured, permits};
 use meshflow_mesh::MeshData;
 use meshflow_mesh::partition::Partitioning;
@@ -121,24 +121,15 @@ impl Runtime {
             rings,
             core_triangles,
             first: Mutex::new(Some(first)),
-            next: AtomicUsize::new(0),
-            failed: AtomicBool::new(false),
+            // The partitions, then the audit.
+            queue: WorkQueue::new(cut.len() + 1),
             ends: started + deadline,
             merged: &merged,
         };
-        let workers = self.limits.concurrent_runs.clamp(1, cut.len());
-        std::thread::scope(|scope| {
-            for _ in 1..workers {
-                scope.spawn(|| {
-                    // The first slot was taken within the queue's bound; the others wait for
-                    // one only while work is left (other runs may hold every slot for long).
-                    if let Some(slot) = self.permits.acquire_while(|| work.has_more()) {
-                        work.run(&slot);
-                    }
-                });
-            }
-            work.run(&slot);
-        });
+        let workers = self.workers_for(cut.len());
+        // The first slot was taken within the queue's bound; helpers wait for one only
+        // while work is left (other runs may hold every slot for long).
+        self.with_helpers(&slot, workers, &work.queue, |slot, _| work.run(slot));
         drop(slot);
         let merged = merged.into_inner().unwrap_or_else(|e| e.into_inner());
         if let Some(error) = merged.error {
@@ -206,8 +197,7 @@ struct Work<'a> {
     core_triangles: usize,
     /// Partition 0, built already to decide whether to partition at all.
     first: Mutex<Option<meshflow_mesh::partition::Partition>>,
-    next: AtomicUsize,
-    failed: AtomicBool,
+    queue: WorkQueue,
     /// The whole step's deadline: every partition runs within what is left of it.
     ends: Instant,
     merged: &'a Mutex<Merged>,
@@ -215,19 +205,11 @@ struct Work<'a> {
 
 impl Work<'_> {
     /// Runs partitions until none is left or one has failed.
-    /// Whether a partition (or the audit) is still to be taken and none has failed.
-    fn has_more(&self) -> bool {
-        self.next.load(Ordering::Relaxed) <= self.cut.len() && !self.failed.load(Ordering::Relaxed)
-    }
-
     fn run(&self, slot: &permits::Permit<'_>) {
-        loop {
-            let index = self.next.fetch_add(1, Ordering::Relaxed);
-            if index > self.cut.len() || self.failed.load(Ordering::Relaxed) {
-                return;
-            }
+        // In order: partition 0 was cut already, the audit is last.
+        while let Some(index) = self.queue.take(End::Front) {
             if let Err(error) = self.run_one(slot, index) {
-                self.failed.store(true, Ordering::Relaxed);
+                self.queue.stop();
                 let mut merged = self.merged.lock().unwrap_or_else(|e| e.into_inner());
                 merged.error.get_or_insert(error);
                 return;

@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 pub(crate) struct Permits {
     counts: Mutex<Counts>,
     released: Condvar,
+    count: usize,
 }
 
 struct Counts {
@@ -27,7 +28,13 @@ impl Permits {
         Self {
             counts: Mutex::new(Counts { free: count.max(1), waiting: 0 }),
             released: Condvar::new(),
+            count: count.max(1),
         }
+    }
+
+    /// Slots held now.
+    pub(crate) fn in_use(&self) -> usize {
+        self.count - self.counts.lock().unwrap_or_else(|e| e.into_inner()).free
     }
 
     /// A slot, after waiting in line behind at most `max_waiting` others (`None`: no bound),

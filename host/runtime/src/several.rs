@@ -1,16 +1,21 @@
-//! Several checks on one mesh in one instance ([`Runtime::run_checks`]): the instance, its
-//! memory (paged in by the first check, reset once at the end rather than after each) and
-//! the mesh's derived connectivity serve them all. What `meshflow check --all` runs.
+//! Several checks on one mesh ([`Runtime::run_checks`]), what `meshflow check --all` runs:
+//! on as many instances as run slots are free (each check is read-only and deterministic,
+//! so where it runs does not change its value), each instance serving the checks it takes
+//! one after another: its memory is paged in by its first check and reset once, at its
+//! end, and the mesh's derived connectivity serves them all.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use wasmtime::Store;
 use wasmtime::component::Resource;
 
-use super::bindings::Param;
+use super::bindings::{self, Param};
+use super::state::RunState;
+use super::work_queue::WorkQueue;
 use super::{Plugin, RunError, Runtime, ServiceKind, Value, ticks};
 use meshflow_mesh::MeshData;
-use meshflow_params::check_result;
+use meshflow_params::{ServiceInfo, check_result};
 
 /// Why [`Runtime::run_checks`] ran nothing, or stopped.
 #[derive(Debug, thiserror::Error)]
@@ -33,11 +38,12 @@ pub struct CheckRun {
 }
 
 impl Runtime {
-    /// Runs the checks `services` of `plugin` on `mesh`, one after another in one instance,
-    /// each with its parameters' defaults and a deadline of its own. A check that fails
-    /// (refuses the mesh, returns the wrong type) gives its error and the others still
-    /// run; one that traps stops the instance, and with it the run. Filters are refused
-    /// before anything runs: the instance is read-only.
+    /// Runs the checks `services` of `plugin` on `mesh`, each with its parameters' defaults
+    /// and a deadline of its own, in one instance and in one more per run slot that frees
+    /// up while checks are left; the runs come back in the order of `services`. A check
+    /// that fails (refuses the mesh, returns the wrong type) gives its error and the others
+    /// still run; one that traps stops the run. Filters are refused before anything runs:
+    /// the instances are read-only.
     pub fn run_checks(
         &self,
         plugin: &Plugin,
@@ -59,45 +65,77 @@ impl Runtime {
             calls.push((info, params));
         }
         let label = services.join(", ");
+        let mesh = mesh.into();
         let (slot, _) = self.acquire_slot(&label)?;
         let deadline = ticks(self.limits.deadline);
-        let (runs, _) = self.call(
-            &slot,
-            &plugin.pre,
-            &label,
-            mesh.into(),
-            true,
-            self.limits.deadline,
-            |store, p, _, mesh| {
-                let mut runs = Vec::with_capacity(calls.len());
-                for (info, params) in &calls {
-                    store.set_epoch_deadline(deadline);
-                    let started = Instant::now();
-                    let borrowed = Resource::new_borrow(mesh.rep());
-                    let outcome = p.meshflow_geometry_service().call_run(
-                        &mut *store,
-                        &info.name,
-                        borrowed,
-                        params,
-                    )?;
-                    let duration = started.elapsed();
-                    let service = info.name.clone();
-                    let value = outcome
-                        .map_err(|message| RunError::Failed { service: service.clone(), message })
-                        .and_then(|outcome| {
-                            let value = outcome.value.map(Value::from);
-                            check_result(info, value.as_ref()).map_err(|problem| {
-                                RunError::BadResult { service: service.clone(), problem }
-                            })?;
-                            Ok(value.expect("check_result refuses a check without a value"))
-                        });
-                    runs.push(CheckRun { service, value, duration });
-                }
-                Ok(runs)
-            },
-        )?;
-        Ok(runs)
+        let queue = WorkQueue::new(calls.len());
+        let runs: Mutex<Vec<Option<CheckRun>>> =
+            Mutex::new((0..calls.len()).map(|_| None).collect());
+        let trapped = Mutex::new(None);
+        // Each worker is one instance: its memory paged in by its first check and reset
+        // once, at its end. A second one works from the other end of the list, so while the
+        // first derives the connectivity (in the first check that reads it, typically near
+        // the front: the checks plugin lists its topology checks first) the second runs
+        // checks that do not wait for it.
+        let workers = self.workers_for(calls.len());
+        self.with_helpers(&slot, workers, &queue, |slot, end| {
+            let instance = self.call(
+                slot,
+                &plugin.pre,
+                &label,
+                Arc::clone(&mesh),
+                true,
+                self.limits.deadline,
+                |store, p, _, handle| {
+                    while let Some(index) = queue.take(end) {
+                        let (info, params) = &calls[index];
+                        store.set_epoch_deadline(deadline);
+                        let run = run_check(store, p, handle.rep(), info, params)?;
+                        runs.lock().unwrap_or_else(|e| e.into_inner())[index] = Some(run);
+                    }
+                    Ok(())
+                },
+            );
+            if let Err(error) = instance {
+                queue.stop();
+                trapped.lock().unwrap_or_else(|e| e.into_inner()).get_or_insert(error);
+            }
+        });
+        if let Some(error) = trapped.into_inner().unwrap_or_else(|e| e.into_inner()) {
+            return Err(error.into());
+        }
+        let runs = runs.into_inner().unwrap_or_else(|e| e.into_inner());
+        Ok(runs.into_iter().map(|run| run.expect("every check ran: none trapped")).collect())
     }
+}
+
+/// One check's call in an instance: its value, or the error it gave; `Err` only when it
+/// trapped, which ends the instance.
+fn run_check(
+    store: &mut Store<RunState>,
+    plugin: &bindings::Plugin,
+    mesh: u32,
+    info: &ServiceInfo,
+    params: &[Param],
+) -> wasmtime::Result<CheckRun> {
+    let started = Instant::now();
+    let outcome = plugin.meshflow_geometry_service().call_run(
+        &mut *store,
+        &info.name,
+        Resource::new_borrow(mesh),
+        params,
+    )?;
+    let duration = started.elapsed();
+    let service = info.name.clone();
+    let value = outcome
+        .map_err(|message| RunError::Failed { service: service.clone(), message })
+        .and_then(|outcome| {
+            let value = outcome.value.map(Value::from);
+            check_result(info, value.as_ref())
+                .map_err(|problem| RunError::BadResult { service: service.clone(), problem })?;
+            Ok(value.expect("check_result refuses a check without a value"))
+        });
+    Ok(CheckRun { service, value, duration })
 }
 
 #[cfg(test)]

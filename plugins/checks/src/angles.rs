@@ -10,31 +10,30 @@
 //! edge vectors leaving the corner), and the cotangent decreases strictly over `(0°, 180°)`,
 //! as does the signed square `cot |cot| = dot |dot| / |n|²`. So the smallest angle of the mesh
 //! belongs to the largest such ratio and the largest angle to the smallest; one pass finds
-//! that triangle, and only its angle is then computed exactly.
+//! both triangles, and only their two angles are then computed exactly. The pass serves
+//! both checks (see [`MeshArrays::angle_extremes`](crate::MeshArrays::angle_extremes)).
 
 use meshflow_plugin_sdk::geometry::{self, cross, dot, sub};
 use meshflow_plugin_sdk::topology::is_proper_triangle;
 
-/// The smallest angle in degrees over the non-degenerate triangles, 0 if there is none. O(T).
-pub fn min_angle(positions: &[f32], triangles: &[u32]) -> f64 {
-    extreme_corner(positions, triangles, 1.0).map_or(0.0, |c| angle(positions, triangles, c))
-}
-
-/// The largest angle in degrees over the non-degenerate triangles, 0 if there is none. O(T).
-pub fn max_angle(positions: &[f32], triangles: &[u32]) -> f64 {
-    extreme_corner(positions, triangles, -1.0).map_or(0.0, |c| angle(positions, triangles, c))
+/// The smallest and the largest angle in degrees over the non-degenerate triangles, both 0
+/// if there is none: one pass finds both corners. O(T).
+pub fn angle_extremes(positions: &[f32], triangles: &[u32]) -> (f64, f64) {
+    let (smallest, largest) = extreme_corners(positions, triangles);
+    let degrees = |corner: Option<Corner>| corner.map_or(0.0, |c| angle(positions, triangles, c));
+    (degrees(smallest), degrees(largest))
 }
 
 /// A corner: triangle id and corner (0, 1, 2).
 type Corner = (u32, usize);
 
-/// Finds the corner with the largest `sign × cotangent` over the non-degenerate triangles
-/// (the first one on ties): the smallest angle for `sign = 1`, the largest for `sign = -1`.
-/// `None` if there is no such triangle.
-fn extreme_corner(positions: &[f32], triangles: &[u32], sign: f64) -> Option<Corner> {
+/// The corner of the smallest angle (the largest cotangent) and that of the largest (the
+/// smallest cotangent) over the non-degenerate triangles, the first one on ties; `None`
+/// without such a triangle.
+fn extreme_corners(positions: &[f32], triangles: &[u32]) -> (Option<Corner>, Option<Corner>) {
     let vertex_count = positions.len() / 3;
-    // Largest `sign × cot |cot|` seen so far, with its corner.
-    let mut best: Option<(f64, Corner)> = None;
+    // Largest `cot |cot|` and largest `-cot |cot|` seen so far, with their corners.
+    let (mut smallest, mut largest) = (None, None);
     for t in 0..triangles.len() as u32 / 3 {
         if !is_proper_triangle(triangles, vertex_count, t) {
             continue;
@@ -49,18 +48,23 @@ fn extreme_corner(positions: &[f32], triangles: &[u32], sign: f64) -> Option<Cor
         if area2_squared == 0.0 || !area2_squared.is_finite() {
             continue;
         }
-        // Corner k lies between e[k] and -e[k - 1].
+        // Corner k lies between e[k] and -e[k - 1]: its cotangent has the sign of -dots[k].
         let dots = [dot(e[0], e[2]), dot(e[1], e[0]), dot(e[2], e[1])];
-        // `sign × dot` is largest where `-sign × dots` is smallest.
-        let k = if sign > 0.0 { argmin(&dots) } else { argmax(&dots) };
-        let d = -sign * dots[k];
-        // Compare `d |d|` against key × |n|² (|n|² > 0) instead of dividing per triangle.
-        let signed_square = d * d.abs();
-        if best.is_none_or(|(key, _)| signed_square > key * area2_squared) {
-            best = Some((signed_square / area2_squared, (t, k)));
-        }
+        let (low, high) = (argmin(&dots), argmax(&dots));
+        keep_larger(&mut smallest, -dots[low], (t, low), area2_squared);
+        keep_larger(&mut largest, dots[high], (t, high), area2_squared);
     }
-    Some(best?.1)
+    (smallest.map(|(_, c)| c), largest.map(|(_, c)| c))
+}
+
+/// Keeps `corner` if its `d |d| / |n|²` is larger than the best so far, comparing against
+/// `key × |n|²` (|n|² > 0) rather than dividing per triangle.
+#[inline]
+fn keep_larger(best: &mut Option<(f64, Corner)>, d: f64, corner: Corner, area2_squared: f64) {
+    let signed_square = d * d.abs();
+    if best.is_none_or(|(key, _)| signed_square > key * area2_squared) {
+        *best = Some((signed_square / area2_squared, corner));
+    }
 }
 
 fn argmax(x: &[f64; 3]) -> usize {
@@ -94,7 +98,7 @@ mod tests {
     use crate::fixtures::*;
 
     fn extremes(mesh: &Fixture) -> (f64, f64) {
-        (min_angle(&mesh.positions, &mesh.triangles), max_angle(&mesh.positions, &mesh.triangles))
+        angle_extremes(&mesh.positions, &mesh.triangles)
     }
 
     fn assert_close(actual: (f64, f64), expected: (f64, f64)) {

@@ -6,20 +6,40 @@
 //! On the host, the connectivity (twins, edge kinds, the edge list) is the host's derived
 //! reads: derived once per mesh version and shared by every check that follows. Natively
 //! (tests, benches) it is derived here from the arrays, with the same function the host uses.
+//!
+//! What was read, and the angle extremes, stay for the next check on the same mesh in the
+//! same instance (`check --all` runs several checks in one): a check's mesh is read-only,
+//! so they cannot go stale; a mesh under another key replaces them.
 
-use std::cell::OnceCell;
+use std::cell::{OnceCell, RefCell};
+use std::rc::Rc;
 
 use meshflow_plugin_sdk::topology::{Connectivity, EdgeKind, HalfEdgeView};
-use meshflow_plugin_sdk::{Error, Mesh, Result};
+use meshflow_plugin_sdk::{Error, Mesh, MeshKey, Result};
+
+use crate::angles;
 
 /// A mesh's arrays and derived connectivity, read lazily.
 pub struct MeshArrays<'a> {
     source: Source<'a>,
+    read: Rc<Read>,
+}
+
+/// What has been read from the host or derived so far.
+#[derive(Default)]
+struct Read {
     positions: OnceCell<Vec<f32>>,
     triangles: OnceCell<Vec<u32>>,
     opposites: OnceCell<Vec<u32>>,
     kinds: OnceCell<Vec<EdgeKind>>,
     edges: OnceCell<Vec<u32>>,
+    /// The smallest and largest angle in degrees.
+    angle_extremes: OnceCell<(f64, f64)>,
+}
+
+thread_local! {
+    /// The last host mesh's reads, for the next check on it in this instance.
+    static LAST_READ: RefCell<Option<(MeshKey, Rc<Read>)>> = const { RefCell::new(None) };
 }
 
 enum Source<'a> {
@@ -34,9 +54,19 @@ enum Derivation<'a> {
 }
 
 impl<'a> MeshArrays<'a> {
-    /// The mesh a service runs on: arrays and connectivity come from the host.
+    /// The mesh a service runs on: arrays and connectivity come from the host, or from an
+    /// earlier check's reads of the same mesh in this instance.
     pub fn of(mesh: Mesh<'a>) -> Self {
-        Self::with(Source::Host(mesh))
+        let key = mesh.instance_key();
+        let read = LAST_READ.with_borrow_mut(|last| match last {
+            Some((last_key, read)) if *last_key == key => Rc::clone(read),
+            _ => {
+                let read = Rc::<Read>::default();
+                *last = Some((key, Rc::clone(&read)));
+                read
+            }
+        });
+        Self { source: Source::Host(mesh), read }
     }
 
     /// Plain arrays (`x y z` per vertex, three ids per triangle); the connectivity is derived
@@ -59,14 +89,7 @@ impl<'a> MeshArrays<'a> {
     }
 
     fn with(source: Source<'a>) -> Self {
-        Self {
-            source,
-            positions: OnceCell::new(),
-            triangles: OnceCell::new(),
-            opposites: OnceCell::new(),
-            kinds: OnceCell::new(),
-            edges: OnceCell::new(),
-        }
+        Self { source, read: Rc::default() }
     }
 
     /// Vertex ids, removed ones included: what makes a triangle's ids in range.
@@ -79,14 +102,14 @@ impl<'a> MeshArrays<'a> {
 
     pub fn positions(&self) -> &[f32] {
         match &self.source {
-            Source::Host(mesh) => self.positions.get_or_init(|| mesh.positions()),
+            Source::Host(mesh) => self.read.positions.get_or_init(|| mesh.positions()),
             Source::Arrays { positions, .. } => positions,
         }
     }
 
     pub fn triangles(&self) -> &[u32] {
         match &self.source {
-            Source::Host(mesh) => self.triangles.get_or_init(|| mesh.triangles()),
+            Source::Host(mesh) => self.read.triangles.get_or_init(|| mesh.triangles()),
             Source::Arrays { triangles, .. } => triangles,
         }
     }
@@ -94,7 +117,7 @@ impl<'a> MeshArrays<'a> {
     /// Per half-edge: its twin on a manifold interior edge, else `NONE`.
     pub fn opposites(&self) -> &[u32] {
         match &self.source {
-            Source::Host(mesh) => self.opposites.get_or_init(|| mesh.half_edge_opposites()),
+            Source::Host(mesh) => self.read.opposites.get_or_init(|| mesh.half_edge_opposites()),
             Source::Arrays { positions, triangles, connectivity } => {
                 derived(connectivity, positions, triangles).opposites()
             }
@@ -106,11 +129,11 @@ impl<'a> MeshArrays<'a> {
     pub fn kinds(&self) -> Result<&[EdgeKind]> {
         match &self.source {
             Source::Host(mesh) => {
-                if let Some(kinds) = self.kinds.get() {
+                if let Some(kinds) = self.read.kinds.get() {
                     return Ok(kinds);
                 }
                 let kinds = mesh.half_edge_kinds()?;
-                Ok(self.kinds.get_or_init(|| kinds))
+                Ok(self.read.kinds.get_or_init(|| kinds))
             }
             Source::Arrays { positions, triangles, connectivity } => {
                 Ok(derived(connectivity, positions, triangles).half_edges().kinds())
@@ -122,11 +145,20 @@ impl<'a> MeshArrays<'a> {
     /// half-edge.
     pub fn edges(&self) -> &[u32] {
         match &self.source {
-            Source::Host(mesh) => self.edges.get_or_init(|| mesh.edges()),
+            Source::Host(mesh) => self.read.edges.get_or_init(|| mesh.edges()),
             Source::Arrays { positions, triangles, connectivity } => {
                 derived(connectivity, positions, triangles).edges()
             }
         }
+    }
+
+    /// The smallest and the largest angle in degrees ([`angles::angle_extremes`]), found in
+    /// one pass for both checks.
+    pub fn angle_extremes(&self) -> (f64, f64) {
+        *self
+            .read
+            .angle_extremes
+            .get_or_init(|| angles::angle_extremes(self.positions(), self.triangles()))
     }
 
     /// Twins and kinds together, for the SDK's walks over half-edges.

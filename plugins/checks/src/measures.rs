@@ -8,8 +8,8 @@ use crate::arrays::MeshArrays;
 use crate::counts::edge_connected;
 
 /// The total area of the live triangles (removed and out-of-range ones skipped).
-pub fn surface_area(positions: &[f32], triangles: &[u32]) -> f64 {
-    total_area(positions, triangles)
+pub fn surface_area(mesh: &MeshArrays) -> f64 {
+    total_area(mesh.positions(), mesh.triangles())
 }
 
 /// Why a mesh has no enclosed volume to measure.
@@ -51,7 +51,9 @@ mod tests {
     #[test]
     fn the_unit_cube_has_area_six_and_volume_one() {
         let c = cube();
-        assert!((surface_area(&c.positions, &c.triangles) - 6.0).abs() < 1e-12);
+        assert!(
+            (surface_area(&MeshArrays::native(&c.positions, &c.triangles)) - 6.0).abs() < 1e-12
+        );
         assert!(
             (enclosed_volume(&MeshArrays::native(&c.positions, &c.triangles)).unwrap() - 1.0).abs()
                 < 1e-12
@@ -67,7 +69,7 @@ mod tests {
     #[test]
     fn a_fine_sphere_approaches_four_pi_and_four_thirds_pi() {
         let s = sphere(32);
-        let area = surface_area(&s.positions, &s.triangles);
+        let area = surface_area(&MeshArrays::native(&s.positions, &s.triangles));
         let volume = enclosed_volume(&MeshArrays::native(&s.positions, &s.triangles)).unwrap();
         assert!((area / (4.0 * PI) - 1.0).abs() < 0.01, "{area}");
         assert!((volume / (4.0 / 3.0 * PI) - 1.0).abs() < 0.01, "{volume}");

@@ -5,7 +5,7 @@
 
 use std::fmt;
 
-use super::edges::EdgeBuckets;
+use super::edges::{EdgeBuckets, Members};
 use super::halfedge::{EdgeKind, EdgeLookup, HalfEdges};
 
 /// Twins, edge kinds and the edge list of one mesh version, all derived in one pass over
@@ -21,8 +21,16 @@ impl Connectivity {
     /// crate docs say). O(V + T log d); no hashing; deterministic, so every host hands out
     /// the same arrays for the same mesh.
     pub fn new(vertex_count: usize, triangles: &[u32]) -> Self {
-        let buckets = EdgeBuckets::new(vertex_count, triangles);
-        let (half_edges, edges) = HalfEdges::with_edge_list(&buckets);
+        Self::in_parts(vertex_count, triangles, 1)
+    }
+
+    /// The same, derived on `parts` threads when `parts > 1` (hosts only: a guest has no
+    /// threads), each for the edges of a range of vertices. The same arrays for every
+    /// `parts`.
+    pub fn in_parts(vertex_count: usize, triangles: &[u32], parts: usize) -> Self {
+        let buckets =
+            EdgeBuckets::of_in_parts(vertex_count, triangles, Members::ProperTriangles, parts);
+        let (half_edges, edges) = HalfEdges::with_edge_list(&buckets, parts);
         Self { half_edges, edges }
     }
 

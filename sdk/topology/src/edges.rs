@@ -61,36 +61,119 @@ impl<'a> EdgeBuckets<'a> {
 
     /// Buckets the `members` half-edges of `triangles`. O(V + T).
     pub fn of(vertex_count: usize, triangles: &'a [u32], members: Members) -> Self {
-        let mut ends = vec![0u32; vertex_count + 1];
-        for_each_half_edge(vertex_count, triangles, members, |a, _, _| ends[a as usize + 1] += 1);
+        Self::of_in_parts(vertex_count, triangles, members, 1)
+    }
+
+    /// The same, built on `parts` threads when `parts > 1` (hosts only: a guest has no
+    /// threads): each counts a share of the triangles, then fills and sorts the buckets of
+    /// a range of vertices holding about `1 / parts` of the half-edges. The result is the
+    /// same for every `parts`.
+    pub fn of_in_parts(
+        vertex_count: usize,
+        triangles: &'a [u32],
+        members: Members,
+        parts: usize,
+    ) -> Self {
+        let parts = parts.max(1);
+        // Bucket sizes, then `ends[a]` = where bucket `a` starts (and `ends[V]` the total).
+        let mut ends = if parts == 1 {
+            bucket_sizes(vertex_count, triangles, members)
+        } else {
+            let shares = triangles.chunks(3 * triangles.len().div_ceil(3 * parts).max(1));
+            let sizes: Vec<Vec<u32>> = std::thread::scope(|scope| {
+                let counting: Vec<_> = shares
+                    .map(|share| scope.spawn(move || bucket_sizes(vertex_count, share, members)))
+                    .collect();
+                counting.into_iter().map(|c| c.join().expect("counting panicked")).collect()
+            });
+            let mut sizes = sizes.into_iter();
+            let mut total = sizes.next().unwrap_or_else(|| vec![0; vertex_count + 1]);
+            for share in sizes {
+                total.iter_mut().zip(share).for_each(|(x, y)| *x += y);
+            }
+            total
+        };
         let mut sum = 0u32;
         for x in ends.iter_mut() {
             sum += *x;
             *x = sum;
         }
-        // ends[a] is now where bucket a starts; scattering advances it to where it ends.
         let mut sides = vec![Side(0); sum as usize];
-        for_each_half_edge(vertex_count, triangles, members, |a, b, h| {
-            let slot = &mut ends[a as usize];
-            sides[*slot as usize] = Side((b as u64) << 32 | h as u64);
-            *slot += 1;
-        });
         ends.pop();
-        let mut begin = 0;
-        for &end in &ends {
-            sort_bucket(&mut sides[begin..end as usize]);
-            begin = end as usize;
+        // Scattering advances each bucket's start to its end; each part fills and sorts its
+        // own buckets, a disjoint piece of `ends` and of `sides`.
+        let ranges = split(&ends, sum, parts);
+        let mut pieces = Vec::with_capacity(ranges.len());
+        let (mut rest_ends, mut rest_sides) = (&mut ends[..], &mut sides[..]);
+        for range in &ranges {
+            let (part_ends, more_ends) = rest_ends.split_at_mut(range.len());
+            let part_len = match more_ends.first() {
+                Some(&next_start) => next_start as usize - range_start(part_ends, sum),
+                None => rest_sides.len(),
+            };
+            let (part_sides, more_sides) = rest_sides.split_at_mut(part_len);
+            pieces.push((range.start as u32, part_ends, part_sides));
+            (rest_ends, rest_sides) = (more_ends, more_sides);
+        }
+        let fill = |(first, ends, sides): (u32, &mut [u32], &mut [Side])| {
+            let base = range_start(ends, sum);
+            let last = first as usize + ends.len();
+            for_each_half_edge(vertex_count, triangles, members, |a, b, h| {
+                if (first as usize..last).contains(&(a as usize)) {
+                    let slot = &mut ends[(a - first) as usize];
+                    sides[*slot as usize - base] = Side((b as u64) << 32 | h as u64);
+                    *slot += 1;
+                }
+            });
+            let mut begin = 0;
+            for &end in ends.iter() {
+                sort_bucket(&mut sides[begin..end as usize - base]);
+                begin = end as usize - base;
+            }
+        };
+        if pieces.len() == 1 {
+            pieces.into_iter().for_each(fill);
+        } else {
+            std::thread::scope(|scope| {
+                for piece in pieces {
+                    scope.spawn(|| fill(piece));
+                }
+            });
         }
         Self { triangles, members, ends, sides }
     }
 
+    /// Consecutive ranges of buckets holding about `1 / parts` of the half-edges each (at
+    /// least one range, none empty unless there are no vertices), for work split by
+    /// vertex.
+    pub fn parts(&self, parts: usize) -> Vec<std::ops::Range<usize>> {
+        // `ends` holds where each bucket ends; as starts: 0, then every end but the last.
+        let starts: Vec<u32> =
+            std::iter::once(0).chain(self.ends.iter().copied()).take(self.ends.len()).collect();
+        split(&starts, self.sides.len() as u32, parts)
+    }
+
     /// Calls `group(a, sides)` for every undirected edge `{a, b}` with `a < b`, in ascending
     /// `(a, b)` order, with its half-edges in ascending id order.
-    pub fn for_each_edge(&self, mut group: impl FnMut(u32, &[Side])) {
-        let mut begin = 0usize;
-        for (a, &end) in self.ends.iter().enumerate() {
-            let bucket = &self.sides[begin..end as usize];
-            begin = end as usize;
+    pub fn for_each_edge(&self, group: impl FnMut(u32, &[Side])) {
+        self.for_each_edge_in(0..self.ends.len(), group);
+    }
+
+    /// [`for_each_edge`](Self::for_each_edge) for the edges whose smaller endpoint is in
+    /// `vertices`.
+    pub fn for_each_edge_in(
+        &self,
+        vertices: std::ops::Range<usize>,
+        mut group: impl FnMut(u32, &[Side]),
+    ) {
+        let mut begin = match vertices.start {
+            0 => 0,
+            a => self.ends[a - 1] as usize,
+        };
+        for a in vertices {
+            let end = self.ends[a] as usize;
+            let bucket = &self.sides[begin..end];
+            begin = end;
             for edge in bucket.chunk_by(|x, y| x.0 >> 32 == y.0 >> 32) {
                 group(a as u32, edge);
             }
@@ -177,6 +260,37 @@ impl EdgeLookup for EdgeBuckets<'_> {
     fn half_edge_count(&self) -> usize {
         self.triangles.len() / 3 * 3
     }
+}
+
+/// Per vertex `a`, how many member half-edges have `a` as their smaller endpoint, at
+/// `a + 1` (so that a running sum gives where each bucket starts).
+fn bucket_sizes(vertex_count: usize, triangles: &[u32], members: Members) -> Vec<u32> {
+    let mut sizes = vec![0u32; vertex_count + 1];
+    for_each_half_edge(vertex_count, triangles, members, |a, _, _| sizes[a as usize + 1] += 1);
+    sizes
+}
+
+/// Where the first bucket of `ends` (buckets' starts, or their ends once filled) starts:
+/// a filled bucket's start is its predecessor's end, so both are read before filling.
+fn range_start(starts: &[u32], total: u32) -> usize {
+    starts.first().map_or(total, |&s| s) as usize
+}
+
+/// Consecutive bucket ranges covering `starts.len()` buckets, each starting near a multiple
+/// of `total / parts` half-edges (at least one range; empty ranges dropped).
+fn split(starts: &[u32], total: u32, parts: usize) -> Vec<std::ops::Range<usize>> {
+    let parts = parts.max(1);
+    let mut bounds: Vec<usize> = (0..parts)
+        .map(|k| starts.partition_point(|&s| (s as u64) < total as u64 * k as u64 / parts as u64))
+        .collect();
+    bounds.push(starts.len());
+    bounds.dedup();
+    let mut ranges: Vec<_> = bounds.windows(2).map(|w| w[0]..w[1]).collect();
+    if ranges.is_empty() {
+        // No vertices: one empty range, so that callers need no case of their own.
+        ranges.push(0..0);
+    }
+    ranges
 }
 
 /// Buckets this short (most are: about six half-edges around a vertex) are sorted by

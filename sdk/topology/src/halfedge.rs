@@ -7,6 +7,9 @@
 
 pub use super::half_edge_ids::*;
 
+use std::sync::atomic::Ordering::Relaxed;
+use std::sync::atomic::{AtomicU8, AtomicU32};
+
 use super::NONE;
 use super::csr::Csr;
 use super::edges::{EdgeBuckets, Members};
@@ -65,67 +68,55 @@ impl HalfEdges {
     /// The same from edge buckets already built with [`EdgeBuckets::new`] (a check that
     /// looked at the edges first need not group them again).
     pub fn from_buckets(buckets: &EdgeBuckets) -> Self {
-        Self::build(buckets, None)
+        Self::build(buckets, false, 1).0
     }
 
     /// The same, with every edge's smallest half-edge in the order the buckets visit the
-    /// edges (what [`Connectivity`](crate::Connectivity) hands out).
-    pub(crate) fn with_edge_list(buckets: &EdgeBuckets) -> (Self, Vec<u32>) {
-        let mut edges = Vec::new();
-        let half_edges = Self::build(buckets, Some(&mut edges));
-        (half_edges, edges)
+    /// edges (what [`Connectivity`](crate::Connectivity) hands out), derived on `parts`
+    /// threads when `parts > 1` (hosts only), each for a range of the buckets.
+    pub(crate) fn with_edge_list(buckets: &EdgeBuckets, parts: usize) -> (Self, Vec<u32>) {
+        Self::build(buckets, true, parts)
     }
 
-    fn build(buckets: &EdgeBuckets, mut edge_list: Option<&mut Vec<u32>>) -> Self {
+    fn build(buckets: &EdgeBuckets, edge_list: bool, parts: usize) -> (Self, Vec<u32>) {
         assert!(buckets.members() == Members::ProperTriangles, "twins need proper triangles");
         let n = buckets.half_edge_count();
         let mut opposite = vec![NONE; n];
         let mut kinds = vec![EdgeKind::Degenerate; n];
-        let mut nm_offsets = vec![0u32];
-        let mut nm_items = Vec::new();
-        let (mut edges, mut boundary, mut interior, mut inconsistent) = (0, 0, 0, 0);
-        buckets.for_each_edge(|a, group| {
-            edges += 1;
-            if let Some(list) = edge_list.as_mut() {
-                list.push(group[0].half_edge());
+        let ranges = buckets.parts(parts);
+        let classified: Vec<Classified> = {
+            let out = Out::new(&mut opposite, &mut kinds);
+            let classify = |range| classify(buckets, range, &out, edge_list);
+            if ranges.len() == 1 {
+                ranges.into_iter().map(classify).collect()
+            } else {
+                std::thread::scope(|scope| {
+                    let threads: Vec<_> =
+                        ranges.into_iter().map(|r| scope.spawn(move || classify(r))).collect();
+                    threads.into_iter().map(|t| t.join().expect("classifying panicked")).collect()
+                })
             }
-            match *group {
-                [e] => {
-                    kinds[e.half_edge() as usize] = EdgeKind::Boundary;
-                    boundary += 1;
-                }
-                [e, f] => {
-                    let (g, h) = (e.half_edge(), f.half_edge());
-                    opposite[g as usize] = h;
-                    opposite[h as usize] = g;
-                    let kind = if buckets.runs_up(a, e) != buckets.runs_up(a, f) {
-                        EdgeKind::Interior
-                    } else {
-                        inconsistent += 1;
-                        EdgeKind::InteriorInconsistent
-                    };
-                    kinds[g as usize] = kind;
-                    kinds[h as usize] = kind;
-                    interior += 1;
-                }
-                _ => {
-                    for e in group {
-                        kinds[e.half_edge() as usize] = EdgeKind::NonManifold;
-                        nm_items.push(e.half_edge());
-                    }
-                    nm_offsets.push(nm_items.len() as u32);
-                }
-            }
-        });
-        Self {
+        };
+        let mut parts = classified.into_iter();
+        let mut all = parts.next().expect("at least one range of buckets");
+        for part in parts {
+            let shift = all.nm_items.len() as u32;
+            all.nm_offsets.extend(part.nm_offsets[1..].iter().map(|o| o + shift));
+            all.nm_items.extend(part.nm_items);
+            all.edges.extend(part.edges);
+            all.counts = [0, 1, 2, 3].map(|k| all.counts[k] + part.counts[k]);
+        }
+        let [edge_count, boundary, interior, inconsistent] = all.counts;
+        let half_edges = Self {
             opposite,
             kinds,
-            non_manifold: Csr::from_parts_unchecked(nm_offsets, nm_items),
-            edge_count: edges,
+            non_manifold: Csr::from_parts_unchecked(all.nm_offsets, all.nm_items),
+            edge_count,
             boundary_edges: boundary,
             interior_edges: interior,
             inconsistent_edges: inconsistent,
-        }
+        };
+        (half_edges, all.edges)
     }
 
     /// The number of half-edges, `3 * triangle_count`. O(1).
@@ -253,6 +244,88 @@ impl HalfEdges {
     pub fn into_opposites(self) -> Vec<u32> {
         self.opposite
     }
+}
+
+/// What classifying one range of buckets found besides the per-half-edge arrays.
+struct Classified {
+    /// Each edge's smallest half-edge, in bucket order (when asked for).
+    edges: Vec<u32>,
+    nm_offsets: Vec<u32>,
+    nm_items: Vec<u32>,
+    /// Edges, boundary edges, interior edges, inconsistent interior edges.
+    counts: [usize; 4],
+}
+
+/// The twin and kind arrays, written by several threads at once: every half-edge lies in
+/// exactly one bucket, so each entry is written by the one thread classifying that bucket
+/// (relaxed atomic stores are plain stores).
+struct Out<'a> {
+    opposite: &'a [AtomicU32],
+    kinds: &'a [AtomicU8],
+}
+
+impl<'a> Out<'a> {
+    fn new(opposite: &'a mut [u32], kinds: &'a mut [EdgeKind]) -> Self {
+        const { assert!(align_of::<AtomicU32>() == align_of::<u32>()) };
+        // SAFETY: `AtomicU32` and `AtomicU8` have the size, bit validity and (asserted above
+        // for `u32`) alignment of `u32` and `u8`; `EdgeKind` is a fieldless `repr(u8)` enum,
+        // and only its codes are stored. The exclusive borrows guarantee no other access.
+        let opposite = unsafe { &*(opposite as *mut [u32] as *const [AtomicU32]) };
+        let kinds = unsafe { &*(kinds as *mut [EdgeKind] as *const [AtomicU8]) };
+        Self { opposite, kinds }
+    }
+
+    #[inline]
+    fn set(&self, h: u32, opposite: Option<u32>, kind: EdgeKind) {
+        if let Some(twin) = opposite {
+            self.opposite[h as usize].store(twin, Relaxed);
+        }
+        self.kinds[h as usize].store(kind as u8, Relaxed);
+    }
+}
+
+/// Classifies the edges of the buckets `range`, writing their half-edges' twins and kinds.
+fn classify(
+    buckets: &EdgeBuckets,
+    range: std::ops::Range<usize>,
+    out: &Out<'_>,
+    edge_list: bool,
+) -> Classified {
+    let mut found =
+        Classified { edges: Vec::new(), nm_offsets: vec![0], nm_items: Vec::new(), counts: [0; 4] };
+    let [edges, boundary, interior, inconsistent] = &mut found.counts;
+    buckets.for_each_edge_in(range, |a, group| {
+        *edges += 1;
+        if edge_list {
+            found.edges.push(group[0].half_edge());
+        }
+        match *group {
+            [e] => {
+                out.set(e.half_edge(), None, EdgeKind::Boundary);
+                *boundary += 1;
+            }
+            [e, f] => {
+                let (g, h) = (e.half_edge(), f.half_edge());
+                let kind = if buckets.runs_up(a, e) != buckets.runs_up(a, f) {
+                    EdgeKind::Interior
+                } else {
+                    *inconsistent += 1;
+                    EdgeKind::InteriorInconsistent
+                };
+                out.set(g, Some(h), kind);
+                out.set(h, Some(g), kind);
+                *interior += 1;
+            }
+            _ => {
+                for e in group {
+                    out.set(e.half_edge(), None, EdgeKind::NonManifold);
+                    found.nm_items.push(e.half_edge());
+                }
+                found.nm_offsets.push(found.nm_items.len() as u32);
+            }
+        }
+    });
+    found
 }
 
 /// The undirected edge of `h` as `(min vertex, max vertex)`. O(1).

@@ -74,6 +74,7 @@ fn run(scramble: bool) {
     time("EdgeBuckets::new", || EdgeBuckets::new(v, &t));
     let he = time("HalfEdges::new", || HalfEdges::new(v, &t));
     time("Connectivity::new", || Connectivity::new(v, &t));
+    time("Connectivity::in_parts(2)", || Connectivity::in_parts(v, &t, 2));
     let loops = time("boundary_loops", || boundary_loops(&t, &he));
     let c = time("TriangleComponents::new", || TriangleComponents::new(v, &t));
     time("TriangleComponents::vertex_c", || TriangleComponents::vertex_connected(v, &t));

@@ -6,9 +6,9 @@ use std::collections::{BTreeMap, BTreeSet};
 use meshflow_topology::geometry;
 use meshflow_topology::halfedge::{next, origin, target};
 use meshflow_topology::{
-    EdgeBuckets, EdgeKind, EdgeLookup, HalfEdges, NONE, TriangleComponents, VertexNeighbours,
-    VertexTriangles, boundary_loops, is_edge_manifold, is_orientable, is_oriented,
-    non_manifold_vertices, orientation_flips,
+    Connectivity, EdgeBuckets, EdgeKind, EdgeLookup, HalfEdges, Members, NONE, TriangleComponents,
+    VertexNeighbours, VertexTriangles, boundary_loops, is_edge_manifold, is_orientable,
+    is_oriented, non_manifold_vertices, orientation_flips,
 };
 use proptest::prelude::*;
 
@@ -254,6 +254,29 @@ proptest! {
             prop_assert_eq!(EdgeLookup::opposite(&buckets, h), he.opposite(h), "twin of {}", h);
         }
         prop_assert_eq!(boundary_loops(&t, &buckets), boundary_loops(&t, &he));
+    }
+
+    #[test]
+    fn connectivity_derived_on_threads_is_the_same((v, t) in any_mesh(), parts in 2usize..6) {
+        let (one, several) = (Connectivity::new(v, &t), Connectivity::in_parts(v, &t, parts));
+        prop_assert_eq!(several.opposites(), one.opposites());
+        prop_assert_eq!(several.kind_codes(), one.kind_codes());
+        prop_assert_eq!(several.edges(), one.edges());
+        let (a, b) = (several.half_edges(), one.half_edges());
+        prop_assert_eq!(a.non_manifold_edges(), b.non_manifold_edges());
+        prop_assert_eq!(
+            [a.edge_count(), a.boundary_edge_count(), a.interior_edge_count()],
+            [b.edge_count(), b.boundary_edge_count(), b.interior_edge_count()]
+        );
+        prop_assert_eq!(a.inconsistent_edge_count(), b.inconsistent_edge_count());
+        for members in [Members::ProperTriangles, Members::AnyEdge] {
+            let (one, several) =
+                (EdgeBuckets::of(v, &t, members), EdgeBuckets::of_in_parts(v, &t, members, parts));
+            let mut groups = (Vec::new(), Vec::new());
+            one.for_each_edge(|a, sides| groups.0.push((a, sides.to_vec())));
+            several.for_each_edge(|a, sides| groups.1.push((a, sides.to_vec())));
+            prop_assert_eq!(groups.0, groups.1);
+        }
     }
 
     #[test]
