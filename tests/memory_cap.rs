@@ -44,11 +44,13 @@ fn a_run_past_the_cap_is_refused_naming_the_cap_and_the_flag() {
     let refused = apply(Some(below));
     assert!(!refused.status.success());
     let error = String::from_utf8_lossy(&refused.stderr);
-    let expected = format!(
-        "fill-holes: stopped at the memory limit of {below} MiB \
-         (raise it with --memory-cap, at most 4096)"
+    let expected =
+        format!("fill-holes: stopped at the memory limit of {below} MiB: on this mesh's ");
+    assert!(
+        error.contains(&expected) && error.contains(" triangles it needed more than "),
+        "{error}"
     );
-    assert!(error.contains(&expected), "{error}");
+    assert!(error.contains("a triangle (raise it with --memory-cap, at most 4096)"), "{error}");
 
     // Just what it needed: the same result as under the default cap.
     let enough = apply(Some(peak.div_ceil(MIB as u64)));
@@ -56,6 +58,42 @@ fn a_run_past_the_cap_is_refused_naming_the_cap_and_the_flag() {
     let again: serde_json::Value = serde_json::from_slice(&enough.stdout).unwrap();
     assert_eq!(again["output_hash"], summary["output_hash"]);
     assert_eq!(again["guest_peak_bytes"], peak);
+}
+
+#[test]
+fn a_refusal_says_the_largest_mesh_the_service_took_on_earlier_runs() {
+    let spec = |vertices| meshflow_generate::ScanSpec {
+        vertices,
+        components: 20,
+        holes: 40,
+        noise: 0.1,
+        seed: 7,
+    };
+    let scan = meshflow_generate::scan(&spec(1_500_000));
+    let holes = meshflow_builtin_plugins::PLUGINS.iter().find(|p| p.name == "holes").unwrap();
+    let learn = Runtime::new(Limits::default(), None).unwrap();
+    let plugin = learn.load(holes.wasm).unwrap();
+    let peak = learn.run(&plugin, "fill-holes", scan.clone(), &[]).unwrap().guest_peak_bytes;
+    assert!(peak as u64 > INITIAL_GUEST_BYTES, "the run must grow its memory: {peak}");
+
+    // Under a cap just what that run needed: it passes again (and is learned), a scan of
+    // twice the triangles stops, and the refusal says how large a mesh fits.
+    let cap_mib = peak.div_ceil(MIB);
+    let limits = Limits { memory_bytes: cap_mib * MIB, ..Limits::default() };
+    let runtime = Runtime::new(limits, None).unwrap();
+    let plugin = runtime.load(holes.wasm).unwrap();
+    runtime.run(&plugin, "fill-holes", scan.clone(), &[]).expect("it fits");
+    let larger = meshflow_generate::scan(&spec(3_000_000));
+    let error = runtime.run(&plugin, "fill-holes", larger.clone(), &[]).unwrap_err();
+    let RunError::Memory { fit: Some(fit), .. } = &error else { panic!("{error}") };
+    assert_eq!(fit.triangles, larger.triangle_count());
+    let learned = fit.learned_bytes_per_triangle.expect("learned from the run that fitted");
+    assert_eq!(learned, peak as f64 / scan.triangle_count() as f64);
+    // The scan that fitted is about the largest that fits.
+    let said = error.to_string();
+    let fits = ((cap_mib * MIB) as f64 / learned) as usize;
+    assert!(said.contains(&format!("up to about {fits} triangles under this limit")), "{said}");
+    assert!(fits >= scan.triangle_count() && fits < larger.triangle_count(), "{said}");
 }
 
 #[test]

@@ -40,8 +40,12 @@ pub enum RunError {
     Params(#[from] ParamError),
     #[error("{service}: stopped at the deadline of {deadline:?} (infinite loop or too slow?)")]
     Deadline { service: String, deadline: Duration },
-    #[error("{service}: stopped at the memory limit of {limit_mib} MiB{}", raise_hint(*limit_mib))]
-    Memory { service: String, limit_mib: usize },
+    #[error(
+        "{service}: stopped at the memory limit of {limit_mib} MiB{}{}",
+        fit.map_or(String::new(), |fit| fit.say(*limit_mib)),
+        raise_hint(*limit_mib)
+    )]
+    Memory { service: String, limit_mib: usize, fit: Option<MemoryFit> },
     #[error("{service}: ran out of fuel ({fuel} units)")]
     Fuel { service: String, fuel: u64 },
     #[error("{service}: stopped after exhausting its edit budget (it kept editing without end?)")]
@@ -79,6 +83,41 @@ pub enum RunError {
     /// Every run slot is taken and the queue is full: try again later or elsewhere.
     #[error("{service}: all {slots} run slots are taken and {queued} runs wait already")]
     Busy { service: String, slots: usize, queued: usize },
+}
+
+/// What a run stopped at the memory limit tells about the largest mesh its service takes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MemoryFit {
+    /// Triangles of the mesh it stopped on.
+    pub triangles: usize,
+    /// Guest bytes per input triangle the service needed on this runtime's earlier runs
+    /// that grew its memory (the most of them), if any.
+    pub learned_bytes_per_triangle: Option<f64>,
+}
+
+impl MemoryFit {
+    fn say(&self, limit_mib: usize) -> String {
+        if self.triangles == 0 {
+            return String::new();
+        }
+        let limit = (limit_mib * MIB) as f64;
+        let mut said = format!(
+            ": on this mesh's {} triangles it needed more than {:.0} bytes a triangle",
+            self.triangles,
+            limit / self.triangles as f64
+        );
+        if let Some(bytes) = self.learned_bytes_per_triangle {
+            let fits = |limit: f64| (limit / bytes) as u64;
+            said += &format!(
+                "; on earlier runs here it needed {bytes:.0} bytes a triangle, so it takes \
+                 meshes of up to about {} triangles under this limit and {} under {} MiB",
+                fits(limit),
+                fits(MAX_MEMORY_BYTES as f64),
+                MAX_MEMORY_BYTES / MIB
+            );
+        }
+        said
+    }
 }
 
 /// What an operator can do about the memory limit: raise it, up to what a 32-bit guest can

@@ -17,6 +17,7 @@ mod catalog;
 mod connectivity_cache;
 mod crash;
 mod error;
+mod footprint;
 mod host_mesh;
 mod invocation;
 mod limits;
@@ -29,7 +30,7 @@ mod work_queue;
 
 pub use catalog::Catalog;
 pub use connectivity_cache::CACHED_MESH_VERSIONS;
-pub use error::{PluginError, ResultError, RunError};
+pub use error::{MemoryFit, PluginError, ResultError, RunError};
 pub use invocation::Invocation;
 pub use limits::*;
 pub use meshflow_params::{
@@ -86,6 +87,8 @@ pub struct Runtime {
     permits: Arc<permits::Permits>,
     /// Derived once per mesh version, shared by the read-only runs that follow on it.
     connectivity: Arc<connectivity_cache::ConnectivityCache>,
+    /// What each service needed of guest memory per triangle on earlier runs.
+    footprints: footprint::Footprints,
 }
 
 impl Runtime {
@@ -105,7 +108,8 @@ impl Runtime {
         let permits = Arc::new(permits::Permits::new(limits.concurrent_runs));
         let connectivity =
             Arc::new(connectivity_cache::ConnectivityCache::new(Arc::clone(&permits)));
-        Ok(Self { engine, linker, limits, cache, permits, connectivity })
+        let footprints = footprint::Footprints::default();
+        Ok(Self { engine, linker, limits, cache, permits, connectivity, footprints })
     }
 
     pub fn limits(&self) -> &Limits {
@@ -210,17 +214,23 @@ impl Runtime {
         }
         let (slot, queued) = self.acquire_slot(service)?;
         let started = Instant::now();
-        let (outcome, state) = self.call(
-            &slot,
-            &plugin.pre,
-            service,
-            mesh,
-            is_check,
-            self.limits.deadline,
-            |store, p, _, mesh| {
-                p.meshflow_geometry_service().call_run(store, service, mesh, &params)
-            },
-        )?;
+        let triangles = mesh.triangle_count();
+        let (outcome, state) = self
+            .call(
+                &slot,
+                &plugin.pre,
+                service,
+                mesh,
+                is_check,
+                self.limits.deadline,
+                |store, p, _, mesh| {
+                    p.meshflow_geometry_service().call_run(store, service, mesh, &params)
+                },
+            )
+            .map_err(|error| self.footprints.explain(error, &plugin.digest, service))?;
+        if state.memory.grew {
+            self.footprints.learn(&plugin.digest, service, state.memory.peak_bytes, triangles);
+        }
         // The store is gone: the next run may have the slot while this one compacts.
         drop(slot);
         let outcome =
@@ -282,6 +292,7 @@ impl Runtime {
         ) -> wasmtime::Result<R>,
     ) -> Result<(R, RunState), RunError> {
         let input_elements = (mesh.positions.len() + mesh.triangles.len()) as u64;
+        let triangles = mesh.triangles.len() / 3;
         let budget = BASE_EDIT_BUDGET + EDIT_BUDGET_PER_INPUT_ELEMENT * input_elements;
         // A `set-attribute` may carry the largest attribute the mesh could hold whole (four
         // f64 per corner, as the input's triangles count them): on top of the mesh's allowance.
@@ -309,7 +320,9 @@ impl Runtime {
         let (plugin, instance) = match instantiated {
             Ok(instantiated) => instantiated,
             // The cap is below the plugin's initial memory.
-            Err(_) if store.data().memory.exceeded => return Err(self.memory_error(service)),
+            Err(_) if store.data().memory.exceeded => {
+                return Err(self.memory_error(service, triangles));
+            }
             Err(e) => {
                 let message = format!("{e:#}");
                 return Err(RunError::Instantiate { service: service.to_owned(), message });
@@ -320,18 +333,29 @@ impl Runtime {
         })?;
         match f(&mut store, &plugin, &instance, handle) {
             Ok(result) => Ok((result, store.into_data())),
-            Err(error) => Err(self.classify(service, error, store.data())),
+            Err(error) => Err(self.classify(service, error, store.data(), triangles)),
         }
     }
 
-    fn memory_error(&self, service: &str) -> RunError {
-        RunError::Memory { service: service.to_owned(), limit_mib: self.limits.memory_bytes / MIB }
+    /// The run on a mesh of `triangles` stopped at the memory limit.
+    fn memory_error(&self, service: &str, triangles: usize) -> RunError {
+        RunError::Memory {
+            service: service.to_owned(),
+            limit_mib: self.limits.memory_bytes / MIB,
+            fit: Some(MemoryFit { triangles, learned_bytes_per_triangle: None }),
+        }
     }
 
-    fn classify(&self, service: &str, error: wasmtime::Error, state: &RunState) -> RunError {
+    fn classify(
+        &self,
+        service: &str,
+        error: wasmtime::Error,
+        state: &RunState,
+        triangles: usize,
+    ) -> RunError {
         let service = service.to_owned();
         if state.memory.exceeded {
-            return self.memory_error(&service);
+            return self.memory_error(&service, triangles);
         }
         if state.edit_budget_exceeded {
             return RunError::EditBudget { service };

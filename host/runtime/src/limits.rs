@@ -42,6 +42,9 @@ pub const AUTO_PARTITION_BYTES_PER_TRIANGLE: usize = 128;
 /// partitioning is given up and the service runs on the whole mesh (a reach so long that
 /// every partition would hold most of the mesh).
 pub const MAX_PARTITION_GROWTH: usize = 4;
+/// (plugin, service) pairs whose guest bytes per triangle a runtime remembers, for what a
+/// refusal at the memory limit says; pairs beyond it are not learned.
+pub const MAX_REMEMBERED_FOOTPRINTS: usize = 1024;
 /// Runs that may wait for a slot; more are refused at once ([`RunError::Busy`]), so a
 /// flood of requests cannot park threads (and their meshes) without end.
 ///
@@ -148,21 +151,25 @@ pub(crate) struct MemoryCap {
     pub(crate) exceeded: bool,
     /// The largest size any of the run's memories was granted (its initial size included).
     pub(crate) peak_bytes: usize,
+    /// A memory grew beyond its initial size: the peak then tells what the run needed.
+    pub(crate) grew: bool,
 }
 
 impl MemoryCap {
     pub(crate) fn new(max_bytes: usize) -> Self {
-        Self { max_bytes, exceeded: false, peak_bytes: 0 }
+        Self { max_bytes, exceeded: false, peak_bytes: 0, grew: false }
     }
 }
 
 impl ResourceLimiter for MemoryCap {
     fn memory_growing(
         &mut self,
-        _current: usize,
+        current: usize,
         desired: usize,
         _maximum: Option<usize>,
     ) -> wasmtime::Result<bool> {
+        // Instantiation grants the initial size from 0; any later call is a `memory.grow`.
+        self.grew |= current > 0;
         if desired > self.max_bytes {
             self.exceeded = true;
             wasmtime::bail!("memory limit of {} bytes exceeded", self.max_bytes);
