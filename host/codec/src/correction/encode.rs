@@ -253,9 +253,7 @@ impl Encoder {
         }
         let smoothing = Smoothing::new(store, self.models.grid);
         // Fitting λ and coding need each mean up to four times: gathered once.
-        let mut around = Vec::new();
-        let means: Vec<_> =
-            (0..store.vertex_slots()).map(|v| smoothing.mean(current, v, &mut around)).collect();
+        let means = Means::of(&smoothing, current, store.vertex_slots());
         let moved = Moved { store, current, new: xyz, smoothing: &smoothing, means: &means };
         let lambda = moved.best_lambda();
         let (m, out) = (&mut self.models, &mut self.out);
@@ -263,7 +261,7 @@ impl Encoder {
         let mut context = motion::STILL;
         for v in (0..store.vertex_slots()).filter(|&v| store.is_vertex_live(v)) {
             let (p, q) = (at(current, v), at(xyz, v));
-            let predicted = smoothing.predict(p, means[v as usize], lambda);
+            let predicted = smoothing.predict(p, means.get(v), lambda);
             // "Predicted" first: on a grid, many small moves snap back to the old position,
             // and one symbol for all of them keeps the runs long.
             let model = &mut m.motion[context];
@@ -304,13 +302,37 @@ fn same_bits(a: [f32; 3], b: [f32; 3]) -> bool {
 }
 
 /// The live vertices a `set-positions` moves, with what predicts them.
+/// Per vertex slot, [`Smoothing::mean`]: 25 bytes a vertex where `Option<[f64; 3]>` took
+/// 32 (the encoder's largest array while it codes a move of every vertex).
+struct Means {
+    means: Vec<[f64; 3]>,
+    has: Vec<bool>,
+}
+
+impl Means {
+    fn of(smoothing: &Smoothing, positions: &[f32], vertex_slots: u32) -> Self {
+        let mut around = Vec::new();
+        let (mut means, mut has) =
+            (Vec::with_capacity(vertex_slots as usize), Vec::with_capacity(vertex_slots as usize));
+        for v in 0..vertex_slots {
+            let mean = smoothing.mean(positions, v, &mut around);
+            means.push(mean.unwrap_or_default());
+            has.push(mean.is_some());
+        }
+        Self { means, has }
+    }
+
+    fn get(&self, v: u32) -> Option<[f64; 3]> {
+        self.has[v as usize].then(|| self.means[v as usize])
+    }
+}
+
 struct Moved<'a> {
     store: &'a MeshStore,
     current: &'a [f32],
     new: &'a [f32],
     smoothing: &'a Smoothing<'a>,
-    /// Per vertex slot, [`Smoothing::mean`].
-    means: &'a [Option<[f64; 3]>],
+    means: &'a Means,
 }
 
 impl Moved<'_> {
@@ -321,7 +343,7 @@ impl Moved<'_> {
             if !self.store.is_vertex_live(v) || same_bits(p, q) {
                 return None;
             }
-            Some((p, q, self.means[v as usize]?))
+            Some((p, q, self.means.get(v)?))
         })
     }
 
