@@ -1,6 +1,7 @@
-//! Plugins a run will replay are fetched and compiled while the input broadcasts (issue 34
-//! item 2): a host that lacks a step's plugin has it before the step's replay reaches it,
-//! and a prefetch naming what it should not is refused without harming anyone's run.
+//! Plugins a run will replay are fetched and compiled on each host once it holds the input
+//! (issue 34 item 2): a host that lacks a step's plugin has it before the step's replay
+//! reaches it, and a prefetch naming what it should not is refused without harming
+//! anyone's run.
 
 mod common;
 
@@ -61,6 +62,12 @@ async fn a_host_that_will_replay_a_step_has_its_plugin_before_the_replay_arrives
         (receiver.as_str(), digest.as_str(), producer.as_str())
     );
     assert_eq!(prefetch["outcome"], "fetched", "{prefetch:#}");
+    // Asked only once the receiver held the input, so the plugin did not share its link
+    // with the input (the broadcast began after the run did: its times are a lower bound).
+    let loads = record["broadcast"]["hosts"].as_array().unwrap();
+    let load = loads.iter().find(|l| l["host"] == receiver).expect("the receiver's load");
+    let held_ms = load["download_ms"].as_f64().unwrap() + load["load_ms"].as_f64().unwrap();
+    assert!(prefetch["started_ms"].as_f64().unwrap() >= held_ms, "{prefetch:#} {load:#}");
     let size = meshflow_builtin_plugins::fixture("smoothing-v2").len() as u64;
     assert_eq!(prefetch["bytes"].as_u64(), Some(size));
     let smoothing = &steps(&record)[0];

@@ -79,12 +79,16 @@ async fn run_workflow(
     done: VecDeque<StepRecord>,
 ) -> Result<(), ExecError> {
     let mut plan = Plan::new(workflow, &registry)?;
-    // Beside the broadcast: the plugins the plan's hosts may replay, fetched and compiled.
-    let prefetches = prefetch::Prefetches::start(run, &registry, &plan, workflow);
+    // The plugins the plan's hosts may replay, fetched and compiled on each host once it
+    // holds the input, while the others still load it and the first tasks run.
+    let holders = broadcast::InputHolders::new();
+    let prefetches = prefetch::Prefetches::start(run, &registry, &plan, workflow, &holders);
     let loaded = match done.is_empty() {
-        true => broadcast::broadcast(run, &registry, &mut plan, workflow.quantize).await?,
-        false => resume::restore_input(run)?,
+        true => broadcast::broadcast(run, &registry, &mut plan, workflow.quantize, &holders).await,
+        false => resume::restore_input(run),
     };
+    holders.over();
+    let loaded = loaded?;
     let mut executor = Executor::new(run.clone(), registry, plan, workflow, loaded, done);
     executor.prefetches = prefetches;
     executor.execute(workflow).await

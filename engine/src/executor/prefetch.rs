@@ -1,7 +1,8 @@
 //! Plugins made ready before a replay needs them (issue 34, "nothing waits that could
-//! have run beside"): while the input broadcasts, every host of the plan that may replay a
-//! filter step is asked to fetch and compile that step's plugin (`POST /replay-plugins`),
-//! from the host planned to run the step. A replay then finds the plugin compiled instead
+//! have run beside"): every host of the plan that may replay a filter step is asked to
+//! fetch and compile that step's plugin (`POST /replay-plugins`), from the host planned to
+//! run the step, as soon as it holds the run's input (before, the plugins shared its link
+//! with the input the first task waits for). A replay then finds the plugin compiled instead
 //! of fetching and compiling it inside the transfer (an 18 MB Python component: 23 s).
 //!
 //! Only what the plan names is asked for: per filter task, its pinned digest or the plugin
@@ -16,6 +17,7 @@ use meshflow_api::host::{PrefetchOutcome, PrefetchedPlugins, WantedPlugin};
 use meshflow_api::params::ServiceKind;
 use serde_json::json;
 
+use super::broadcast::InputHolders;
 use super::cost::PluginAt;
 use crate::plan::Plan;
 use crate::record::PrefetchRecord;
@@ -39,6 +41,7 @@ impl Prefetches {
         registry: &Arc<Registry>,
         plan: &Plan,
         workflow: &Workflow,
+        holders: &InputHolders,
     ) -> Self {
         let prefetches = Self::default();
         if !matches!(workflow.transfer, Transfer::Auto | Transfer::Replay) {
@@ -46,16 +49,18 @@ impl Prefetches {
         }
         for (receiver, wanted) in wanted(plan, workflow) {
             let (run, registry, ready) = (run.clone(), registry.clone(), prefetches.ready.clone());
-            let started_ms = run.elapsed_ms();
-            // In the record at once: a run that ends before the host answers still says
-            // what was under way.
-            let pending = pending(&receiver.url, &wanted, started_ms);
-            run.update("prefetch", |r| {
-                let json = json!({"host": receiver.url, "plugins": pending});
-                r.prefetches.extend(pending);
-                json
-            });
+            let held = holders.held_by(&receiver.url);
             tokio::spawn(async move {
+                held.await;
+                let started_ms = run.elapsed_ms();
+                // In the record before the request: a run that ends before the host
+                // answers still says what was under way.
+                let pending = pending(&receiver.url, &wanted, started_ms);
+                run.update("prefetch", |r| {
+                    let json = json!({"host": receiver.url, "plugins": pending});
+                    r.prefetches.extend(pending);
+                    json
+                });
                 let answer = receiver.client.prefetch_plugins(wanted.clone()).await;
                 let finished_ms = run.elapsed_ms();
                 let timing = (started_ms, finished_ms);
