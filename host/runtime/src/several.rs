@@ -173,6 +173,24 @@ mod tests {
     }
 
     #[test]
+    fn a_check_that_traps_stops_the_run_on_every_instance_and_frees_their_slots() {
+        let limits = Limits { concurrent_runs: 2, ..Limits::default() };
+        let runtime = Runtime::new(limits, None).expect("a runtime");
+        let hostile = runtime.load(meshflow_builtin_plugins::fixture("hostile")).unwrap();
+        let cube = Arc::new(MeshData::new(vec![0.0; 9], vec![0, 1, 2]));
+        let services = ["edit-in-check", "trap-in-check", "wrong-result-type", "edit-in-check"];
+        for _ in 0..3 {
+            let error = runtime.run_checks(&hostile, &services, Arc::clone(&cube)).unwrap_err();
+            assert!(matches!(error, ChecksError::Run(RunError::Trap { .. })), "{error}");
+        }
+        // Both slots came back: two checks at once still run, each giving its own error.
+        let calm = ["edit-in-check", "wrong-result-type"];
+        let runs = runtime.run_checks(&hostile, &calm, cube).expect("runs");
+        assert!(matches!(runs[0].value, Err(RunError::Failed { .. })), "{runs:?}");
+        assert!(matches!(runs[1].value, Err(RunError::BadResult { .. })), "{runs:?}");
+    }
+
+    #[test]
     fn filters_and_unknown_names_are_refused_before_anything_runs() {
         let runtime = Runtime::new(Limits::default(), None).expect("a runtime");
         let cube = MeshData::new(vec![0.0; 9], vec![0, 1, 2]);

@@ -23,6 +23,10 @@ fn trap(_: &Mesh, _: &Params) -> Result<String> {
     std::process::abort()
 }
 
+fn trap_in_check(_: &Mesh, _: &Params) -> Result<Value> {
+    std::process::abort()
+}
+
 fn panic(_: &Mesh, _: &Params) -> Result<String> {
     panic!("the hostile plugin panics on purpose")
 }
@@ -188,6 +192,12 @@ fn services() -> Vec<Service> {
             local_but_global,
         )
         .local(one_ring),
+        Service::check(
+            "trap-in-check",
+            "Aborts although it is a check.",
+            ValueType::Integer,
+            trap_in_check,
+        ),
         Service::check(
             "wrong-result-type",
             "Declares an integer, returns text.",
