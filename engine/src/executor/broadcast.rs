@@ -29,6 +29,8 @@ pub(super) struct InputHolders(tokio::sync::watch::Sender<Holders>);
 #[derive(Default)]
 pub(super) struct Holders {
     hosts: BTreeSet<String>,
+    /// Every host of the plan holds it already (a resumed run's restored input).
+    all: bool,
     over: bool,
 }
 
@@ -43,16 +45,26 @@ impl InputHolders {
         });
     }
 
+    /// The hosts kept their sessions of the input (a resumed run).
+    pub fn restored(&self) {
+        self.0.send_modify(|h| h.all = true);
+    }
+
     /// The broadcast ended (loaded, restored or failed): nobody waits any longer.
     pub fn over(&self) {
         self.0.send_modify(|h| h.over = true);
     }
 
-    /// Resolves once `host` holds the input or the broadcast is over (or the run is gone).
-    pub fn held_by(&self, host: &str) -> impl std::future::Future<Output = ()> + Send + 'static {
+    /// Resolves once `host` holds the input (`true`), or once the broadcast ended without
+    /// it or the run is gone (`false`: a prefetch there would serve nothing).
+    pub fn held_by(&self, host: &str) -> impl std::future::Future<Output = bool> + Send + 'static {
         let (mut holders, host) = (self.0.subscribe(), host.to_owned());
         async move {
-            let _ = holders.wait_for(|h| h.over || h.hosts.contains(&host)).await;
+            let held = |h: &Holders| h.all || h.hosts.contains(&host);
+            match holders.wait_for(|h| h.over || held(h)).await {
+                Ok(holders) => held(&holders),
+                Err(_) => false,
+            }
         }
     }
 }

@@ -85,7 +85,10 @@ async fn run_workflow(
     let prefetches = prefetch::Prefetches::start(run, &registry, &plan, workflow, &holders);
     let loaded = match done.is_empty() {
         true => broadcast::broadcast(run, &registry, &mut plan, workflow.quantize, &holders).await,
-        false => resume::restore_input(run),
+        false => {
+            holders.restored();
+            resume::restore_input(run)
+        }
     };
     holders.over();
     let loaded = loaded?;

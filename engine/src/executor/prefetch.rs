@@ -51,7 +51,9 @@ impl Prefetches {
             let (run, registry, ready) = (run.clone(), registry.clone(), prefetches.ready.clone());
             let held = holders.held_by(&receiver.url);
             tokio::spawn(async move {
-                held.await;
+                if !held.await {
+                    return;
+                }
                 let started_ms = run.elapsed_ms();
                 // In the record before the request: a run that ends before the host
                 // answers still says what was under way.

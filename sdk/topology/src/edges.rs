@@ -147,6 +147,11 @@ impl<'a> EdgeBuckets<'a> {
     /// least one range, none empty unless there are no vertices), for work split by
     /// vertex.
     pub fn parts(&self, parts: usize) -> Vec<std::ops::Range<usize>> {
+        if parts <= 1 {
+            // One range of every bucket, without copying the bucket bounds.
+            let every = 0..self.ends.len();
+            return vec![every];
+        }
         // `ends` holds where each bucket ends; as starts: 0, then every end but the last.
         let starts: Vec<u32> =
             std::iter::once(0).chain(self.ends.iter().copied()).take(self.ends.len()).collect();
