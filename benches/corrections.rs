@@ -323,6 +323,27 @@ struct AttributeSize {
     elements: usize,
 }
 
+/// How long unpacking takes once the last byte is in when the bytes arrive as a download
+/// brings them (`pack::decode_from`): all but the last tenth handed over, time for the
+/// decoder to take what it can from them (3× a whole unpack), then the rest.
+fn unpack_after_last_byte(packed: &[u8], unpack: Duration) -> Duration {
+    use std::io::Write;
+    let (reader, mut writer) = std::io::pipe().expect("a pipe");
+    let split = packed.len() * 9 / 10;
+    let (head, tail) = (packed[..split].to_vec(), packed[split..].to_vec());
+    let link = std::thread::spawn(move || {
+        writer.write_all(&head).expect("the decoder reads");
+        std::thread::sleep(3 * unpack);
+        let last = std::time::Instant::now();
+        writer.write_all(&tail).expect("the decoder reads");
+        last
+    });
+    let (_, hash) = pack::decode_from(reader).expect("unpacks");
+    let done = std::time::Instant::now();
+    assert_eq!(hash, pack::stated_hash(packed).expect("sealed"));
+    done - link.join().expect("the link thread")
+}
+
 fn attribute_sizes(mesh: &MeshData) -> Vec<AttributeSize> {
     let packed = pack::encode(mesh).expect("packs").len();
     mesh.attributes
@@ -498,8 +519,8 @@ fn attributes_bench() {
     let scan = scan(&spec);
     println!("packed meshes (.mfm), best of {ATTRIBUTE_RUNS}:");
     println!(
-        "{:<8} {:<26} {:>10} {:>9} {:>9} {:>10} {:>10}",
-        "mesh", "carries", "mfm B", "pack ms", "unpack ms", "attr B", "zstd-19 B"
+        "{:<8} {:<26} {:>10} {:>9} {:>9} {:>11} {:>10} {:>10}",
+        "mesh", "carries", "mfm B", "pack ms", "unpack ms", "arriving ms", "attr B", "zstd-19 B"
     );
     for (name, mesh) in [("bunny", &bunny), ("scan 1M", &scan)] {
         let painted = paint(mesh, true);
@@ -526,15 +547,17 @@ fn attributes_bench() {
             let (unpack, unpacked) =
                 best(ATTRIBUTE_RUNS, || pack::decode(&packed).expect("unpacks"));
             assert_eq!(unpacked.content_hash(), m.content_hash());
+            let arriving = (0..3).map(|_| unpack_after_last_byte(&packed, unpack)).min().unwrap();
             let raw: usize = m.attributes.iter().map(|a| a.values.to_le_bytes().len()).sum();
             let sizes = attribute_sizes(&m);
             let attr: usize = sizes.iter().map(|s| s.packed).sum();
             let zstd: usize = sizes.iter().map(|s| s.zstd).sum();
             println!(
-                "{name:<8} {carries:<26} {:>10} {:>9.1} {:>9.1} {:>10} {:>10}   raw {raw}",
+                "{name:<8} {carries:<26} {:>10} {:>9.1} {:>9.1} {:>11.1} {:>10} {:>10}   raw {raw}",
                 packed.len(),
                 ms(pack_time),
                 ms(unpack),
+                ms(arriving),
                 attr,
                 zstd
             );

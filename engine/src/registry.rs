@@ -40,12 +40,24 @@ pub struct HostState {
     pub services: Vec<ServiceEntry>,
     /// Runs in progress on the host, as it last said.
     pub running: u32,
+    /// Of those, the ones this engine had not triggered (as far as its count then says):
+    /// other engines', the CLI's.
+    #[serde(skip)]
+    others_running: u32,
     /// Tasks this engine has triggered there and not yet seen finish.
     pub assigned: u32,
     pub last_error: Option<String>,
     /// Whether it runs plugins fetched from other hosts (replays, steps moved to it); a
     /// host started with `--no-foreign-plugins` does not.
     pub foreign_plugins: bool,
+}
+
+impl HostState {
+    /// The host's count of runs in progress, as a poll got it.
+    fn polled_running(&mut self, running: u32) {
+        self.running = running;
+        self.others_running = running.saturating_sub(self.assigned);
+    }
 }
 
 impl HostEntry {
@@ -190,9 +202,13 @@ impl HostEntry {
     }
 
     /// The load used to pick among hosts: what it runs plus what we are about to send it.
+    /// Tasks running or waiting there: this engine's own as it counts them now, others' as
+    /// of the last poll (the host's count then also held this engine's tasks of that
+    /// moment, which may have finished since: counted twice, a task just done made a host
+    /// look busy for up to a poll interval).
     pub fn load(&self) -> u32 {
         let state = self.state.lock().unwrap();
-        state.running + state.assigned
+        state.others_running + state.assigned
     }
 
     pub fn mark_down(&self, reason: String) {
@@ -220,7 +236,7 @@ impl HostEntry {
             Ok((health, services)) => {
                 *self.last_seen.lock().unwrap() = Instant::now();
                 state.up = true;
-                state.running = u32::try_from(health.running).unwrap_or(u32::MAX);
+                state.polled_running(u32::try_from(health.running).unwrap_or(u32::MAX));
                 state.services = services;
                 state.foreign_plugins = health.foreign_plugins;
                 state.last_error = None;
@@ -612,6 +628,21 @@ mod tests {
         let urls: Vec<String> = registry.hosts().iter().map(|h| h.url.clone()).collect();
         assert_eq!(urls, ["http://127.0.0.1:9/b"]);
         assert_eq!(store.now(store::load_hosts).unwrap(), ["http://127.0.0.1:9/b"]);
+    }
+
+    #[tokio::test]
+    async fn a_task_of_this_engine_stops_counting_when_it_ends_not_at_the_next_poll() {
+        let dir = tempfile::tempdir().unwrap();
+        let (registry, _store) = registry(&dir);
+        let host = registry.register("http://127.0.0.1:9/a").await.unwrap();
+        let ours = host.assign();
+        // The poll sees our task and one of another engine's.
+        host.state.lock().unwrap().polled_running(2);
+        assert_eq!(host.load(), 2);
+        drop(ours);
+        assert_eq!(host.load(), 1, "the other engine's task is all that is left");
+        host.state.lock().unwrap().polled_running(0);
+        assert_eq!(host.load(), 0);
     }
 
     #[tokio::test]

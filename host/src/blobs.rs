@@ -2,7 +2,7 @@
 //! them is `routes/blobs.rs`); recent output meshes kept to pack on first request; the
 //! total size held to a budget.
 
-use std::collections::{HashSet, VecDeque};
+use std::collections::{HashMap, HashSet, VecDeque};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
@@ -40,6 +40,31 @@ pub struct BlobStore {
     /// Held shared from storing a blob until a session record names it, and exclusively
     /// while evicting, so a blob is never evicted between being written and being needed.
     gate: tokio::sync::RwLock<()>,
+    /// Outputs being packed, by blob name: a second request for one waits for the first's
+    /// packing instead of packing the same mesh again (at a run's end the engine and a
+    /// second host may ask at once).
+    packing: Mutex<HashMap<String, Arc<tokio::sync::Mutex<()>>>>,
+}
+
+/// The right to pack one output (see [`BlobStore::packing`]); its entry goes with the last
+/// holder or waiter.
+pub struct Packing<'a> {
+    store: &'a BlobStore,
+    name: String,
+    turn: Option<tokio::sync::OwnedMutexGuard<()>>,
+}
+
+impl Drop for Packing<'_> {
+    fn drop(&mut self) {
+        let mut packing = self.store.packing.lock().expect("packing lock");
+        // Under the map's lock no one can take a new handle, so the count is exact.
+        let turn = self.turn.take().expect("held until dropped");
+        let lock = std::sync::Arc::clone(tokio::sync::OwnedMutexGuard::mutex(&turn));
+        drop(turn);
+        if Arc::strong_count(&lock) == 2 {
+            packing.remove(&self.name);
+        }
+    }
 }
 
 impl BlobStore {
@@ -50,6 +75,7 @@ impl BlobStore {
             recent: Mutex::default(),
             recent_capacity,
             gate: tokio::sync::RwLock::new(()),
+            packing: Mutex::default(),
         }
     }
 
@@ -113,6 +139,17 @@ impl BlobStore {
         name
     }
 
+    /// Waits for the turn to pack output `name`: one packing per name at a time, so whoever
+    /// gets it after another should find the blob stored.
+    pub async fn packing(&self, name: &str) -> Packing<'_> {
+        let lock = {
+            let mut packing = self.packing.lock().expect("packing lock");
+            Arc::clone(packing.entry(name.to_owned()).or_default())
+        };
+        let turn = Some(lock.lock_owned().await);
+        Packing { store: self, name: name.to_owned(), turn }
+    }
+
     pub fn recent(&self, name: &str) -> Option<Arc<MeshData>> {
         let recent = self.recent.lock().expect("recent outputs lock");
         recent.iter().find(|(n, _)| n == name).map(|(_, mesh)| mesh.clone())
@@ -170,6 +207,24 @@ fn evict_oldest(
 mod tests {
     use super::*;
     use std::time::{Duration, SystemTime};
+
+    #[tokio::test]
+    async fn one_packing_per_output_at_a_time_and_no_entry_left_behind() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = BlobStore::new(dir.path().to_owned(), u64::MAX, 4);
+        let first = store.packing("a.mfm").await;
+        let other = store.packing("b.mfm").await;
+        let second = store.packing("a.mfm");
+        tokio::pin!(second);
+        // The second request for "a" waits while the first packs; "b" is not held up.
+        let waited = tokio::time::timeout(Duration::from_millis(50), &mut second).await;
+        assert!(waited.is_err(), "a second packing of the same output started");
+        drop(first);
+        let second = tokio::time::timeout(Duration::from_secs(5), second).await.unwrap();
+        assert_eq!(store.packing.lock().unwrap().len(), 2);
+        drop((second, other));
+        assert!(store.packing.lock().unwrap().is_empty());
+    }
 
     #[test]
     fn eviction_takes_the_oldest_unneeded_blobs_until_the_budget_holds() {

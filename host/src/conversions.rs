@@ -181,6 +181,10 @@ pub async fn pack_output(
     name: &str,
     mesh: Arc<MeshData>,
 ) -> Result<(), PackOutputError> {
+    let _turn = blobs.packing(name).await;
+    if blobs.path(name).exists() {
+        return Ok(());
+    }
     let packed = tokio::task::spawn_blocking(move || pack::encode(&mesh))
         .await?
         .map_err(|source| PackOutputError::Pack { name: name.to_owned(), source })?;

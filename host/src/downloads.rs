@@ -12,7 +12,33 @@ use meshflow_api::fetch_rules::{
 use prometheus_client::metrics::counter::Counter;
 use tokio_util::sync::CancellationToken;
 
-use crate::spool::{self, SpoolError, Spooled};
+use std::time::{Duration, Instant};
+
+use crate::meshes::{self, CurrentMesh, MeshEncoding, MeshError};
+use crate::spool::{self, SpoolError, Spooled, Tap};
+
+/// A mesh downloaded and decoded ([`Downloads::mesh`]).
+pub struct FetchedMesh {
+    /// The file it came in, to keep as its blob.
+    pub spooled: Spooled,
+    pub mesh: CurrentMesh,
+    pub encoding: MeshEncoding,
+    /// What the file held that the mesh does not keep (nothing for packed meshes).
+    pub not_kept: Vec<String>,
+    /// Until the last byte was in.
+    pub download: Duration,
+    /// From then until the mesh was decoded and hashed.
+    pub load: Duration,
+}
+
+/// Why a mesh could not be downloaded, or read as a mesh.
+#[derive(Debug, thiserror::Error)]
+pub enum FetchMeshError {
+    #[error(transparent)]
+    Download(#[from] SpoolError),
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+}
 
 /// A request named a peer that is not an origin.
 #[derive(Debug, thiserror::Error)]
@@ -91,23 +117,24 @@ impl Downloads {
     /// Downloads `url` within `scope` into memory, by way of a file ([`Downloads::spool`]):
     /// only the bytes read back are held, once.
     pub async fn get(&self, url: &str, scope: &FetchScope) -> Result<Vec<u8>, SpoolError> {
-        let spooled = self.spool(url, scope, &CancellationToken::new()).await?;
+        let spooled = self.spool(url, scope, &CancellationToken::new(), None).await?;
         let io = |source| SpoolError::Io { url: quoted(url), source };
         spooled.read().await.map_err(io)
     }
 
-    /// Streams `url` within `scope` to a temporary file, hashed as it comes, held to the size
-    /// cap, the download deadlines and the floor rate; `cancel` (a session's) stops it at once
-    /// and closes the connection.
+    /// Streams `url` within `scope` to a temporary file, hashed as it comes (and handed to
+    /// `tap`), held to the size cap, the download deadlines and the floor rate; `cancel` (a
+    /// session's) stops it at once and closes the connection.
     pub async fn spool(
         &self,
         url: &str,
         scope: &FetchScope,
         cancel: &CancellationToken,
+        tap: Option<Tap>,
     ) -> Result<Spooled, SpoolError> {
         let fetched = async {
             let (response, shown) = meshflow_api::fetch_response(&self.http, url, scope).await?;
-            spool::spool(response, &shown, &self.spool_dir, self.max_bytes, cancel).await
+            spool::spool(response, &shown, &self.spool_dir, self.max_bytes, cancel, tap).await
         };
         let cancelled = || SpoolError::Cancelled { url: quoted(url) };
         let spooled = tokio::select! {
@@ -124,6 +151,40 @@ impl Downloads {
         }?;
         self.downloaded.inc_by(spooled.bytes);
         Ok(spooled)
+    }
+
+    /// Downloads a mesh into a file (kept as its blob by renaming it) and decodes it: a packed
+    /// mesh, as its URL names it, while its bytes arrive (the connectivity before the
+    /// geometry is in: most of the decoding off the critical path), any other once they are
+    /// all in.
+    pub async fn mesh(
+        &self,
+        url: &str,
+        scope: &FetchScope,
+        cancel: &CancellationToken,
+    ) -> Result<FetchedMesh, FetchMeshError> {
+        let started = Instant::now();
+        let (tap, arriving) = match MeshEncoding::by_url(url) {
+            Some(MeshEncoding::Packed) => {
+                let (tap, chunks) = std::sync::mpsc::channel();
+                (Some(tap), Some(meshes::decode_arriving(url, chunks)))
+            }
+            _ => (None, None),
+        };
+        let spooled = self.spool(url, scope, cancel, tap).await?;
+        let download = started.elapsed();
+        let (mesh, encoding, not_kept) = match arriving {
+            Some(decoding) => {
+                (decoding.await.map_err(MeshError::from)??, MeshEncoding::Packed, Vec::new())
+            }
+            None => {
+                let io = |source| SpoolError::Io { url: quoted(url), source };
+                let decoded = meshes::decode_hashed(url, spooled.read().await.map_err(io)?).await?;
+                (decoded.mesh, decoded.encoding, decoded.not_kept)
+            }
+        };
+        let load = started.elapsed() - download;
+        Ok(FetchedMesh { spooled, mesh, encoding, not_kept, download, load })
     }
 
     /// The counter of bytes downloaded (shared: a clone counts into the same total).

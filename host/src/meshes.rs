@@ -67,14 +67,16 @@ impl MeshEncoding {
         Format::from_name(extension).map(MeshEncoding::File)
     }
 
+    /// By the extension of the URL's path.
+    pub fn by_url(url: &str) -> Option<Self> {
+        let url = reqwest::Url::parse(url).ok()?;
+        let (_, extension) = url.path_segments()?.next_back()?.rsplit_once('.')?;
+        MeshEncoding::from_extension(extension)
+    }
+
     /// By the extension of the URL's path, else by the first bytes.
     pub fn detect(url: &str, bytes: &[u8]) -> Result<Self, MeshError> {
-        let by_name = reqwest::Url::parse(url).ok().and_then(|url| {
-            let file = url.path_segments()?.next_back()?.to_owned();
-            let (_, extension) = file.rsplit_once('.')?;
-            MeshEncoding::from_extension(extension)
-        });
-        by_name
+        Self::by_url(url)
             .or_else(|| sniff(bytes))
             .ok_or_else(|| MeshError::UnknownFormat { url: url.to_owned() })
     }
@@ -143,6 +145,43 @@ pub async fn decode_hashed(url: &str, bytes: Vec<u8>) -> Result<Decoded, MeshErr
         Ok(Decoded { mesh, bytes, encoding, not_kept })
     })
     .await?
+}
+
+/// Decodes a packed mesh from `chunks` as a download delivers them ([`pack::decode_from`]),
+/// on a blocking thread; the download's end (its sender dropped) is the stream's end.
+pub fn decode_arriving(
+    url: &str,
+    chunks: std::sync::mpsc::Receiver<Vec<u8>>,
+) -> tokio::task::JoinHandle<Result<CurrentMesh, MeshError>> {
+    let name = url.to_owned();
+    tokio::task::spawn_blocking(move || {
+        let source = Chunks { chunks, current: Vec::new(), at: 0 };
+        let (mesh, hash) =
+            pack::decode_from(source).map_err(|source| MeshError::Packed { name, source })?;
+        Ok(CurrentMesh { mesh: Arc::new(mesh), hash: hash.to_hex() })
+    })
+}
+
+/// A reader over the chunks a download hands on.
+struct Chunks {
+    chunks: std::sync::mpsc::Receiver<Vec<u8>>,
+    current: Vec<u8>,
+    at: usize,
+}
+
+impl std::io::Read for Chunks {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        while self.at == self.current.len() {
+            match self.chunks.recv() {
+                Ok(chunk) => (self.current, self.at) = (chunk, 0),
+                Err(_) => return Ok(0),
+            }
+        }
+        let n = buf.len().min(self.current.len() - self.at);
+        buf[..n].copy_from_slice(&self.current[self.at..self.at + n]);
+        self.at += n;
+        Ok(n)
+    }
 }
 
 /// A mesh with its content hash, hashed off the async threads.

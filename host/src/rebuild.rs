@@ -2,9 +2,7 @@
 //! (a new session), or read the stored input and replay the steps (after a restart).
 
 use std::sync::Arc;
-use std::time::Instant;
 
-use meshflow_api::fetch_rules::quoted;
 use meshflow_api::host::{GridSpec, millis};
 use meshflow_codec::correction::{self, CorrectionError};
 use meshflow_codec::quantize::{self, Grid, QuantizeError};
@@ -12,6 +10,7 @@ use meshflow_codec::replay::{self, ReplayError};
 use meshflow_mesh::MeshData;
 
 use super::blobs::{BlobError, Stored};
+use super::downloads::FetchMeshError;
 use super::downloads::PeersError;
 use super::meshes::{self, CORRECTION, CurrentMesh, MeshEncoding, MeshError, REPLAY, hashed};
 use super::replay::{PluginSource, ReplayFailure};
@@ -56,6 +55,15 @@ pub enum RebuildError {
     },
     #[error(transparent)]
     Task(#[from] tokio::task::JoinError),
+}
+
+impl From<FetchMeshError> for RebuildError {
+    fn from(error: FetchMeshError) -> Self {
+        match error {
+            FetchMeshError::Download(error) => error.into(),
+            FetchMeshError::Mesh(error) => error.into(),
+        }
+    }
 }
 
 /// Adds a session on `record` (its input not yet loaded) and starts loading it in the
@@ -150,31 +158,23 @@ async fn download_input<'a>(
     record: &SessionRecord,
     cancel: &tokio_util::sync::CancellationToken,
 ) -> Result<(String, CurrentMesh, LoadReport, Stored<'a>), RebuildError> {
-    let started = Instant::now();
     let scope = host.downloads.scope(&record.peers)?;
-    // On disk as it comes; read back once to parse, and kept as the blob by renaming.
-    let spooled = host.downloads.spool(&record.input_url, &scope, cancel).await?;
-    let download_ms = millis(started.elapsed());
-    let input_bytes = spooled.bytes;
-    let url = quoted(&record.input_url);
-    let bytes = spooled.read().await.map_err(|source| SpoolError::Io { url, source })?;
-    let decoded = meshes::decode_hashed(&record.input_url, bytes).await?;
-    let (current, encoding, not_kept) = (decoded.mesh, decoded.encoding, decoded.not_kept);
-    drop(decoded.bytes);
+    // On disk as it comes, kept as the blob by renaming; a packed input decoded meanwhile.
+    let fetched = host.downloads.mesh(&record.input_url, &scope, cancel).await?;
+    let (spooled, current, encoding) = (fetched.spooled, fetched.mesh, fetched.encoding);
     let hash = &current.hash;
     // On a grid, the expected hash is the snapped mesh's: checked once it is snapped.
     if record.grid.is_none() {
         expect_hash(record, hash)?;
     }
-    let load_ms = millis(started.elapsed()) - download_ms;
+    let times = LoadReport {
+        download_ms: Some(millis(fetched.download)),
+        load_ms: Some(millis(fetched.load)),
+        input_bytes: Some(spooled.bytes),
+        not_kept: fetched.not_kept,
+    };
     let name = meshes::blob_name(&spooled.digest, encoding, hash);
     let stored = host.blobs.adopt(&name, spooled.path).await?;
-    let times = LoadReport {
-        download_ms: Some(download_ms),
-        load_ms: Some(load_ms),
-        input_bytes: Some(input_bytes),
-        not_kept,
-    };
     Ok((name, current, times, stored))
 }
 

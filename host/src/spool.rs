@@ -53,15 +53,20 @@ impl Spooled {
     }
 }
 
+/// The chunks of a download as they arrive, for a reader on another thread (a decoder); it
+/// sees the end when the download ends, however it ends.
+pub type Tap = std::sync::mpsc::Sender<Vec<u8>>;
+
 /// Streams `response`'s body into a new temporary file under `dir`, at most `limit` bytes,
-/// hashing it; stops at once when `cancel` fires, and when fewer than
-/// `MIN_DOWNLOAD_RATE * SLOW_DOWNLOAD_WINDOW` bytes came in one window.
+/// hashing it and handing each chunk to `tap` too; stops at once when `cancel` fires, and
+/// when fewer than `MIN_DOWNLOAD_RATE * SLOW_DOWNLOAD_WINDOW` bytes came in one window.
 pub async fn spool(
     response: reqwest::Response,
     url: &str,
     dir: &Path,
     limit: u64,
     cancel: &CancellationToken,
+    mut tap: Option<Tap>,
 ) -> Result<Spooled, SpoolError> {
     let io = |source| SpoolError::Io { url: url.to_owned(), source };
     let too_large = || SpoolError::TooLarge { url: url.to_owned(), limit };
@@ -102,6 +107,10 @@ pub async fn spool(
             }
             hasher.update(chunk);
             file.write_all(chunk).await.map_err(io)?;
+            // A reader that stopped (it found the bytes wrong) needs no more.
+            if tap.as_ref().is_some_and(|tap| tap.send(chunk.to_vec()).is_err()) {
+                tap = None;
+            }
             window.1 += chunk.len() as u64;
         }
         if window.0.elapsed() >= SLOW_DOWNLOAD_WINDOW {

@@ -20,6 +20,7 @@ use meshflow_params::{ParamError, from_json as params_from_json, value_json};
 use meshflow_runtime::{Invocation, Plugin, RunError, ServiceInfo, ServiceKind};
 
 use crate::blobs::{BlobError, Stored};
+use crate::downloads::FetchMeshError;
 use crate::downloads::PeersError;
 use crate::edit_logs::StepLog;
 use crate::meshes::{self, CurrentMesh, MeshError};
@@ -61,6 +62,15 @@ pub enum StepError {
     Snap(#[source] EditError),
     #[error("naming the step: {0}")]
     Name(#[source] NameError),
+}
+
+impl From<FetchMeshError> for StepError {
+    fn from(error: FetchMeshError) -> Self {
+        match error {
+            FetchMeshError::Download(error) => error.into(),
+            FetchMeshError::Mesh(error) => error.into(),
+        }
+    }
 }
 
 /// Why a replay or an edit log was not used; the update falls back to the next transfer.
@@ -161,17 +171,11 @@ pub async fn update(
         tracing::info!("session {id}: using the full mesh: {reason}");
     }
     let url = &update.full.url;
-    let started = Instant::now();
-    // On disk as it comes; read back once to parse, and kept as the blob by renaming.
-    let spooled = host.downloads.spool(url, &scope, &session.cancel).await?;
-    download_ms += millis(started.elapsed());
-    downloaded += spooled.bytes;
-    let started = Instant::now();
-    let io = |source| SpoolError::Io { url: quoted(url), source };
-    let bytes = spooled.read().await.map_err(io)?;
-    let decoded = meshes::decode_hashed(url, bytes).await?;
-    let (next, encoding) = (decoded.mesh, decoded.encoding);
-    drop(decoded.bytes);
+    // On disk as it comes, kept as the blob by renaming; a packed mesh decoded meanwhile.
+    let fetched = host.downloads.mesh(url, &scope, &session.cancel).await?;
+    download_ms += millis(fetched.download);
+    downloaded += fetched.spooled.bytes;
+    let (spooled, next, encoding) = (fetched.spooled, fetched.mesh, fetched.encoding);
     if !next.hash.eq_ignore_ascii_case(&update.full.hash) {
         return Err(StepError::HashMismatch {
             url: url.clone(),
@@ -186,7 +190,7 @@ pub async fn update(
         via: Transfer::Full,
         bytes: downloaded,
         download_ms,
-        apply_ms: millis(started.elapsed()),
+        apply_ms: millis(fetched.load),
         fallback,
         disagreed,
         plugin_wait_ms,
@@ -223,7 +227,7 @@ async fn apply_step<'a>(
     cancel: &tokio_util::sync::CancellationToken,
 ) -> Attempt<'a> {
     let started = Instant::now();
-    let downloaded = match host.downloads.spool(&blob.url, scope, cancel).await {
+    let downloaded = match host.downloads.spool(&blob.url, scope, cancel, None).await {
         Ok(spooled) => match spooled.read().await {
             Ok(bytes) => Ok((spooled, bytes)),
             Err(source) => Err(SpoolError::Io { url: quoted(&blob.url), source }),

@@ -17,19 +17,22 @@ impl Executor {
     /// now, so the result outlives the run's sessions (and the host's memory of recent
     /// outputs).
     pub(super) async fn finish(&mut self) {
-        let current = &self.current;
-        // The result is packed while the last edit logs are still being written: both are
-        // the hosts' work at the end of a run, and neither needs the other.
+        // The result is packed while the last edit logs are still being written and while a
+        // second host takes its copy: all three are the hosts' work at the end of a run, and
+        // none needs another (a second host that falls back to the full mesh waits for the
+        // producer's one packing, see the host's `pack_output`).
+        let producer = self.current.producer.as_ref().map(|host| self.registry.client(host));
+        let url = self.current.full.url.clone();
         let packed = async {
-            match &current.producer {
-                Some(host) => self.registry.client(host).packed_size(&current.full.url).await.ok(),
+            match producer {
+                Some(client) => client.packed_size(&url).await.ok(),
                 None => None,
             }
         };
-        let log_sizes = futures_util::future::join_all(self.log_sizes.drain(..));
-        let (bytes, _) = tokio::join!(packed, log_sizes);
+        let log_sizes = futures_util::future::join_all(std::mem::take(&mut self.log_sizes));
         // The result outlives its producer: a second host of the run keeps it packed too.
-        let copies = self.second_copy().await.into_iter().collect();
+        let (bytes, _, copy) = tokio::join!(packed, log_sizes, self.second_copy());
+        let copies = copy.into_iter().collect();
         let current = &self.current;
         let result = ResultRecord {
             url: current.full.url.clone(),

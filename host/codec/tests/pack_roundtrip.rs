@@ -100,6 +100,72 @@ fn reseal(bytes: &mut [u8]) {
     bytes[6..22].copy_from_slice(&sum.as_bytes()[..16]);
 }
 
+/// A download: at most `chunk` bytes a read.
+struct Trickle<'a> {
+    bytes: &'a [u8],
+    chunk: usize,
+}
+
+impl std::io::Read for Trickle<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.chunk.min(buf.len()).min(self.bytes.len());
+        buf[..n].copy_from_slice(&self.bytes[..n]);
+        self.bytes = &self.bytes[n..];
+        Ok(n)
+    }
+}
+
+/// What decoding gives, as text: the mesh's hash or the error.
+fn outcome(decoded: Result<MeshData, PackError>) -> String {
+    decoded.map_or_else(|e| format!("error: {e}"), |m| m.content_hash().to_hex())
+}
+
+#[test]
+fn a_mesh_arriving_in_pieces_decodes_as_the_whole_does() {
+    let cloud = MeshData::new(grid(40, 40, 0, &mut Rng(3)).positions, vec![]);
+    for mesh in [bunny(), attributed_grid(), cloud, MeshData::default()] {
+        let bytes = pack::encode(&mesh).unwrap();
+        for chunk in [1, 7, 1460, 1 << 20] {
+            let (decoded, hash) = pack::decode_from(Trickle { bytes: &bytes, chunk }).unwrap();
+            assert_eq!(hash, mesh.content_hash());
+            assert_exact(&decoded, &mesh);
+            assert_eq!(decoded, mesh);
+        }
+    }
+}
+
+#[test]
+fn a_cut_or_damaged_arrival_fails_as_the_whole_does() {
+    let mesh = grid(5, 4, 1, &mut Rng(7));
+    let bytes = pack::encode(&mesh).unwrap();
+    let both = |bytes: &[u8]| {
+        let arriving = outcome(pack::decode_from(Trickle { bytes, chunk: 5 }).map(|(m, _)| m));
+        (outcome(pack::decode(bytes)), arriving)
+    };
+    for len in 0..bytes.len() {
+        let (whole, arriving) = both(&bytes[..len]);
+        assert!(whole.starts_with("error"), "prefix {len}");
+        assert_eq!(whole, arriving, "prefix {len}");
+    }
+    for bit in 0..8 * bytes.len() {
+        let mut damaged = bytes.clone();
+        damaged[bit / 8] ^= 1 << (bit % 8);
+        let (whole, arriving) = both(&damaged);
+        assert_eq!(whole, arriving, "bit {bit}");
+    }
+    // Resealed damage: the connectivity, decoded before the rest arrives, fails as it would
+    // once everything is in.
+    for at in 54..bytes.len() {
+        for value in [0, 0x55, 0xff] {
+            let mut damaged = bytes.clone();
+            damaged[at] = value;
+            reseal(&mut damaged);
+            let (whole, arriving) = both(&damaged);
+            assert_eq!(whole, arriving, "byte {at} = {value}");
+        }
+    }
+}
+
 #[test]
 fn forged_counts_are_refused_before_allocating() {
     let mesh = grid(3, 3, 0, &mut Rng(8));
@@ -110,6 +176,8 @@ fn forged_counts_are_refused_before_allocating() {
     forged.extend_from_slice(&bytes[55..]);
     reseal(&mut forged);
     assert!(matches!(pack::decode(&forged), Err(PackError::Malformed(_))));
+    let arriving = pack::decode_from(Trickle { bytes: &forged, chunk: 3 });
+    assert!(matches!(arriving, Err(PackError::Malformed(_))));
 }
 
 proptest! {

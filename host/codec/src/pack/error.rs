@@ -19,6 +19,8 @@ pub enum PackError {
     Corrupt(&'static str),
     #[error("the unpacked mesh is {found}, not the packed {expected}")]
     HashMismatch { expected: ContentHash, found: ContentHash },
+    #[error("reading the packed mesh: {0}")]
+    Read(#[from] std::io::Error),
     #[error("cannot pack an invalid mesh: {0}")]
     InvalidMesh(String),
 }

@@ -40,8 +40,10 @@ pub(crate) mod values;
 
 pub use error::PackError;
 
+use std::io::Read;
+
 use crate::correction::coding::bytes::{
-    ByteReader, open_sealed, put_grid, put_varint, seal, sealed_front,
+    ByteReader, SEALED_FRONT, open_sealed, put_grid, put_varint, seal, sealed_front,
 };
 use crate::correction::coding::residual::ResidualCoder;
 use crate::correction::coding::stream::{SymbolReader, SymbolWriter};
@@ -56,7 +58,7 @@ use values::Geometry;
 const MAGIC: [u8; 4] = *b"MFM\x1a";
 /// The format version this build writes and reads (5: attributes).
 pub const VERSION: u16 = 5;
-/// Declared counts may exceed the file size by at most this factor (the adaptive models'
+/// Declared counts may exceed the bytes that carry them by at most this factor (the adaptive models'
 /// probability floor keeps honest files above it), so a forged count cannot make the
 /// decoder allocate more than a bounded multiple of its input.
 const ELEMENTS_PER_BYTE: u64 = 1 << 13;
@@ -116,42 +118,49 @@ pub fn stated_hash(bytes: &[u8]) -> Result<ContentHash, PackError> {
 
 /// Unpacks a mesh; any damage is a typed error.
 pub fn decode(bytes: &[u8]) -> Result<MeshData, PackError> {
+    Ok(decode_arriving(&mut Whole(bytes))?.0)
+}
+
+/// Unpacks a mesh whose bytes `source` yields as they arrive (a download): the connectivity
+/// is decoded, and the table the geometry's predictions walk is built, while the geometry
+/// section is still coming, so what is left when the last byte is in is the geometry alone.
+/// The same checks as [`decode`], in the same order (the checksum of the whole before any
+/// decoded part is believed); `source` ending early is [`PackError::Truncated`]. With the
+/// mesh comes its content hash, as stated and found.
+pub fn decode_from(source: impl Read) -> Result<(MeshData, ContentHash), PackError> {
+    decode_arriving(&mut Arriving { source, bytes: Vec::new(), ended: false })
+}
+
+fn decode_arriving(source: &mut impl Arrival) -> Result<(MeshData, ContentHash), PackError> {
+    // Decoded before the checksum is known, so its error waits for the checksum's verdict.
+    let early = early_connectivity(source);
+    let bytes = source.all()?;
     let mut r = open_sealed(bytes, MAGIC, VERSION)?;
-    let expected = ContentHash(r.array()?);
-    let (vertex_count, triangle_count) = (r.varint()?, r.varint()?);
-    let budget = ELEMENTS_PER_BYTE * bytes.len() as u64 + ELEMENT_SLACK;
-    if vertex_count > u64::from(u32::MAX) || vertex_count + triangle_count > budget {
+    let header = Header::read(&mut r)?;
+    if !header.fits_in(bytes.len()) {
         return Err(PackError::Malformed(format!(
-            "{vertex_count} vertices and {triangle_count} triangles in {} bytes",
+            "{} vertices and {} triangles in {} bytes",
+            header.vertices,
+            header.triangles,
             bytes.len()
         )));
     }
-    let grid = r.grid()?;
-    let section = |r: &mut ByteReader<'_>| -> Result<usize, PackError> {
-        usize::try_from(r.varint()?).map_err(|_| PackError::Truncated)
-    };
-    let (connectivity_len, geometry_len) = (section(&mut r)?, section(&mut r)?);
-    let attributes_len = section(&mut r)?;
-    let connectivity = r.take(connectivity_len)?;
-    let geometry = r.take(geometry_len)?;
-    let attributes = r.take(attributes_len)?;
+    let connectivity = r.take(header.connectivity)?;
+    let geometry = r.take(header.geometry)?;
+    let attributes = r.take(header.attributes)?;
     if r.remaining() != 0 {
         return Err(PackError::Malformed(format!("{} bytes after the attributes", r.remaining())));
     }
-
-    let bad_connectivity = |_| PackError::Corrupt("connectivity");
-    let mut input = SymbolReader::new(connectivity).map_err(bad_connectivity)?;
-    let mut coder = AdjacencyCoder::new(vertex_count as u32);
-    let mut triangles = Vec::new();
-    for _ in 0..triangle_count {
-        triangles.extend(coder.read(&mut input).map_err(bad_connectivity)?);
-    }
+    let Connectivity { triangles, around } = match early {
+        Some(decoded) => decoded?,
+        None => Connectivity::decode(&header, connectivity)?,
+    };
 
     let bad_geometry = |_| PackError::Corrupt("geometry");
-    let around = VertexTriangles::new(vertex_count as usize, &triangles);
+    let vertex_count = header.vertices as usize;
     let mut input = SymbolReader::new(geometry).map_err(bad_geometry)?;
-    let mut residuals = ResidualCoder::new(grid);
-    let mut positions = vec![0.0; 3 * vertex_count as usize];
+    let mut residuals = ResidualCoder::new(header.grid);
+    let mut positions = vec![0.0; 3 * vertex_count];
     let (mut order, mut previous) = (CodingOrder::new(&around, &triangles), None);
     let mut coded = Vec::new();
     while let Some(v) = order.next() {
@@ -171,10 +180,126 @@ pub fn decode(bytes: &[u8]) -> Result<MeshData, PackError> {
     let mut mesh = MeshData::new(positions, triangles);
     mesh.attributes = attributes;
     let found = mesh.content_hash();
-    if found != expected {
-        return Err(PackError::HashMismatch { expected, found });
+    if found != header.hash {
+        return Err(PackError::HashMismatch { expected: header.hash, found });
     }
-    Ok(mesh)
+    Ok((mesh, found))
+}
+
+/// The connectivity, decoded as soon as its section is in: `None` when the front is
+/// unreadable or its counts need more bytes to be believed than those in hand (a point
+/// cloud's vertices are paid for by its geometry; [`decode_arriving`] then decodes it once
+/// everything is in and judged).
+fn early_connectivity(source: &mut impl Arrival) -> Option<Result<Connectivity, PackError>> {
+    let front = source.at_least(FRONT_MAX).ok()?;
+    let mut r = ByteReader::new(front.get(SEALED_FRONT..)?);
+    let header = Header::read(&mut r).ok()?;
+    let start = front.len() - r.remaining();
+    let end = start.checked_add(header.connectivity)?;
+    if !header.fits_in(end) {
+        return None;
+    }
+    let arrived = source.at_least(end).ok()?;
+    Some(Connectivity::decode(&header, arrived.get(start..end)?))
+}
+
+/// What follows the sealed front: the content hash, counts, grid and section lengths.
+struct Header {
+    hash: ContentHash,
+    vertices: u64,
+    triangles: u64,
+    grid: Option<Grid>,
+    connectivity: usize,
+    geometry: usize,
+    attributes: usize,
+}
+
+impl Header {
+    fn read(r: &mut ByteReader<'_>) -> Result<Self, PackError> {
+        let hash = ContentHash(r.array()?);
+        let (vertices, triangles) = (r.varint()?, r.varint()?);
+        let grid = r.grid()?;
+        let mut section = || usize::try_from(r.varint()?).map_err(|_| PackError::Truncated);
+        let (connectivity, geometry, attributes) = (section()?, section()?, section()?);
+        Ok(Self { hash, vertices, triangles, grid, connectivity, geometry, attributes })
+    }
+
+    /// Whether `bytes` bytes can hold the counts (see [`ELEMENTS_PER_BYTE`]).
+    fn fits_in(&self, bytes: usize) -> bool {
+        let budget = ELEMENTS_PER_BYTE * bytes as u64 + ELEMENT_SLACK;
+        self.vertices <= u64::from(u32::MAX)
+            && self.triangles <= budget
+            && self.vertices + self.triangles <= budget
+    }
+}
+
+/// The triangles and, for the geometry's predictions, the triangles around each vertex.
+struct Connectivity {
+    triangles: Vec<u32>,
+    around: VertexTriangles,
+}
+
+impl Connectivity {
+    fn decode(header: &Header, section: &[u8]) -> Result<Self, PackError> {
+        let bad_connectivity = |_| PackError::Corrupt("connectivity");
+        let mut input = SymbolReader::new(section).map_err(bad_connectivity)?;
+        let mut coder = AdjacencyCoder::new(header.vertices as u32);
+        let mut triangles = Vec::new();
+        for _ in 0..header.triangles {
+            triangles.extend(coder.read(&mut input).map_err(bad_connectivity)?);
+        }
+        let around = VertexTriangles::new(header.vertices as usize, &triangles);
+        Ok(Self { triangles, around })
+    }
+}
+
+/// The sealed front and the longest header: a hash, five varints and a grid.
+const FRONT_MAX: usize = SEALED_FRONT + 32 + 5 * 10 + 31;
+
+/// A packed mesh's bytes, whole or still arriving.
+trait Arrival {
+    /// The bytes so far, at least `n` of them unless the stream ended first.
+    fn at_least(&mut self, n: usize) -> Result<&[u8], PackError>;
+    /// Every byte, the stream having ended.
+    fn all(&mut self) -> Result<&[u8], PackError>;
+}
+
+struct Whole<'a>(&'a [u8]);
+
+impl Arrival for Whole<'_> {
+    fn at_least(&mut self, _: usize) -> Result<&[u8], PackError> {
+        Ok(self.0)
+    }
+
+    fn all(&mut self) -> Result<&[u8], PackError> {
+        Ok(self.0)
+    }
+}
+
+/// Bytes read from a stream into one buffer, only as far as asked.
+struct Arriving<R> {
+    source: R,
+    bytes: Vec<u8>,
+    ended: bool,
+}
+
+impl<R: Read> Arrival for Arriving<R> {
+    fn at_least(&mut self, n: usize) -> Result<&[u8], PackError> {
+        if self.bytes.len() < n && !self.ended {
+            let wanted = (n - self.bytes.len()) as u64;
+            let read = (&mut self.source).take(wanted).read_to_end(&mut self.bytes)?;
+            self.ended = (read as u64) < wanted;
+        }
+        Ok(&self.bytes)
+    }
+
+    fn all(&mut self) -> Result<&[u8], PackError> {
+        if !self.ended {
+            self.source.read_to_end(&mut self.bytes)?;
+            self.ended = true;
+        }
+        Ok(&self.bytes)
+    }
 }
 
 /// Codes the triangles through the edges they share.

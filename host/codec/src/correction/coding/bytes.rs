@@ -145,6 +145,8 @@ mod tests {
 /// BLAKE3 checksum of every byte after it.
 const CHECKSUM_LEN: usize = 16;
 const CHECKSUM_AT: usize = 6;
+/// The bytes of the sealed front: what follows it is the format's own.
+pub(crate) const SEALED_FRONT: usize = CHECKSUM_AT + CHECKSUM_LEN;
 
 /// Why a sealed file's front was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -166,7 +168,7 @@ pub(crate) fn sealed_front(magic: [u8; 4], version: u16, capacity: usize) -> Vec
 
 /// Fills in the checksum of a file begun with [`sealed_front`].
 pub(crate) fn seal(out: &mut [u8]) {
-    let checksum = blake3::hash(&out[CHECKSUM_AT + CHECKSUM_LEN..]);
+    let checksum = blake3::hash(&out[SEALED_FRONT..]);
     out[CHECKSUM_AT..CHECKSUM_AT + CHECKSUM_LEN]
         .copy_from_slice(&checksum.as_bytes()[..CHECKSUM_LEN]);
 }
@@ -186,7 +188,7 @@ pub(crate) fn open_sealed(
         return Err(SealError::UnsupportedVersion(found));
     }
     let checksum = r.take(CHECKSUM_LEN).map_err(|_| SealError::Truncated)?;
-    if blake3::hash(&bytes[CHECKSUM_AT + CHECKSUM_LEN..]).as_bytes()[..CHECKSUM_LEN] != *checksum {
+    if blake3::hash(&bytes[SEALED_FRONT..]).as_bytes()[..CHECKSUM_LEN] != *checksum {
         return Err(SealError::ChecksumMismatch);
     }
     Ok(r)
