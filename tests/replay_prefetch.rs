@@ -89,12 +89,18 @@ async fn a_host_that_will_replay_a_step_has_its_plugin_before_the_replay_arrives
     assert!(logs.get("prefetches").is_none(), "{:#}", logs["prefetches"]);
     assert_eq!(steps(&logs)[0]["transfers"][0]["via"], "correction");
 
-    // A second replaying run finds the plugin already there.
+    // A second replaying run finds the plugin already there. The hole filler is no longer
+    // asked of the producer: the smoothing's shape, learned by the runs before, says its
+    // replay on a mesh this size keeps the receiver waiting less than a move is worth.
     let again = cluster.run(&workflow("replay"), &input).await;
     assert_eq!(again["status"], "completed", "{}", again["error"]);
-    let outcomes: Vec<&str> =
-        again["prefetches"].as_array().unwrap().iter().map(|p| text(&p["outcome"])).collect();
-    assert_eq!(outcomes, ["present", "present"], "{:#}", again["prefetches"]);
+    let asked: Vec<(&str, &str)> = again["prefetches"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| (text(&p["host"]), text(&p["outcome"])))
+        .collect();
+    assert_eq!(asked, [(receiver.as_str(), "present")], "{:#}", again["prefetches"]);
     assert_eq!(text(&again["result"]["hash"]), text(&record["result"]["hash"]));
 }
 

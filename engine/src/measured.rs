@@ -2,7 +2,8 @@
 //! the link between each pair of hosts (bandwidth and latency, from the updates it
 //! forwarded), the link into each host (from its input downloads, until a pair is
 //! measured), each host's speed at applying edits, unpacking meshes and re-running steps,
-//! and which plugins a host fetched for a replay. Every figure is its first sample, then a
+//! which plugins a host fetched for a replay, and what each filter step (plugin, service,
+//! parameters) gives per vertex of its mesh. Every figure is its first sample, then a
 //! moving average. The engine saves a [`Snapshot`] with its runs and restores it at start,
 //! so a restart does not fall back to the defaults; figures of hosts it forgets go too.
 
@@ -29,6 +30,60 @@ pub const MAX_MEASURED_PAIRS: usize = MAX_HOSTS * MAX_HOSTS;
 /// At most this many (host, plugin) fetches are remembered; beyond it a replay's estimate
 /// includes a download it may not need.
 pub const MAX_REMEMBERED_FETCHES: usize = 64 * MAX_HOSTS;
+
+/// At most this many step shapes are remembered; a step beyond it is judged as unknown
+/// (its plugin prefetched wherever it may be needed).
+pub const MAX_STEP_SHAPES: usize = 1024;
+
+/// A filter step's output per vertex of its mesh, as learned for one plugin, service and
+/// parameter set ([`step_key`]): what the engine expects of the step before it runs. Edit
+/// logs scale with the edits, the edits and the compute with the mesh (a smoothing moves
+/// every vertex; a repair's share of a scan's triangles is about the same on the next).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StepShape {
+    pub correction_bytes_per_vertex: f64,
+    pub full_bytes_per_vertex: f64,
+    pub edits_per_vertex: f64,
+    pub compute_ms_per_vertex: f64,
+    pub replay_bytes: f64,
+}
+
+impl StepShape {
+    fn figures(&self) -> [f64; 5] {
+        [
+            self.correction_bytes_per_vertex,
+            self.full_bytes_per_vertex,
+            self.edits_per_vertex,
+            self.compute_ms_per_vertex,
+            self.replay_bytes,
+        ]
+    }
+
+    fn from_figures([correction, full, edits, compute, replay]: [f64; 5]) -> Self {
+        Self {
+            correction_bytes_per_vertex: correction,
+            full_bytes_per_vertex: full,
+            edits_per_vertex: edits,
+            compute_ms_per_vertex: compute,
+            replay_bytes: replay,
+        }
+    }
+}
+
+/// The key a step's shape is learned under: its plugin, service and parameters as the
+/// workflow gives them (JSON objects serialise with sorted keys here, so equal parameters
+/// give equal keys).
+pub fn step_key(
+    plugin: &str,
+    service: &str,
+    params: &serde_json::Map<String, serde_json::Value>,
+) -> String {
+    let mut hasher = blake3::Hasher::new();
+    for part in [plugin, service, &serde_json::Value::Object(params.clone()).to_string()] {
+        hasher.update(&(part.len() as u64).to_le_bytes()).update(part.as_bytes());
+    }
+    hasher.finalize().to_hex().to_string()
+}
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Link {
@@ -106,6 +161,9 @@ pub struct Snapshot {
     into: Vec<(String, Learned)>,
     speeds: Vec<(String, HostSpeed, [u32; 3])>,
     fetched: Vec<(String, String)>,
+    /// Absent from snapshots of engines before step shapes were learned.
+    #[serde(default)]
+    shapes: Vec<(String, StepShape, u32)>,
 }
 
 #[derive(Default)]
@@ -118,6 +176,8 @@ struct Tables {
     speeds: HashMap<String, (HostSpeed, [u32; 3])>,
     /// (receiver, plugin digest): fetched there for a replay, so the next needs no download.
     fetched: HashSet<(String, String)>,
+    /// By [`step_key`], with the sample count.
+    shapes: HashMap<String, (StepShape, u32)>,
     /// Something changed since the last [`Measured::take_snapshot`].
     changed: bool,
 }
@@ -144,6 +204,12 @@ impl Measured {
                 .map(|(host, speed, samples)| (host, (speed, samples)))
                 .collect();
             tables.fetched = snapshot.fetched.into_iter().take(MAX_REMEMBERED_FETCHES).collect();
+            tables.shapes = snapshot
+                .shapes
+                .into_iter()
+                .take(MAX_STEP_SHAPES)
+                .map(|(key, shape, samples)| (key, (shape, samples)))
+                .collect();
         }
         measured
     }
@@ -159,12 +225,14 @@ impl Measured {
             into: tables.into.iter().map(|(r, l)| (r.clone(), *l)).collect(),
             speeds: tables.speeds.iter().map(|(h, (s, n))| (h.clone(), *s, *n)).collect(),
             fetched: tables.fetched.iter().cloned().collect(),
+            shapes: tables.shapes.iter().map(|(k, (s, n))| (k.clone(), *s, *n)).collect(),
         };
         // In a stable order, so equal measurements save equal bytes.
         snapshot.pairs.sort_by(|a, b| (&a.0, &a.1).cmp(&(&b.0, &b.1)));
         snapshot.into.sort_by(|a, b| a.0.cmp(&b.0));
         snapshot.speeds.sort_by(|a, b| a.0.cmp(&b.0));
         snapshot.fetched.sort();
+        snapshot.shapes.sort_by(|a, b| a.0.cmp(&b.0));
         Some(snapshot)
     }
 
@@ -237,6 +305,33 @@ impl Measured {
             }
         };
         learned.learn(bytes, ms);
+    }
+
+    /// What the step under `key` ([`step_key`]) gave per vertex, as learned so far.
+    pub fn step_shape(&self, key: &str) -> Option<StepShape> {
+        self.tables().shapes.get(key).map(|(shape, _)| *shape)
+    }
+
+    /// A step under `key` gave `sample` (per vertex of its mesh). Figures that are not
+    /// numbers of at least zero (zero is real here: a step with no edits) are no sample.
+    pub fn learn_step(&self, key: &str, sample: StepShape) {
+        let new = sample.figures();
+        if !new.iter().all(|f| f.is_finite() && *f >= 0.0) {
+            return;
+        }
+        let mut tables = self.tables();
+        if tables.shapes.len() >= MAX_STEP_SHAPES && !tables.shapes.contains_key(key) {
+            return;
+        }
+        tables.changed = true;
+        let (shape, samples) = tables.shapes.entry(key.to_owned()).or_insert((sample, 0));
+        if *samples > 0 {
+            let old = shape.figures();
+            *shape = StepShape::from_figures(std::array::from_fn(|i| {
+                old[i] + SMOOTHING * (new[i] - old[i])
+            }));
+        }
+        *samples = samples.saturating_add(1);
     }
 
     /// How `host` applied an update of a step made with plugin `digest`.
@@ -364,6 +459,32 @@ mod tests {
     }
 
     #[test]
+    fn a_step_shape_starts_at_its_first_sample_then_averages_and_ignores_non_numbers() {
+        let measured = Measured::default();
+        let shape = |correction_bytes_per_vertex| StepShape {
+            correction_bytes_per_vertex,
+            full_bytes_per_vertex: 6.0,
+            edits_per_vertex: 0.0,
+            compute_ms_per_vertex: 0.001,
+            replay_bytes: 200.0,
+        };
+        measured.learn_step("k", shape(1.0));
+        assert_eq!(measured.step_shape("k"), Some(shape(1.0)));
+        measured.learn_step("k", shape(f64::NAN));
+        measured.learn_step("k", shape(-1.0));
+        assert_eq!(measured.step_shape("k"), Some(shape(1.0)));
+        measured.learn_step("k", shape(2.0));
+        let learned = measured.step_shape("k").unwrap().correction_bytes_per_vertex;
+        assert!((learned - (1.0 + SMOOTHING)).abs() < 1e-12, "{learned}");
+        assert_eq!(measured.step_shape("other"), None);
+        // Equal parameters, any order: one key; other parameters, another.
+        let params = |json: &str| serde_json::from_str::<serde_json::Map<_, _>>(json).unwrap();
+        let key = |json| step_key("d", "laplacian-smoothing", &params(json));
+        assert_eq!(key(r#"{"a": 1, "b": 2}"#), key(r#"{"b": 2, "a": 1}"#));
+        assert_ne!(key(r#"{"a": 1}"#), key(r#"{"a": 2}"#));
+    }
+
+    #[test]
     fn a_snapshot_restores_every_figure_and_forgetting_a_host_drops_its_own() {
         use meshflow_api::host::Transfer;
         let measured = Measured::default();
@@ -380,6 +501,14 @@ mod tests {
             had_plugin: true,
         };
         measured.applied("b", "digest", &replay);
+        let shape = StepShape {
+            correction_bytes_per_vertex: 0.25,
+            full_bytes_per_vertex: 6.0,
+            edits_per_vertex: 0.05,
+            compute_ms_per_vertex: 0.000_6,
+            replay_bytes: 170.0,
+        };
+        measured.learn_step("holes", shape);
         let snapshot = measured.take_snapshot().expect("changed");
         assert_eq!(measured.take_snapshot(), None, "saved once until something changes");
 
@@ -390,6 +519,7 @@ mod tests {
         }
         assert_eq!(restored.speed("b"), measured.speed("b"));
         assert!(restored.has_fetched("b", "digest"));
+        assert_eq!(restored.step_shape("holes"), Some(shape));
 
         restored.forget_host("b");
         assert_eq!(restored.link("a", "b"), DEFAULT_LINK);

@@ -2,7 +2,7 @@
 //! a host that fails to load it has its tasks moved to other hosts, which load it in turn.
 
 use super::words::bounded_words;
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -28,10 +28,17 @@ pub(super) struct InputHolders(tokio::sync::watch::Sender<Holders>);
 
 #[derive(Default)]
 pub(super) struct Holders {
-    hosts: BTreeSet<String>,
-    /// Every host of the plan holds it already (a resumed run's restored input).
-    all: bool,
+    /// With the input's vertex count as each loaded it.
+    hosts: BTreeMap<String, Option<u64>>,
+    /// Every host of the plan holds it already (a resumed run's restored input): its
+    /// vertex count as recorded.
+    all: Option<Option<u64>>,
     over: bool,
+}
+
+/// A host holds the run's input, of this many vertices (when it said).
+pub(super) struct Held {
+    pub vertices: Option<u64>,
 }
 
 impl InputHolders {
@@ -39,15 +46,15 @@ impl InputHolders {
         Self(tokio::sync::watch::Sender::new(Holders::default()))
     }
 
-    fn hold(&self, host: &str) {
+    fn hold(&self, host: &str, vertices: Option<u64>) {
         self.0.send_modify(|h| {
-            h.hosts.insert(host.to_owned());
+            h.hosts.insert(host.to_owned(), vertices);
         });
     }
 
-    /// The hosts kept their sessions of the input (a resumed run).
-    pub fn restored(&self) {
-        self.0.send_modify(|h| h.all = true);
+    /// The hosts kept their sessions of the input (a resumed run), of `vertices`.
+    pub fn restored(&self, vertices: Option<u64>) {
+        self.0.send_modify(|h| h.all = Some(vertices));
     }
 
     /// The broadcast ended (loaded, restored or failed): nobody waits any longer.
@@ -55,15 +62,18 @@ impl InputHolders {
         self.0.send_modify(|h| h.over = true);
     }
 
-    /// Resolves once `host` holds the input (`true`), or once the broadcast ended without
-    /// it or the run is gone (`false`: a prefetch there would serve nothing).
-    pub fn held_by(&self, host: &str) -> impl std::future::Future<Output = bool> + Send + 'static {
+    /// Resolves once `host` holds the input, or to `None` once the broadcast ended without
+    /// it or the run is gone (a prefetch there would serve nothing).
+    pub fn held_by(
+        &self,
+        host: &str,
+    ) -> impl std::future::Future<Output = Option<Held>> + Send + 'static {
         let (mut holders, host) = (self.0.subscribe(), host.to_owned());
         async move {
-            let held = |h: &Holders| h.all || h.hosts.contains(&host);
-            match holders.wait_for(|h| h.over || held(h)).await {
-                Ok(holders) => held(&holders),
-                Err(_) => false,
+            let held = |h: &Holders| h.all.or_else(|| h.hosts.get(&host).copied());
+            match holders.wait_for(|h| h.over || held(h).is_some()).await {
+                Ok(holders) => held(&holders).map(|vertices| Held { vertices }),
+                Err(_) => None,
             }
         }
     }
@@ -95,8 +105,8 @@ pub(super) async fn broadcast(
         let grid = quantize.map(GridSpec::Bits);
         let attempts = hosts.iter().map(|host| async move {
             let outcome = load_input(run, host.clone(), input, None, grid).await;
-            if outcome.is_ok() {
-                holders.hold(&host.url);
+            if let Ok((_, status)) = &outcome {
+                holders.hold(&host.url, status.vertices.map(|v| v as u64));
             }
             outcome
         });

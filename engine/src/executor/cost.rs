@@ -12,7 +12,7 @@
 use meshflow_api::engine::TransferEstimates;
 use meshflow_api::host::Transfer as Use;
 
-use crate::measured::{HostSpeed, Link};
+use crate::measured::{HostSpeed, Link, StepShape};
 use crate::workflow::Transfer;
 
 /// Fallbacks only, for a plugin no host has said the size of (a host older than the
@@ -59,6 +59,33 @@ pub struct StepOutput {
     pub edits: u64,
     pub vertices: u64,
     pub compute_ms: f64,
+}
+
+impl StepOutput {
+    /// What the step gave per vertex of its mesh (none for an empty mesh).
+    pub fn shape(&self) -> Option<StepShape> {
+        let per_vertex = |figure: f64| figure / self.vertices as f64;
+        (self.vertices > 0).then(|| StepShape {
+            correction_bytes_per_vertex: per_vertex(self.correction_bytes as f64),
+            full_bytes_per_vertex: per_vertex(self.full_bytes as f64),
+            edits_per_vertex: per_vertex(self.edits as f64),
+            compute_ms_per_vertex: per_vertex(self.compute_ms),
+            replay_bytes: self.replay_bytes as f64,
+        })
+    }
+
+    /// What a step of `shape` is expected to give on a mesh of `vertices`.
+    pub fn expected(shape: &StepShape, vertices: u64) -> Self {
+        let scaled = |per_vertex: f64| (per_vertex * vertices as f64).round() as u64;
+        Self {
+            correction_bytes: scaled(shape.correction_bytes_per_vertex),
+            replay_bytes: shape.replay_bytes.round() as u64,
+            full_bytes: scaled(shape.full_bytes_per_vertex),
+            edits: scaled(shape.edits_per_vertex),
+            vertices,
+            compute_ms: shape.compute_ms_per_vertex * vertices as f64,
+        }
+    }
 }
 
 /// The receiving host as the engine sees it.

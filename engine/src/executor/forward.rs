@@ -8,6 +8,7 @@ use meshflow_api::host::{FilterResult, RunResult, Update};
 
 use super::error::ExecError;
 use super::{Executor, cost, replica};
+use crate::measured::step_key;
 use crate::registry::HostEntry;
 use crate::workflow::{Task, Transfer};
 
@@ -45,6 +46,11 @@ impl Executor {
             vertices: filter.vertices as u64,
             compute_ms: filter.compute_ms,
         };
+        // For the next run's plan: which hosts will want this step's plugin.
+        if let Some(shape) = output.shape() {
+            let key = step_key(&filter.plugin, &task.service, &task.params);
+            self.registry.measured.learn_step(&key, shape);
+        }
         let hash = self.current.hash.clone();
         let last_full = self.current.last_full.clone();
         let measured = &self.registry.measured;

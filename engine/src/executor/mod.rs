@@ -86,7 +86,7 @@ async fn run_workflow(
     let loaded = match done.is_empty() {
         true => broadcast::broadcast(run, &registry, &mut plan, workflow.quantize, &holders).await,
         false => {
-            holders.restored();
+            holders.restored(run.record().input.map(|input| input.vertices));
             resume::restore_input(run)
         }
     };

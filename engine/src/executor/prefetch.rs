@@ -18,12 +18,15 @@ use meshflow_api::params::ServiceKind;
 use serde_json::json;
 
 use super::broadcast::InputHolders;
-use super::cost::PluginAt;
+use super::cost::{self, PluginAt, StepOutput};
+use super::to_data::MOVE_MARGIN_MS;
+use crate::measured::{Measured, step_key};
 use crate::plan::Plan;
 use crate::record::PrefetchRecord;
 use crate::registry::{HostEntry, Registry};
 use crate::run::Run;
-use crate::workflow::{Transfer, Workflow};
+use crate::workflow::{Task, Transfer, Workflow};
+use meshflow_api::host::Transfer as Use;
 
 /// The prefetches of one run: which (host, plugin digest) are ready. The requests are
 /// not awaited: one that outlives its run still teaches `measured` that the host holds the
@@ -47,11 +50,21 @@ impl Prefetches {
         if !matches!(workflow.transfer, Transfer::Auto | Transfer::Replay) {
             return prefetches;
         }
+        let transfer = workflow.transfer;
         for (receiver, wanted) in wanted(plan, workflow) {
             let (run, registry, ready) = (run.clone(), registry.clone(), prefetches.ready.clone());
             let held = holders.held_by(&receiver.url);
             tokio::spawn(async move {
-                if !held.await {
+                let Some(held) = held.await else { return };
+                // Only the plugins the cost model is expected to use (on this mesh, by what
+                // the steps gave before): the others would take the link and a core from
+                // the first tasks for nothing.
+                let expected = |w: &Wanted| {
+                    w.needs.iter().any(|n| n.expected(&registry.measured, transfer, held.vertices))
+                };
+                let wanted: Vec<WantedPlugin> =
+                    wanted.into_iter().filter(expected).map(|w| w.plugin).collect();
+                if wanted.is_empty() {
                     return;
                 }
                 let started_ms = run.elapsed_ms();
@@ -112,28 +125,90 @@ impl Prefetches {
     }
 }
 
-/// Per receiving host, the plugins it may replay and the host each is to come from: for
-/// every filter task, its plugin (the pin, or what its planned host serves the service
-/// from), wanted by every host that lacks it and has a task that may come after it (a
-/// later one, or any at all for a task in a WHILE body, which may run again); and for every
-/// task, its plugin, wanted by every host that lacks it and produces a filter that may
-/// come before it (the task may move there, where the mesh is).
-fn wanted(plan: &Plan, workflow: &Workflow) -> Vec<(Arc<HostEntry>, Vec<WantedPlugin>)> {
-    let tasks = workflow.tasks();
-    let mut wanted: Vec<(Arc<HostEntry>, Vec<WantedPlugin>)> =
-        plan.hosts().into_iter().map(|h| (h, Vec::new())).collect();
-    for (index, task) in tasks.iter().enumerate() {
-        let producer = plan.host(&task.path);
-        let Some(digest) = filter_plugin(producer, &task.service, plan.pin(&task.path)) else {
-            continue;
+/// A plugin a host may need in the run, and why.
+struct Wanted {
+    plugin: WantedPlugin,
+    needs: Vec<Need>,
+}
+
+/// One reason a host may need a plugin, in terms of a filter step's result at `to` from
+/// `from`: `to` may replay the step (`Replay`; `to` is the host asking), or a later task
+/// planned on `to` may move to `from` (the host asking) because `to` would wait long for
+/// the step's result (`Move`).
+struct Need {
+    /// The step's [`step_key`].
+    step: String,
+    from: Arc<HostEntry>,
+    to: Arc<HostEntry>,
+    kind: NeedKind,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum NeedKind {
+    Replay,
+    Move,
+}
+
+impl Need {
+    /// Whether the cost model is expected to act on it, by the step's learned shape on a
+    /// mesh of `vertices`: a step never seen, or a mesh of unknown size, is.
+    fn expected(&self, measured: &Measured, transfer: Transfer, vertices: Option<u64>) -> bool {
+        let (Some(vertices), Some(shape)) = (vertices, measured.step_shape(&self.step)) else {
+            return true;
         };
+        let receiver = cost::Receiver {
+            link: measured.link(&self.from.url, &self.to.url),
+            speed: measured.speed(&self.to.url),
+            plugin: PluginAt::Ready,
+            load: 0,
+        };
+        let estimates = cost::estimate(&StepOutput::expected(&shape, vertices), &receiver);
+        let way = cost::choose(transfer, &estimates);
+        match self.kind {
+            NeedKind::Replay => way == Use::Replay,
+            NeedKind::Move => cost::expected_ms(&estimates, way) >= MOVE_MARGIN_MS,
+        }
+    }
+}
+
+/// Per host, the plugins it may need: for every filter task, its plugin (the pin, or what
+/// its planned host serves the service from), by every host that lacks it and has a task
+/// that may come after it (a later one, or any at all for a task in a WHILE body, which
+/// may run again), to replay it; and for every task, its plugin, by every host that lacks
+/// it and produces a filter that may come before it (the task may move there, where the
+/// mesh is).
+fn wanted(plan: &Plan, workflow: &Workflow) -> Vec<(Arc<HostEntry>, Vec<Wanted>)> {
+    let tasks = workflow.tasks();
+    let mut wanted: Vec<(Arc<HostEntry>, Vec<Wanted>)> =
+        plan.hosts().into_iter().map(|h| (h, Vec::new())).collect();
+    let want = |plugins: &mut Vec<Wanted>, digest: &str, from: &HostEntry, need: Need| match plugins
+        .iter_mut()
+        .find(|w| w.plugin.digest == digest)
+    {
+        Some(wanted) => wanted.needs.push(need),
+        None => plugins.push(Wanted {
+            plugin: WantedPlugin { digest: digest.to_owned(), from: from.url.clone() },
+            needs: vec![need],
+        }),
+    };
+    // The filter `t`'s plugin on its planned host, and the key its shape is learned under.
+    let filter = |t: &Task| {
+        let host = plan.host(&t.path);
+        let digest = filter_plugin(host, &t.service, plan.pin(&t.path))?;
+        let key = step_key(&digest, &t.service, &t.params);
+        Some((host, digest, key))
+    };
+    for (index, task) in tasks.iter().enumerate() {
+        let Some((producer, digest, step)) = filter(task) else { continue };
         let repeats = task.path.contains(".do[");
         let after = if repeats { &tasks[..] } else { &tasks[index + 1..] };
         for (receiver, plugins) in &mut wanted {
             let receives = after.iter().any(|t| Arc::ptr_eq(plan.host(&t.path), receiver));
             let lacks = !Arc::ptr_eq(receiver, producer) && !receiver.has_plugin(&digest);
-            if receives && lacks && !plugins.iter().any(|w| w.digest == digest) {
-                plugins.push(WantedPlugin { digest: digest.clone(), from: producer.url.clone() });
+            if receives && lacks {
+                let (from, to) = (producer.clone(), receiver.clone());
+                let need = Need { step: step.clone(), from, to, kind: NeedKind::Replay };
+                want(plugins, &digest, producer, need);
             }
         }
     }
@@ -147,14 +222,13 @@ fn wanted(plan: &Plan, workflow: &Workflow) -> Vec<(Arc<HostEntry>, Vec<WantedPl
         let repeats = task.path.contains(".do[") || task.path.contains(".while");
         let before = if repeats { &tasks[..] } else { &tasks[..index] };
         for (producer, plugins) in &mut wanted {
-            let produces = before.iter().any(|t| {
-                let host = plan.host(&t.path);
-                Arc::ptr_eq(host, producer)
-                    && filter_plugin(host, &t.service, plan.pin(&t.path)).is_some()
-            });
-            let lacks = !Arc::ptr_eq(producer, home) && !producer.has_plugin(&digest);
-            if produces && lacks && !plugins.iter().any(|w| w.digest == digest) {
-                plugins.push(WantedPlugin { digest: digest.clone(), from: home.url.clone() });
+            if Arc::ptr_eq(producer, home) || producer.has_plugin(&digest) {
+                continue;
+            }
+            let produced_there = before.iter().filter_map(|t| filter(t));
+            for (_, _, step) in produced_there.filter(|(host, ..)| Arc::ptr_eq(host, producer)) {
+                let (from, to) = (producer.clone(), home.clone());
+                want(plugins, &digest, home, Need { step, from, to, kind: NeedKind::Move });
             }
         }
     }
@@ -232,6 +306,56 @@ mod tests {
     use meshflow_api::host::PluginPrefetch;
 
     use super::*;
+
+    /// What three steps of the repair workflow gave on a 1.07M-vertex scan (the WAN run).
+    fn step(correction_bytes: u64, edits: u64, compute_ms: f64) -> StepOutput {
+        let (full_bytes, replay_bytes, vertices) = (6_250_000, 200, 1_050_000);
+        StepOutput { correction_bytes, replay_bytes, full_bytes, edits, vertices, compute_ms }
+    }
+
+    #[tokio::test]
+    async fn a_plugin_is_wanted_where_the_cost_model_is_expected_to_use_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let (registry, _store) = crate::registry::test_registry(dir.path());
+        let (from, to) = (
+            registry.register("http://127.0.0.1:9/p").await.unwrap(),
+            registry.register("http://127.0.0.1:9/r").await.unwrap(),
+        );
+        let measured = &registry.measured;
+        // A 5 Mbit/s link into the receiver.
+        measured.downloaded(None, &to.url, 6_250_000, 10_000.0);
+        let learn =
+            |key: &str, output: StepOutput| measured.learn_step(key, output.shape().unwrap());
+        learn("components", step(278, 9_016, 392.0));
+        learn("holes", step(270_916, 50_000, 666.0));
+        learn("noise", step(6_171_500, 1_050_000, 74.0));
+        let need = |step: &str, kind| Need {
+            step: step.to_owned(),
+            from: from.clone(),
+            to: to.clone(),
+            kind,
+        };
+        let expected = |need: Need, vertices| need.expected(measured, Transfer::Auto, vertices);
+        let at = Some(1_000_000);
+        // A step never seen, or a mesh of unknown size: wanted, as before anything is learned.
+        assert!(expected(need("never seen", NeedKind::Replay), at));
+        assert!(expected(need("components", NeedKind::Replay), None));
+        // A 278-byte edit log crosses the link in a blink: nobody replays the step, and
+        // applying it (a pass over the mesh: ~0.25 µs a vertex until measured) is too short
+        // a wait to move for on half a million vertices.
+        assert!(!expected(need("components", NeedKind::Replay), at));
+        assert!(!expected(need("components", NeedKind::Move), Some(500_000)));
+        // 6 MB of noise is replayed (74 ms of compute).
+        assert!(expected(need("noise", NeedKind::Replay), at));
+        // Filled holes travel as their 270 KB log, but the ~0.4 s it takes at 5 Mbit/s is
+        // worth moving the next task to the data for.
+        assert!(!expected(need("holes", NeedKind::Replay), at));
+        assert!(expected(need("holes", NeedKind::Move), at));
+        // On a mesh a hundredth the size the log is a few KB: no move either.
+        assert!(!expected(need("holes", NeedKind::Move), Some(10_000)));
+        // A workflow that asks for replays gets its plugins whatever the shapes.
+        assert!(need("components", NeedKind::Replay).expected(measured, Transfer::Replay, at));
+    }
 
     #[test]
     fn an_answer_counts_only_for_the_plugins_asked() {
