@@ -281,11 +281,25 @@ async fn a_replayed_step_reaches_the_same_mesh_and_a_diverging_one_falls_back() 
     let kept = dir_c.path().join("replay-plugins");
     assert!(!kept.exists() || std::fs::read_dir(&kept).unwrap().next().is_none());
 
-    // After a restart, B rebuilds its session by re-running the step with the kept plugin.
+    // After a restart, B rebuilds its session by re-running the step with the kept plugin,
+    // and it tells the engine it restarted.
+    let first_life = b.health().await.unwrap().instance;
     b_handle.shutdown().await.unwrap();
     let (_b, b) = start_host(bare).await;
     let status = b.wait_ready(&on_b).await.unwrap();
     assert_eq!(status.hash.as_deref(), Some(step.output_hash.as_str()), "{:?}", status.error);
+    let second_life = b.health().await.unwrap().instance;
+    assert!(first_life.is_some() && second_life.is_some() && first_life != second_life);
+    // A step the engine moves here, pinned to the plugin fetched before the restart, runs
+    // from the kept copy; a pin to a plugin never fetched, or no digest, is refused.
+    let mut moved = request("laplacian-smoothing", serde_json::json!({"iterations": 1}));
+    moved.plugin = Some(step.plugin.clone());
+    assert!(matches!(b.run(&on_b, &moved).await.unwrap(), RunResult::Filter(_)));
+    for pin in ["0".repeat(64), "../../x".to_owned()] {
+        moved.plugin = Some(pin);
+        let (status, _, message) = api_error(b.run(&on_b, &moved).await);
+        assert_eq!(status, 404, "{message}");
+    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

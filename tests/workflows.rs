@@ -699,6 +699,57 @@ async fn a_step_runs_where_the_mesh_is_when_bringing_the_mesh_over_would_take_lo
     }
 }
 
+/// What the engine remembers of a host's fetched plugins is a hint, not a fact (a host that
+/// restarted has lost them), and a learned step shape only decides what is prefetched: a
+/// run whose prefetches were judged needless — the smoothing's shape, planted here, says
+/// its replay is quick — still moves its test to the data once the replay turns out long,
+/// and asks that host for the test's plugin first, though the engine believes it is there.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_move_to_the_data_asks_for_its_plugin_whatever_the_engine_remembers() {
+    use meshflow_engine::measured::{StepShape, step_key};
+    let smoothing = json!({"run": "taubin-smoothing", "params": {"iterations": 1000}});
+    let workflow = json!({
+        "steps": [
+            smoothing,
+            {
+                "if": {"check": "is-manifold", "op": "==", "value": true},
+                "then": [{"run": "remove-degenerate-triangles"}],
+                "else": [{"run": "remove-smallest-components"}]
+            }
+        ],
+        "transfer": "replay"
+    });
+    let input = Input::scan(120_000, 21);
+    let expected = locally(&workflow, &input);
+    let cluster = Cluster::start(&[&["smoothing"], &["checks", "cleanup"]]).await;
+    let (holder, other) = (cluster.hosts[0].url.clone(), cluster.hosts[1].url.clone());
+    let measured = &cluster.engine.engine.registry.measured;
+    for family in ["checks", "cleanup"] {
+        measured.prefetched(&holder, &meshflow_runtime::digest(builtin(family)));
+    }
+    let quick = StepShape {
+        correction_bytes_per_vertex: 0.0,
+        full_bytes_per_vertex: 0.0,
+        edits_per_vertex: 0.0,
+        compute_ms_per_vertex: 0.0,
+        replay_bytes: 0.0,
+    };
+    let params = smoothing["params"].as_object().unwrap();
+    let digest = meshflow_runtime::digest(builtin("smoothing"));
+    measured.learn_step(&step_key(&digest, "taubin-smoothing", params), quick);
+
+    let record = cluster.run(&workflow, &cluster.upload(&input).await).await;
+    assert_eq!(record["status"], "completed", "{}", record["error"]);
+    assert_eq!(executed(&record), expected.steps);
+    assert_eq!(text(&record["result"]["hash"]), expected.hash());
+    // The other host gets the smoothing to replay (the workflow asks for replays); the
+    // smoothing host, judged not to need the test's plugin, is asked nothing up front.
+    let asked = record["prefetches"].as_array().unwrap();
+    assert!(asked.iter().all(|p| p["host"] != holder.as_str()), "{asked:#?}");
+    let test = steps(&record).iter().find(|s| s["path"] == "steps[1].if.check").unwrap();
+    assert_eq!((text(&test["host"]), text(&test["moved"]["planned"])), (&*holder, &*other));
+}
+
 /// A scan whose every vertex has its own colour (its index in red, green and blue) and a
 /// quality: the repair keeps both through every way a result travels. Vertices that
 /// survive keep their values bit for bit and their order; new ones come after them.

@@ -18,6 +18,11 @@ pub struct Health {
     /// before this field did.
     #[serde(default = "yes")]
     pub foreign_plugins: bool,
+    /// Different every time the host starts: a host that restarted has lost the plugins it
+    /// fetched (they are reloaded from its disk on demand at most). Absent from hosts
+    /// before it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub instance: Option<String>,
 }
 
 fn yes() -> bool {

@@ -269,6 +269,14 @@ impl Measured {
         self.tables().fetched.contains(&(receiver.to_owned(), digest.to_owned()))
     }
 
+    /// `host` restarted: the plugins it fetched are gone from its memory.
+    pub fn forget_fetched(&self, host: &str) {
+        let mut tables = self.tables();
+        let before = tables.fetched.len();
+        tables.fetched.retain(|(r, _)| r != host);
+        tables.changed |= tables.fetched.len() != before;
+    }
+
     /// `receiver` made the plugin `digest` ready before a replay asked for it (a prefetch).
     pub fn prefetched(&self, receiver: &str, digest: &str) {
         let mut tables = self.tables();

@@ -50,6 +50,9 @@ pub struct HostState {
     /// Whether it runs plugins fetched from other hosts (replays, steps moved to it); a
     /// host started with `--no-foreign-plugins` does not.
     pub foreign_plugins: bool,
+    /// Which life of the host the last poll found (`Health::instance`).
+    #[serde(skip)]
+    instance: Option<String>,
 }
 
 impl HostState {
@@ -224,7 +227,9 @@ impl HostEntry {
     }
 
     /// Asks the host for its health and services; a host that does not answer is down.
-    pub async fn refresh(&self) {
+    /// True when the answer came from another life of the host than the last one did (it
+    /// restarted in between, losing the plugins it had fetched).
+    pub async fn refresh(&self) -> bool {
         let polled = async {
             let health = self.client.health().await?;
             let services = self.client.services().await?;
@@ -240,10 +245,13 @@ impl HostEntry {
                 state.services = services;
                 state.foreign_plugins = health.foreign_plugins;
                 state.last_error = None;
+                let before = std::mem::replace(&mut state.instance, health.instance);
+                before.is_some() && before != state.instance
             }
             Err(error) => {
                 state.up = false;
                 state.last_error = Some(error.to_string());
+                false
             }
         }
     }
@@ -399,8 +407,16 @@ impl Registry {
                 .await?;
             entry.restore(standing);
         }
-        entry.refresh().await;
+        self.refresh(&entry).await;
         Ok(entry)
+    }
+
+    /// Polls one host; a host that restarted since the last poll holds none of the plugins
+    /// it had fetched, so the cost model stops counting them.
+    pub async fn refresh(&self, host: &HostEntry) {
+        if host.refresh().await {
+            self.measured.forget_fetched(&host.url);
+        }
     }
 
     /// A client of the host at `url`: the registered one's, or a new one for a host no
@@ -460,7 +476,7 @@ impl Registry {
     /// Polls every host, concurrently.
     pub async fn refresh_all(&self) {
         let hosts = self.hosts();
-        futures_util::future::join_all(hosts.iter().map(|h| h.refresh())).await;
+        futures_util::future::join_all(hosts.iter().map(|h| self.refresh(h))).await;
     }
 
     /// Keeps polling until the process ends.
@@ -628,6 +644,41 @@ mod tests {
         let urls: Vec<String> = registry.hosts().iter().map(|h| h.url.clone()).collect();
         assert_eq!(urls, ["http://127.0.0.1:9/b"]);
         assert_eq!(store.now(store::load_hosts).unwrap(), ["http://127.0.0.1:9/b"]);
+    }
+
+    #[tokio::test]
+    async fn a_host_that_restarted_is_no_longer_counted_as_holding_the_plugins_it_fetched() {
+        use axum::routing::get;
+        let instance = Arc::new(Mutex::new("first life".to_owned()));
+        let health = {
+            let instance = instance.clone();
+            move || {
+                let instance = instance.lock().unwrap().clone();
+                async move {
+                    axum::Json(serde_json::json!({
+                        "status": "ok", "version": "0", "running": 0, "sessions": 0,
+                        "instance": instance
+                    }))
+                }
+            }
+        };
+        let app = axum::Router::new()
+            .route("/health", get(health))
+            .route("/services", get(|| async { axum::Json(serde_json::json!([])) }));
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let url = format!("http://{}", listener.local_addr().unwrap());
+        tokio::spawn(async move { axum::serve(listener, app).await });
+
+        let dir = tempfile::tempdir().unwrap();
+        let (registry, _store) = registry(&dir);
+        let host = registry.register(&url).await.unwrap();
+        assert!(host.is_up());
+        registry.measured.prefetched(&url, "digest");
+        registry.refresh_all().await;
+        assert!(registry.measured.has_fetched(&url, "digest"), "the same life keeps them");
+        *instance.lock().unwrap() = "second life".to_owned();
+        registry.refresh_all().await;
+        assert!(!registry.measured.has_fetched(&url, "digest"), "a restart loses them");
     }
 
     #[tokio::test]

@@ -320,10 +320,21 @@ impl ReplayPlugins {
     }
 
     /// A plugin this host did not load itself but fetched for a replay or a prefetch, ready
-    /// to run: what a step the engine moved here runs with. `None` with
-    /// `--no-foreign-plugins`.
-    pub fn fetched(&self, digest: &str) -> Option<Plugin> {
+    /// to run. `None` with `--no-foreign-plugins`.
+    fn fetched(&self, digest: &str) -> Option<Plugin> {
         self.foreign.then(|| self.get(digest)).flatten()
+    }
+
+    /// What a step the engine moved here runs with: a plugin fetched for a replay or a
+    /// prefetch, in memory or, after a restart, compiled again from the copy kept on disk;
+    /// never fetched now. `None` with `--no-foreign-plugins`, for a name that is no digest,
+    /// or when no copy is kept.
+    pub async fn kept(&self, offered: &PluginSet, digest: &str) -> Option<Plugin> {
+        if !self.foreign || !is_digest(digest) {
+            return None;
+        }
+        let nowhere = PluginSource { scope: &FetchScope::default(), producer: None };
+        self.plugin_for(offered, nowhere, digest).await.ok()
     }
 
     /// Whether plugins fetched from other hosts may run here.

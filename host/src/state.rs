@@ -35,6 +35,9 @@ pub struct Host {
     pub downloads: Downloads,
     /// What `GET /metrics` reports.
     pub metrics: Metrics,
+    /// This process among the host's lives: `GET /health` says it, so the engine learns of
+    /// a restart (and forgets the plugins it had fetched, held in memory only).
+    pub instance: String,
     running: AtomicUsize,
 }
 
@@ -70,6 +73,18 @@ impl DataDirs {
     }
 }
 
+/// Names one run of this process: its id and start time, hashed (not a secret, just
+/// different each start).
+fn instance_id() -> String {
+    let started = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap_or_default()
+        .as_nanos();
+    let mut hasher = blake3::Hasher::new();
+    hasher.update(&std::process::id().to_le_bytes()).update(&started.to_le_bytes());
+    hasher.finalize().to_hex()[..16].to_owned()
+}
+
 impl Host {
     pub fn new(
         config: HostConfig,
@@ -99,6 +114,7 @@ impl Host {
             public_url,
             runtime,
             plugins,
+            instance: instance_id(),
             running: AtomicUsize::new(0),
         })
     }

@@ -301,13 +301,16 @@ async fn apply_correction(
 
 /// The plugin and service a run request names: from the plugins this host offers, or, for a
 /// request pinned to a digest it does not offer, a plugin it fetched (the engine moved the
-/// step here, where the mesh is, and made the plugin ready first), unless this host runs
-/// only its own plugins.
-fn plugin_for_run(host: &Host, request: &RunRequest) -> Result<(Plugin, ServiceInfo), StepError> {
+/// step here, where the mesh is, and made the plugin ready first; or it fetched it before
+/// it last restarted), unless this host runs only its own plugins.
+async fn plugin_for_run(
+    host: &Host,
+    request: &RunRequest,
+) -> Result<(Plugin, ServiceInfo), StepError> {
     let offered = host.plugins.find(&request.service, request.plugin.as_deref());
     match (offered, request.plugin.as_deref()) {
         (Err(PluginSetError::NotFound(_)), Some(digest)) => {
-            let Some(plugin) = host.replay_plugins.fetched(digest) else {
+            let Some(plugin) = host.replay_plugins.kept(&host.plugins, digest).await else {
                 let why = match host.replay_plugins.runs_foreign() {
                     true => "neither offered nor fetched here".to_owned(),
                     false => crate::replay::NO_FOREIGN_PLUGINS.to_owned(),
@@ -323,7 +326,7 @@ fn plugin_for_run(host: &Host, request: &RunRequest) -> Result<(Plugin, ServiceI
 /// Runs a service on session `id`: a filter replaces the session's mesh and yields a
 /// correction, a replay and a full-mesh URL; a check yields its value.
 pub async fn run(host: &Host, id: &str, request: RunRequest) -> Result<RunResult, StepError> {
-    let (plugin, info) = plugin_for_run(host, &request)?;
+    let (plugin, info) = plugin_for_run(host, &request).await?;
     let given = params_from_json(&info, &request.params)?;
     // The service is looked up and its parameters resolved here, once: the answer, the
     // replay, the edit log's estimate and the run itself all take these.

@@ -7,9 +7,11 @@ use meshflow_api::HostClient;
 use serde_json::json;
 
 use super::Executor;
+use super::cost::StepOutput;
 use super::error::ExecError;
 use crate::limits::MAX_CORRECTION_BYTES;
 use crate::record::{ResultRecord, Status};
+use crate::registry::Registry;
 use crate::run::Run;
 
 impl Executor {
@@ -67,13 +69,14 @@ pub(super) fn conclude(run: &Run, outcome: Result<(), ExecError>, resumed_at: Op
 }
 
 /// Replaces step `index`'s estimated edit-log size by the real one once its producer has
-/// written the log (a HEAD of it waits for that); an answer that does not come leaves the
-/// estimate.
+/// written the log (a HEAD of `url` at `producer` waits for that), and learns the step's
+/// shape (`measured::StepShape`) under `key` with it; an answer that does not come leaves
+/// the estimate and teaches nothing.
 pub(super) fn record_log_size(
     run: Arc<Run>,
-    producer: HostClient,
+    (producer, url): (HostClient, String),
     index: usize,
-    url: String,
+    (registry, key, output): (Arc<Registry>, String, StepOutput),
 ) -> tokio::task::JoinHandle<()> {
     tokio::spawn(async move {
         let Ok(bytes) = producer.blob_size(&url).await else { return };
@@ -81,6 +84,9 @@ pub(super) fn record_log_size(
         if bytes > MAX_CORRECTION_BYTES {
             tracing::warn!("{url}: an edit log of {bytes} bytes is not believed");
             return;
+        }
+        if let Some(shape) = (StepOutput { correction_bytes: bytes, ..output }).shape() {
+            registry.measured.learn_step(&key, shape);
         }
         run.update_step("correction", index, |step| {
             if step.correction_estimated {

@@ -32,10 +32,6 @@ impl Executor {
                 service: task.service.clone(),
             });
         };
-        let url = filter.correction.url.clone();
-        let log_size =
-            super::finish::record_log_size(self.run.clone(), host.client.clone(), index, url);
-        self.log_sizes.push(log_size);
         self.advance(&filter, &host);
         self.history.push((task.clone(), filter.output_hash.clone()));
         let output = cost::StepOutput {
@@ -46,11 +42,15 @@ impl Executor {
             vertices: filter.vertices as u64,
             compute_ms: filter.compute_ms,
         };
-        // For the next run's plan: which hosts will want this step's plugin.
-        if let Some(shape) = output.shape() {
-            let key = step_key(&filter.plugin, &task.service, &task.params);
-            self.registry.measured.learn_step(&key, shape);
-        }
+        // The log's real size, for the record and, as the step's shape, for the next
+        // runs' prefetches.
+        let log_size = super::finish::record_log_size(
+            self.run.clone(),
+            (host.client.clone(), filter.correction.url.clone()),
+            index,
+            (self.registry.clone(), step_key(&filter.plugin, &task.service, &task.params), output),
+        );
+        self.log_sizes.push(log_size);
         let hash = self.current.hash.clone();
         let last_full = self.current.last_full.clone();
         let measured = &self.registry.measured;

@@ -25,7 +25,7 @@ use crate::plan::Plan;
 use crate::record::PrefetchRecord;
 use crate::registry::{HostEntry, Registry};
 use crate::run::Run;
-use crate::workflow::{Task, Transfer, Workflow};
+use crate::workflow::{Transfer, Workflow};
 use meshflow_api::host::Transfer as Use;
 
 /// The prefetches of one run: which (host, plugin digest) are ready. The requests are
@@ -191,24 +191,27 @@ fn wanted(plan: &Plan, workflow: &Workflow) -> Vec<(Arc<HostEntry>, Vec<Wanted>)
             needs: vec![need],
         }),
     };
-    // The filter `t`'s plugin on its planned host, and the key its shape is learned under.
-    let filter = |t: &Task| {
-        let host = plan.host(&t.path);
-        let digest = filter_plugin(host, &t.service, plan.pin(&t.path))?;
-        let key = step_key(&digest, &t.service, &t.params);
-        Some((host, digest, key))
-    };
+    // Per task, if a filter: its planned host, its plugin there, and its shape's key.
+    let filters: Vec<Option<(&Arc<HostEntry>, String, String)>> = tasks
+        .iter()
+        .map(|t| {
+            let host = plan.host(&t.path);
+            let digest = filter_plugin(host, &t.service, plan.pin(&t.path))?;
+            let key = step_key(&digest, &t.service, &t.params);
+            Some((host, digest, key))
+        })
+        .collect();
     for (index, task) in tasks.iter().enumerate() {
-        let Some((producer, digest, step)) = filter(task) else { continue };
+        let Some((producer, digest, step)) = &filters[index] else { continue };
         let repeats = task.path.contains(".do[");
         let after = if repeats { &tasks[..] } else { &tasks[index + 1..] };
         for (receiver, plugins) in &mut wanted {
             let receives = after.iter().any(|t| Arc::ptr_eq(plan.host(&t.path), receiver));
-            let lacks = !Arc::ptr_eq(receiver, producer) && !receiver.has_plugin(&digest);
+            let lacks = !Arc::ptr_eq(receiver, producer) && !receiver.has_plugin(digest);
             if receives && lacks {
-                let (from, to) = (producer.clone(), receiver.clone());
+                let (from, to) = (Arc::clone(producer), receiver.clone());
                 let need = Need { step: step.clone(), from, to, kind: NeedKind::Replay };
-                want(plugins, &digest, producer, need);
+                want(plugins, digest, producer, need);
             }
         }
     }
@@ -220,15 +223,16 @@ fn wanted(plan: &Plan, workflow: &Workflow) -> Vec<(Arc<HostEntry>, Vec<Wanted>)
             continue;
         };
         let repeats = task.path.contains(".do[") || task.path.contains(".while");
-        let before = if repeats { &tasks[..] } else { &tasks[..index] };
+        let before = if repeats { &filters[..] } else { &filters[..index] };
         for (producer, plugins) in &mut wanted {
             if Arc::ptr_eq(producer, home) || producer.has_plugin(&digest) {
                 continue;
             }
-            let produced_there = before.iter().filter_map(|t| filter(t));
-            for (_, _, step) in produced_there.filter(|(host, ..)| Arc::ptr_eq(host, producer)) {
+            let produced_there = before.iter().flatten().filter(|(h, ..)| Arc::ptr_eq(h, producer));
+            for (_, _, step) in produced_there {
                 let (from, to) = (producer.clone(), home.clone());
-                want(plugins, &digest, home, Need { step, from, to, kind: NeedKind::Move });
+                let need = Need { step: step.clone(), from, to, kind: NeedKind::Move };
+                want(plugins, &digest, home, need);
             }
         }
     }

@@ -67,6 +67,14 @@ impl Executor {
                 // The plan stays: the planned host keeps taking the results (it holds the
                 // run's second copy at its end), and a later round decides afresh.
                 Ok((index, result)) => return Ok((index, result, host)),
+                // Moving was the engine's idea: a step that fails where the mesh is (a plugin
+                // it could not get there after all) runs where it was planned, whose answer
+                // decides for the run; the host holding the mesh keeps its copy.
+                Err(Failure::Step(message)) if moved.is_some() => {
+                    tracing::info!(host = %host.url, "{}: moved to the data, failed: {message}", task.path);
+                    reasons.push(format!("{} (moved to the data): {message}", host.url));
+                    moved = None;
+                }
                 Err(failure) => {
                     let busy = matches!(failure, Failure::Busy(_));
                     let message = failure.set_aside(&host).map_err(|StepFailed(message)| {

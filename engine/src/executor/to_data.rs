@@ -13,7 +13,7 @@ use std::time::Instant;
 use meshflow_api::engine::MovedToData;
 use meshflow_api::host::{PrefetchOutcome, WantedPlugin};
 
-use super::{Executor, cost};
+use super::Executor;
 use crate::plan::QUEUE_MS_PER_TASK;
 use crate::registry::HostEntry;
 use crate::trust::Trust;
@@ -54,8 +54,11 @@ impl Executor {
         let (plugin, _) = planned.plugin_for(&task.service, task.plugin.as_deref())?;
         let measured = &self.registry.measured;
         let at = self.prefetches.plugin_at(&self.registry, &producer, &plugin);
-        let ready = at == cost::PluginAt::Ready;
         let plugin_ms = at.ready_ms(&measured.link(&planned.url, &producer.url));
+        // What an earlier run fetched there is only a hint for the estimate: a host that
+        // restarted since holds its fetched plugins no longer. Unless it offers the plugin
+        // or this run's prefetch made it ready, it is asked (a plugin it has: "present").
+        let ready = producer.has_plugin(&plugin) || self.prefetches.ready(&producer.url, &plugin);
         // The producer may be busy with other runs' tasks: as the planner counts them.
         let queue_ms = QUEUE_MS_PER_TASK * f64::from(producer.load());
         if plugin_ms + queue_ms + MOVE_MARGIN_MS >= waiting_ms {

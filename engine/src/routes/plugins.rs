@@ -51,7 +51,7 @@ pub async fn forward(
         .map_err(|error| host_refused(&host, error))?;
     // The catalogue learns the new services now rather than at the next poll.
     if let Some(entry) = engine.registry.hosts().iter().find(|h| h.url == host) {
-        entry.refresh().await;
+        engine.registry.refresh(entry).await;
     }
     Ok((StatusCode::CREATED, Json(json!(uploaded))))
 }

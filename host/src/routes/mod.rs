@@ -71,5 +71,6 @@ async fn health(State(host): State<Arc<Host>>) -> axum::Json<Health> {
         running: host.running(),
         sessions: host.sessions.count(),
         foreign_plugins: host.replay_plugins.runs_foreign(),
+        instance: Some(host.instance.clone()),
     })
 }
