@@ -67,6 +67,20 @@ fn the_bunny_round_trips_and_beats_binary_ply() {
 }
 
 #[test]
+fn a_mesh_packed_by_the_previous_format_still_unpacks() {
+    // Format 5 (the geometry in one stream), written by the release before format 6.
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bunny-v5.mfm");
+    let v5 = std::fs::read(path).unwrap();
+    assert_eq!(u16::from_le_bytes([v5[4], v5[5]]), 5);
+    let mesh = bunny();
+    assert_exact(&pack::decode(&v5).unwrap(), &mesh);
+    let (arriving, hash) = pack::decode_from(Trickle { bytes: &v5, chunk: 1460 }).unwrap();
+    assert_exact(&arriving, &mesh);
+    assert_eq!(hash, pack::stated_hash(&v5).unwrap());
+    assert_eq!(pack::encode(&mesh).unwrap()[4], 6, "new files are format 6");
+}
+
+#[test]
 fn invalid_meshes_are_refused() {
     let bad = MeshData::new(vec![0.0; 9], vec![0, 1, 3]);
     assert!(matches!(pack::encode(&bad), Err(PackError::InvalidMesh(_))));
@@ -164,6 +178,27 @@ fn a_cut_or_damaged_arrival_fails_as_the_whole_does() {
             assert_eq!(whole, arriving, "byte {at} = {value}");
         }
     }
+}
+
+#[test]
+fn damage_in_a_later_geometry_block_fails_as_the_whole_does() {
+    // 67,600 vertices: two geometry blocks.
+    let mesh = grid(260, 260, 0, &mut Rng(5));
+    let bytes = pack::encode(&mesh).unwrap();
+    let whole_and_arriving = |bytes: &[u8]| {
+        let arriving = pack::decode_from(Trickle { bytes, chunk: 4096 }).map(|(m, _)| m);
+        (outcome(pack::decode(bytes)), outcome(arriving))
+    };
+    let mut failures = 0;
+    for at in (54..bytes.len()).step_by(bytes.len() / 60) {
+        let mut damaged = bytes.clone();
+        damaged[at] ^= 0x5a;
+        reseal(&mut damaged);
+        let (whole, arriving) = whole_and_arriving(&damaged);
+        assert_eq!(whole, arriving, "byte {at}");
+        failures += usize::from(whole.starts_with("error"));
+    }
+    assert!(failures > 50, "only {failures} of the damaged copies failed");
 }
 
 #[test]

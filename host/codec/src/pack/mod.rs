@@ -43,7 +43,7 @@ pub use error::PackError;
 use std::io::Read;
 
 use crate::correction::coding::bytes::{
-    ByteReader, SEALED_FRONT, open_sealed, put_grid, put_varint, seal, sealed_front,
+    ByteReader, SEALED_FRONT, open_sealed_versions, put_grid, put_varint, seal, sealed_front,
 };
 use crate::correction::coding::residual::ResidualCoder;
 use crate::correction::coding::stream::{SymbolReader, SymbolWriter};
@@ -56,8 +56,13 @@ use predict::predict;
 use values::Geometry;
 
 const MAGIC: [u8; 4] = *b"MFM\x1a";
-/// The format version this build writes and reads (5: attributes).
-pub const VERSION: u16 = 5;
+/// The format version this build writes (6: the geometry in blocks a download decodes as
+/// they arrive); it reads this one and 5 (attributes; the geometry in one stream).
+pub const VERSION: u16 = 6;
+const OLDEST_READ: u16 = 5;
+/// Vertices per geometry block (format 6): about 400 KB of a scan, so a download at 5 Mbit/s
+/// brings one every ~0.6 s, and what is left to decode after the last byte is one block.
+const GEOMETRY_BLOCK: usize = 1 << 16;
 /// Declared counts may exceed the bytes that carry them by at most this factor (the adaptive models'
 /// probability floor keeps honest files above it), so a forged count cannot make the
 /// decoder allocate more than a bounded multiple of its input.
@@ -71,22 +76,27 @@ pub fn encode(mesh: &MeshData) -> Result<Vec<u8>, PackError> {
     let connectivity = encode_connectivity(mesh);
     let around = VertexTriangles::new(vertex_count, &mesh.triangles);
     let grid = Grid::detect([&mesh.positions[..]]);
-    let mut geometry = SymbolWriter::new();
+    let (mut geometry, mut block) = (Vec::new(), SymbolWriter::new());
     let mut residuals = ResidualCoder::new(grid);
     let (positions, triangles) = (&mesh.positions, &mesh.triangles);
     let (mut order, mut previous) = (CodingOrder::new(&around, triangles), None);
     // Attributes follow the vertices in the order their positions were coded.
     let mut coded = Vec::with_capacity(if mesh.attributes.is_empty() { 0 } else { vertex_count });
-    while let Some(v) = order.next() {
+    for done in 1.. {
+        let Some(v) = order.next() else { break };
         let predicted = predict(v, previous, positions, order.decoded(), triangles, &around);
         let p = &positions[3 * v as usize..3 * v as usize + 3];
-        residuals.write(&mut geometry, [p[0], p[1], p[2]], predicted);
+        residuals.write(&mut block, [p[0], p[1], p[2]], predicted);
         previous = Some(v);
         if !mesh.attributes.is_empty() {
             coded.push(v);
         }
+        if done % GEOMETRY_BLOCK == 0 || done == vertex_count {
+            let bytes = std::mem::replace(&mut block, SymbolWriter::new()).finish();
+            put_varint(&mut geometry, bytes.len() as u64);
+            geometry.extend_from_slice(&bytes);
+        }
     }
-    let geometry = geometry.finish();
     let attributes = match mesh.attributes.is_empty() {
         true => Vec::new(),
         false => attributes::write(
@@ -113,7 +123,7 @@ pub fn encode(mesh: &MeshData) -> Result<Vec<u8>, PackError> {
 /// The content hash a packed mesh states, its seal checked and nothing decoded: the hash
 /// [`decode`] holds the mesh to, so whoever decodes these bytes gets that mesh or an error.
 pub fn stated_hash(bytes: &[u8]) -> Result<ContentHash, PackError> {
-    Ok(ContentHash(open_sealed(bytes, MAGIC, VERSION)?.array()?))
+    Ok(ContentHash(open_sealed_versions(bytes, MAGIC, OLDEST_READ..=VERSION)?.0.array()?))
 }
 
 /// Unpacks a mesh; any damage is a typed error.
@@ -132,10 +142,10 @@ pub fn decode_from(source: impl Read) -> Result<(MeshData, ContentHash), PackErr
 }
 
 fn decode_arriving(source: &mut impl Arrival) -> Result<(MeshData, ContentHash), PackError> {
-    // Decoded before the checksum is known, so its error waits for the checksum's verdict.
-    let early = early_connectivity(source);
+    // Decoded before the checksum is known, so their errors wait for the checksum's verdict.
+    let early = early(source);
     let bytes = source.all()?;
-    let mut r = open_sealed(bytes, MAGIC, VERSION)?;
+    let (mut r, version) = open_sealed_versions(bytes, MAGIC, OLDEST_READ..=VERSION)?;
     let header = Header::read(&mut r)?;
     if !header.fits_in(bytes.len()) {
         return Err(PackError::Malformed(format!(
@@ -151,27 +161,18 @@ fn decode_arriving(source: &mut impl Arrival) -> Result<(MeshData, ContentHash),
     if r.remaining() != 0 {
         return Err(PackError::Malformed(format!("{} bytes after the attributes", r.remaining())));
     }
-    let Connectivity { triangles, around } = match early {
-        Some(decoded) => decoded?,
-        None => Connectivity::decode(&header, connectivity)?,
+    let (connectivity, decoded) = match early {
+        Some(Early { connectivity, geometry: decoded }) => (connectivity?, decoded),
+        None => (Connectivity::decode(&header, connectivity)?, None),
     };
-
-    let bad_geometry = |_| PackError::Corrupt("geometry");
-    let vertex_count = header.vertices as usize;
-    let mut input = SymbolReader::new(geometry).map_err(bad_geometry)?;
-    let mut residuals = ResidualCoder::new(header.grid);
-    let mut positions = vec![0.0; 3 * vertex_count];
-    let (mut order, mut previous) = (CodingOrder::new(&around, &triangles), None);
-    let mut coded = Vec::new();
-    while let Some(v) = order.next() {
-        let predicted = predict(v, previous, &positions, order.decoded(), &triangles, &around);
-        let p = residuals.read(&mut input, predicted).map_err(bad_geometry)?;
-        positions[3 * v as usize..3 * v as usize + 3].copy_from_slice(&p);
-        previous = Some(v);
-        if !attributes.is_empty() {
-            coded.push(v);
+    let Positions { positions, coded } = match decoded {
+        Some(decoded) => decoded?,
+        None => {
+            let section = 0..geometry.len();
+            Positions::decode(&mut Whole(geometry), section, &header, version, &connectivity)?
         }
-    }
+    };
+    let Connectivity { triangles, around } = connectivity;
     if let Some(i) = positions.iter().position(|c| !c.is_finite()) {
         return Err(PackError::Malformed(format!("vertex {} has a non-finite coordinate", i / 3)));
     }
@@ -186,21 +187,36 @@ fn decode_arriving(source: &mut impl Arrival) -> Result<(MeshData, ContentHash),
     Ok((mesh, found))
 }
 
-/// The connectivity, decoded as soon as its section is in: `None` when the front is
-/// unreadable or its counts need more bytes to be believed than those in hand (a point
-/// cloud's vertices are paid for by its geometry; [`decode_arriving`] then decodes it once
-/// everything is in and judged).
-fn early_connectivity(source: &mut impl Arrival) -> Option<Result<Connectivity, PackError>> {
+/// What was decoded while the bytes arrived.
+struct Early {
+    connectivity: Result<Connectivity, PackError>,
+    /// After a good connectivity: the geometry, block by block as each came in.
+    geometry: Option<Result<Positions, PackError>>,
+}
+
+/// The connectivity, decoded as soon as its section is in, then the geometry, each block as
+/// soon as it is in: `None` when the front is unreadable or its counts need more bytes to
+/// be believed than those in hand (a point cloud's vertices are paid for by its geometry;
+/// [`decode_arriving`] then decodes everything once it is in and judged).
+fn early(source: &mut impl Arrival) -> Option<Early> {
     let front = source.at_least(FRONT_MAX).ok()?;
+    let version = u16::from_le_bytes([*front.get(4)?, *front.get(5)?]);
     let mut r = ByteReader::new(front.get(SEALED_FRONT..)?);
     let header = Header::read(&mut r).ok()?;
     let start = front.len() - r.remaining();
     let end = start.checked_add(header.connectivity)?;
-    if !header.fits_in(end) {
+    if !(OLDEST_READ..=VERSION).contains(&version) || !header.fits_in(end) {
         return None;
     }
     let arrived = source.at_least(end).ok()?;
-    Some(Connectivity::decode(&header, arrived.get(start..end)?))
+    let connectivity = Connectivity::decode(&header, arrived.get(start..end)?);
+    let geometry = match (&connectivity, end.checked_add(header.geometry)) {
+        (Ok(connectivity), Some(geometry_end)) => {
+            Some(Positions::decode(source, end..geometry_end, &header, version, connectivity))
+        }
+        _ => None,
+    };
+    Some(Early { connectivity, geometry })
 }
 
 /// What follows the sealed front: the content hash, counts, grid and section lengths.
@@ -250,6 +266,103 @@ impl Connectivity {
         }
         let around = VertexTriangles::new(header.vertices as usize, &triangles);
         Ok(Self { triangles, around })
+    }
+}
+
+/// The vertices' positions, and their coding order when attributes follow it.
+struct Positions {
+    positions: Vec<f32>,
+    coded: Vec<u32>,
+}
+
+impl Positions {
+    /// Decodes the geometry section, `section` of `source`'s bytes: one stream (format 5) or
+    /// blocks of [`GEOMETRY_BLOCK`] vertices, each decoded as soon as it has arrived.
+    fn decode(
+        source: &mut impl Arrival,
+        section: std::ops::Range<usize>,
+        header: &Header,
+        version: u16,
+        connectivity: &Connectivity,
+    ) -> Result<Self, PackError> {
+        let vertex_count = header.vertices as usize;
+        let mut walk = Walk {
+            connectivity,
+            order: CodingOrder::new(&connectivity.around, &connectivity.triangles),
+            previous: None,
+            residuals: ResidualCoder::new(header.grid),
+            positions: vec![0.0; 3 * vertex_count],
+            coded: Vec::new(),
+            keep_order: header.attributes > 0,
+        };
+        if version == OLDEST_READ {
+            let arrived = source.at_least(section.end)?;
+            walk.stream(arrived.get(section).ok_or(PackError::Truncated)?, vertex_count)?;
+        } else {
+            let (mut at, mut left) = (section.start, vertex_count);
+            while left > 0 {
+                let stream = block(source, at, section.end)?;
+                let count = left.min(GEOMETRY_BLOCK);
+                let arrived = source.at_least(stream.end)?;
+                walk.stream(arrived.get(stream.clone()).ok_or(PackError::Truncated)?, count)?;
+                (at, left) = (stream.end, left - count);
+            }
+            if at != section.end {
+                let extra = section.end - at;
+                return Err(PackError::Malformed(format!("{extra} bytes after the geometry")));
+            }
+        }
+        Ok(Self { positions: walk.positions, coded: walk.coded })
+    }
+}
+
+/// The geometry decoder's state between streams: the coding order and the adaptive models
+/// go on from one block to the next.
+struct Walk<'a> {
+    connectivity: &'a Connectivity,
+    order: CodingOrder<'a>,
+    previous: Option<u32>,
+    residuals: ResidualCoder,
+    positions: Vec<f32>,
+    coded: Vec<u32>,
+    keep_order: bool,
+}
+
+impl Walk<'_> {
+    /// The next `count` vertices in coding order, from one coded stream.
+    fn stream(&mut self, bytes: &[u8], count: usize) -> Result<(), PackError> {
+        let bad_geometry = |_| PackError::Corrupt("geometry");
+        let Connectivity { triangles, around } = self.connectivity;
+        let mut input = SymbolReader::new(bytes).map_err(bad_geometry)?;
+        for _ in 0..count {
+            let v = self.order.next().ok_or(PackError::Corrupt("geometry"))?;
+            let (positions, decoded) = (&self.positions, self.order.decoded());
+            let predicted = predict(v, self.previous, positions, decoded, triangles, around);
+            let p = self.residuals.read(&mut input, predicted).map_err(bad_geometry)?;
+            self.positions[3 * v as usize..3 * v as usize + 3].copy_from_slice(&p);
+            self.previous = Some(v);
+            if self.keep_order {
+                self.coded.push(v);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The range of the geometry block whose length prefix starts at `at` (within `end`).
+fn block(
+    source: &mut impl Arrival,
+    at: usize,
+    end: usize,
+) -> Result<std::ops::Range<usize>, PackError> {
+    let arrived = source.at_least(at.saturating_add(10).min(end))?;
+    let prefix = arrived.get(at..end.min(arrived.len())).ok_or(PackError::Truncated)?;
+    let mut r = ByteReader::new(prefix);
+    let len = usize::try_from(r.varint()?).map_err(|_| PackError::Truncated)?;
+    let start = at + (prefix.len() - r.remaining());
+    match start.checked_add(len) {
+        Some(stream_end) if stream_end <= end => Ok(start..stream_end),
+        _ => Err(PackError::Malformed("a geometry block longer than its section".into())),
     }
 }
 

@@ -179,17 +179,26 @@ pub(crate) fn open_sealed(
     magic: [u8; 4],
     version: u16,
 ) -> Result<ByteReader<'_>, SealError> {
+    Ok(open_sealed_versions(bytes, magic, version..=version)?.0)
+}
+
+/// [`open_sealed`] for a format read in several versions; which one it is.
+pub(crate) fn open_sealed_versions(
+    bytes: &[u8],
+    magic: [u8; 4],
+    versions: std::ops::RangeInclusive<u16>,
+) -> Result<(ByteReader<'_>, u16), SealError> {
     let mut r = ByteReader::new(bytes);
     if r.take(4).map_err(|_| SealError::BadMagic)? != magic {
         return Err(SealError::BadMagic);
     }
     let found = r.u16().map_err(|_| SealError::Truncated)?;
-    if found != version {
+    if !versions.contains(&found) {
         return Err(SealError::UnsupportedVersion(found));
     }
     let checksum = r.take(CHECKSUM_LEN).map_err(|_| SealError::Truncated)?;
     if blake3::hash(&bytes[SEALED_FRONT..]).as_bytes()[..CHECKSUM_LEN] != *checksum {
         return Err(SealError::ChecksumMismatch);
     }
-    Ok(r)
+    Ok((r, found))
 }
