@@ -62,6 +62,8 @@ async fn a_host_that_will_replay_a_step_has_its_plugin_before_the_replay_arrives
         (receiver.as_str(), digest.as_str(), producer.as_str())
     );
     assert_eq!(prefetch["outcome"], "fetched", "{prefetch:#}");
+    assert_eq!(prefetch["why"], json!(["a replay of steps[0] (laplacian-smoothing)"]));
+    assert_eq!(for_a_move["why"], json!(["steps[1] (fill-holes) moving here after steps[0]"]));
     // Asked only once the receiver held the input, so the plugin did not share its link
     // with the input (the broadcast began after the run did: its times are a lower bound).
     let loads = record["broadcast"]["hosts"].as_array().unwrap();

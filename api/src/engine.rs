@@ -295,6 +295,10 @@ pub struct PrefetchRecord {
     pub finished_ms: f64,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
+    /// What the engine expected the plugin for there: a step's replay, or a task moving to
+    /// the host after a step it produces.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub why: Vec<String>,
 }
 
 /// One host's download and decoding of the input.

@@ -59,18 +59,31 @@ impl Prefetches {
                 // Only the plugins the cost model is expected to use (on this mesh, by what
                 // the steps gave before): the others would take the link and a core from
                 // the first tasks for nothing.
-                let expected = |w: &Wanted| {
-                    w.needs.iter().any(|n| n.expected(&registry.measured, transfer, held.vertices))
-                };
-                let wanted: Vec<WantedPlugin> =
-                    wanted.into_iter().filter(expected).map(|w| w.plugin).collect();
+                let measured = &registry.measured;
+                let (wanted, why): (Vec<WantedPlugin>, Vec<Vec<String>>) = wanted
+                    .into_iter()
+                    .filter_map(|w| {
+                        let expected = w
+                            .needs
+                            .iter()
+                            .filter(|n| n.expected(measured, transfer, held.vertices));
+                        let why: Vec<String> = expected.map(|n| n.why.clone()).collect();
+                        (!why.is_empty()).then_some((w.plugin, why))
+                    })
+                    .unzip();
                 if wanted.is_empty() {
                     return;
                 }
+                let explained = |mut records: Vec<PrefetchRecord>| {
+                    for (record, why) in records.iter_mut().zip(&why) {
+                        record.why = why.clone();
+                    }
+                    records
+                };
                 let started_ms = run.elapsed_ms();
                 // In the record before the request: a run that ends before the host
                 // answers still says what was under way.
-                let pending = pending(&receiver.url, &wanted, started_ms);
+                let pending = explained(pending(&receiver.url, &wanted, started_ms));
                 run.update("prefetch", |r| {
                     let json = json!({"host": receiver.url, "plugins": pending});
                     r.prefetches.extend(pending);
@@ -79,7 +92,7 @@ impl Prefetches {
                 let answer = receiver.client.prefetch_plugins(wanted.clone()).await;
                 let finished_ms = run.elapsed_ms();
                 let timing = (started_ms, finished_ms);
-                let records = records(&receiver.url, &wanted, answer, timing);
+                let records = explained(records(&receiver.url, &wanted, answer, timing));
                 for record in &records {
                     if record.outcome != PrefetchOutcome::Failed.name() {
                         let key = (receiver.url.clone(), record.plugin.clone());
@@ -138,6 +151,8 @@ struct Wanted {
 struct Need {
     /// The step's [`step_key`].
     step: String,
+    /// The need in words, for the record.
+    why: String,
     from: Arc<HostEntry>,
     to: Arc<HostEntry>,
     kind: NeedKind,
@@ -210,7 +225,8 @@ fn wanted(plan: &Plan, workflow: &Workflow) -> Vec<(Arc<HostEntry>, Vec<Wanted>)
             let lacks = !Arc::ptr_eq(receiver, producer) && !receiver.has_plugin(digest);
             if receives && lacks {
                 let (from, to) = (Arc::clone(producer), receiver.clone());
-                let need = Need { step: step.clone(), from, to, kind: NeedKind::Replay };
+                let why = format!("a replay of {} ({})", task.path, task.service);
+                let need = Need { step: step.clone(), why, from, to, kind: NeedKind::Replay };
                 want(plugins, digest, producer, need);
             }
         }
@@ -228,10 +244,16 @@ fn wanted(plan: &Plan, workflow: &Workflow) -> Vec<(Arc<HostEntry>, Vec<Wanted>)
             if Arc::ptr_eq(producer, home) || producer.has_plugin(&digest) {
                 continue;
             }
-            let produced_there = before.iter().flatten().filter(|(h, ..)| Arc::ptr_eq(h, producer));
-            for (_, _, step) in produced_there {
+            let earlier = if repeats { &tasks[..] } else { &tasks[..index] };
+            for (filter, earlier) in before.iter().zip(earlier) {
+                let Some((host, _, step)) = filter else { continue };
+                if !Arc::ptr_eq(host, producer) {
+                    continue;
+                }
                 let (from, to) = (producer.clone(), home.clone());
-                let need = Need { step: step.clone(), from, to, kind: NeedKind::Move };
+                let why =
+                    format!("{} ({}) moving here after {}", task.path, task.service, earlier.path);
+                let need = Need { step: step.clone(), why, from, to, kind: NeedKind::Move };
                 want(plugins, &digest, home, need);
             }
         }
@@ -262,6 +284,7 @@ fn pending(host: &str, wanted: &[WantedPlugin], started_ms: f64) -> Vec<Prefetch
         started_ms,
         finished_ms: started_ms,
         error: None,
+        why: Vec::new(),
     };
     wanted.iter().map(record).collect()
 }
@@ -284,6 +307,7 @@ fn records(
         started_ms,
         finished_ms,
         error: Some(error),
+        why: Vec::new(),
     };
     let answered = match answer {
         Ok(answered) => answered.plugins,
@@ -335,6 +359,7 @@ mod tests {
         learn("noise", step(6_171_500, 1_050_000, 74.0));
         let need = |step: &str, kind| Need {
             step: step.to_owned(),
+            why: String::new(),
             from: from.clone(),
             to: to.clone(),
             kind,
