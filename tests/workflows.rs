@@ -72,7 +72,10 @@ fn assert_transfers(record: &Json, mode: &str) {
     let steps = steps(record);
     let workers: BTreeSet<&str> = steps.iter().map(|s| text(&s["host"])).collect();
     assert!(workers.is_subset(&plan), "steps ran on {workers:?}, the input went to {plan:?}");
-    assert!(workers.len() >= 2, "the run stayed on {workers:?}");
+    // Only code moving to the data (a planned host still re-running the step before, in a
+    // slow build) keeps a run on one host; the planned hosts still take every result.
+    let moved = steps.iter().any(|s| !s["moved"].is_null());
+    assert!(workers.len() >= 2 || moved, "the run stayed on {workers:?}");
     for (index, step) in steps.iter().enumerate().filter(|(_, s)| s["kind"] == "filter") {
         let transfers = step["transfers"].as_array().unwrap();
         let receivers: BTreeSet<&str> = transfers.iter().map(|t| text(&t["host"])).collect();
