@@ -1,6 +1,6 @@
 //! What a host fetches and from where: one HTTP client with the download deadlines, the
 //! origins every download may reach, and the wider scope a request naming the cluster's
-//! peers gets.
+//! peers gets; and meshes fetched and decoded in one go ([`Downloads::mesh`]).
 
 use super::config::{
     DOWNLOAD_CONNECT_TIMEOUT, DOWNLOAD_READ_TIMEOUT, DOWNLOAD_TIMEOUT, HostConfig, MAX_URL_CHARS,
@@ -9,10 +9,10 @@ use meshflow_api::ClientError;
 use meshflow_api::fetch_rules::{
     FetchScope, OriginError, Origins, Refusal, check_origin, guarded_client, origin, quoted,
 };
+use std::time::{Duration, Instant};
+
 use prometheus_client::metrics::counter::Counter;
 use tokio_util::sync::CancellationToken;
-
-use std::time::{Duration, Instant};
 
 use crate::meshes::{self, CurrentMesh, MeshEncoding, MeshError};
 use crate::spool::{self, SpoolError, Spooled, Tap};
@@ -154,9 +154,9 @@ impl Downloads {
     }
 
     /// Downloads a mesh into a file (kept as its blob by renaming it) and decodes it: a packed
-    /// mesh, as its URL names it, while its bytes arrive (the connectivity before the
-    /// geometry is in: most of the decoding off the critical path), any other once they are
-    /// all in.
+    /// mesh, as its URL names it, while its bytes arrive (the connectivity, then each
+    /// geometry block, as they come: the decoding off the critical path), any other once
+    /// they are all in.
     pub async fn mesh(
         &self,
         url: &str,
