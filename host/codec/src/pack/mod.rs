@@ -72,8 +72,19 @@ const ELEMENT_SLACK: u64 = 1 << 16;
 /// Packs a mesh. Refuses meshes that are not whole triangles over existing vertices.
 pub fn encode(mesh: &MeshData) -> Result<Vec<u8>, PackError> {
     validate(mesh)?;
+    // The connectivity and the geometry are coded independently: on two threads.
+    std::thread::scope(|scope| {
+        let connectivity = scope.spawn(|| encode_connectivity(mesh));
+        let (geometry, attributes, grid) = encode_geometry(mesh);
+        let connectivity = connectivity.join().expect("coding the connectivity does not panic");
+        Ok(seal_sections(mesh, grid, [&connectivity, &geometry, &attributes]))
+    })
+}
+
+/// The geometry section (positions in coding order, in blocks), the attributes section, and
+/// the grid the positions were found on.
+fn encode_geometry(mesh: &MeshData) -> (Vec<u8>, Vec<u8>, Option<Grid>) {
     let vertex_count = mesh.vertex_count();
-    let connectivity = encode_connectivity(mesh);
     let around = VertexTriangles::new(vertex_count, &mesh.triangles);
     let grid = Grid::detect([&mesh.positions[..]]);
     let (mut geometry, mut block) = (Vec::new(), SymbolWriter::new());
@@ -104,20 +115,26 @@ pub fn encode(mesh: &MeshData) -> Result<Vec<u8>, PackError> {
             &Geometry::new(positions, triangles, &around, &coded),
         ),
     };
-    let sections = connectivity.len() + geometry.len() + attributes.len();
-    let mut out = sealed_front(MAGIC, VERSION, 64 + sections);
+    (geometry, attributes, grid)
+}
+
+/// The file: front, header and the three sections, sealed.
+fn seal_sections(mesh: &MeshData, grid: Option<Grid>, sections: [&[u8]; 3]) -> Vec<u8> {
+    let [connectivity, geometry, attributes] = sections;
+    let length = connectivity.len() + geometry.len() + attributes.len();
+    let mut out = sealed_front(MAGIC, VERSION, 64 + length);
     out.extend_from_slice(&mesh.content_hash().0);
-    put_varint(&mut out, vertex_count as u64);
+    put_varint(&mut out, mesh.vertex_count() as u64);
     put_varint(&mut out, mesh.triangle_count() as u64);
     put_grid(&mut out, grid);
     put_varint(&mut out, connectivity.len() as u64);
     put_varint(&mut out, geometry.len() as u64);
     put_varint(&mut out, attributes.len() as u64);
-    out.extend_from_slice(&connectivity);
-    out.extend_from_slice(&geometry);
-    out.extend_from_slice(&attributes);
+    out.extend_from_slice(connectivity);
+    out.extend_from_slice(geometry);
+    out.extend_from_slice(attributes);
     seal(&mut out);
-    Ok(out)
+    out
 }
 
 /// The content hash a packed mesh states, its seal checked and nothing decoded: the hash
