@@ -77,6 +77,9 @@ pub const MAX_ERROR_BODY_BYTES: usize = 16 << 10;
 
 /// Redirects [`fetch`] follows, each checked against the fetch rules.
 pub const MAX_REDIRECTS: usize = 5;
+/// The largest JSON answer a client reads (a host's services or run result, an engine's run
+/// record): far above any real one, and what a lying server can make it hold.
+pub const MAX_JSON_ANSWER_BYTES: u64 = 64 << 20;
 
 impl ClientError {
     /// Whether another host might succeed where this one failed: it could not be reached,
@@ -138,7 +141,19 @@ impl Endpoint {
     ) -> Result<T, ClientError> {
         let url = format!("{}{path}", self.base);
         let response = send(build(self.request(method, &url)), &url).await?;
-        response.json().await.map_err(|e| ClientError::transport(&url, e))
+        // A server answering more than any answer can hold is broken or lying: a failure of
+        // that server (the engine tries another host), not of the request.
+        let body =
+            read_capped(response, &url, MAX_JSON_ANSWER_BYTES).await.map_err(|e| match e {
+                ClientError::TooLarge { url, limit } => {
+                    ClientError::Protocol { url, message: format!("an answer over {limit} bytes") }
+                }
+                other => other,
+            })?;
+        serde_json::from_slice(&body).map_err(|e| ClientError::Protocol {
+            url: url.clone(),
+            message: format!("the answer is not the JSON expected: {e}"),
+        })
     }
 
     pub async fn empty(
@@ -361,6 +376,29 @@ mod tests {
             }
         });
         (url, seen)
+    }
+
+    #[tokio::test]
+    async fn a_json_answer_larger_than_the_cap_is_refused_unread() {
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let base = format!("http://{}", listener.local_addr().unwrap());
+        tokio::spawn(async move {
+            let (mut socket, _) = listener.accept().await.unwrap();
+            let mut head = [0u8; 4096];
+            let _ = socket.read(&mut head).await;
+            // Announces a body one byte over the cap and sends a start of it.
+            let answer = format!(
+                "HTTP/1.1 200 OK\r\ncontent-type: application/json\r\ncontent-length: {}\r\n\r\n{{\"status\": \"",
+                MAX_JSON_ANSWER_BYTES + 1
+            );
+            socket.write_all(answer.as_bytes()).await.unwrap();
+            tokio::time::sleep(Duration::from_secs(5)).await;
+        });
+        let endpoint = Endpoint::new(&base, default_client());
+        let answer = endpoint.json::<serde_json::Value>(Method::GET, "/health", |r| r).await;
+        let error = answer.unwrap_err();
+        assert!(error.is_host_failure(), "{error}");
+        assert!(error.to_string().contains("an answer over 67108864 bytes"), "{error}");
     }
 
     #[tokio::test]

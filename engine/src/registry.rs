@@ -55,6 +55,10 @@ pub struct HostState {
     instance: Option<String>,
 }
 
+/// The longest `Health::instance` kept (hosts send 16 hex digits); a longer one is not
+/// believed, and restarts of that host go unnoticed.
+const MAX_INSTANCE_CHARS: usize = 64;
+
 impl HostState {
     /// The host's count of runs in progress, as a poll got it.
     fn polled_running(&mut self, running: u32) {
@@ -245,7 +249,9 @@ impl HostEntry {
                 state.services = services;
                 state.foreign_plugins = health.foreign_plugins;
                 state.last_error = None;
-                let before = std::mem::replace(&mut state.instance, health.instance);
+                // A host's own word, kept only at the length a real one has.
+                let instance = health.instance.filter(|i| i.len() <= MAX_INSTANCE_CHARS);
+                let before = std::mem::replace(&mut state.instance, instance);
                 before.is_some() && before != state.instance
             }
             Err(error) => {
