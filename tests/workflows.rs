@@ -628,6 +628,16 @@ async fn a_step_run_on_partitions_gives_hosts_that_run_it_whole_the_same_hash() 
     assert!(text(&smoothing["report"]).contains("partitions"), "{smoothing}");
 }
 
+/// Degenerate repair on a manifold mesh, else removing small components: a test and a
+/// filter after the step before them.
+fn repair_if_manifold() -> Json {
+    json!({
+        "if": {"check": "is-manifold", "op": "==", "value": true},
+        "then": [{"run": "remove-degenerate-triangles"}],
+        "else": [{"run": "remove-smallest-components"}]
+    })
+}
+
 /// Code moves to the data (issue 34 item 3): after a long smoothing step, the WHILE test
 /// planned on another host runs on the smoothing host instead, its plugin fetched there,
 /// because the other host would first have to re-run the smoothing; its later rounds decide
@@ -644,11 +654,7 @@ async fn a_step_runs_where_the_mesh_is_when_bringing_the_mesh_over_would_take_lo
                 "do": [{"run": "laplacian-smoothing"}],
                 "max-iterations": 2
             },
-            {
-                "if": {"check": "is-manifold", "op": "==", "value": true},
-                "then": [{"run": "remove-degenerate-triangles"}],
-                "else": [{"run": "remove-smallest-components"}]
-            }
+            repair_if_manifold()
         ],
         "transfer": "replay"
     });
@@ -714,11 +720,7 @@ async fn a_move_to_the_data_asks_for_its_plugin_whatever_the_engine_remembers() 
     let workflow = json!({
         "steps": [
             smoothing,
-            {
-                "if": {"check": "is-manifold", "op": "==", "value": true},
-                "then": [{"run": "remove-degenerate-triangles"}],
-                "else": [{"run": "remove-smallest-components"}]
-            }
+            repair_if_manifold()
         ],
         "transfer": "replay"
     });

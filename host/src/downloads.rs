@@ -31,15 +31,6 @@ pub struct FetchedMesh {
     pub load: Duration,
 }
 
-/// Why a mesh could not be downloaded, or read as a mesh.
-#[derive(Debug, thiserror::Error)]
-pub enum FetchMeshError {
-    #[error(transparent)]
-    Download(#[from] SpoolError),
-    #[error(transparent)]
-    Mesh(#[from] MeshError),
-}
-
 /// A request named a peer that is not an origin.
 #[derive(Debug, thiserror::Error)]
 #[error("peers: {0}")]
@@ -157,12 +148,12 @@ impl Downloads {
     /// mesh, as its URL names it, while its bytes arrive (the connectivity, then each
     /// geometry block, as they come: the decoding off the critical path), any other once
     /// they are all in.
-    pub async fn mesh(
+    pub async fn mesh<E: From<SpoolError> + From<MeshError>>(
         &self,
         url: &str,
         scope: &FetchScope,
         cancel: &CancellationToken,
-    ) -> Result<FetchedMesh, FetchMeshError> {
+    ) -> Result<FetchedMesh, E> {
         let started = Instant::now();
         let (tap, arriving) = match MeshEncoding::by_url(url) {
             Some(MeshEncoding::Packed) => {

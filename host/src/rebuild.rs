@@ -10,7 +10,6 @@ use meshflow_codec::replay::{self, ReplayError};
 use meshflow_mesh::MeshData;
 
 use super::blobs::{BlobError, Stored};
-use super::downloads::FetchMeshError;
 use super::downloads::PeersError;
 use super::meshes::{self, CORRECTION, CurrentMesh, MeshEncoding, MeshError, REPLAY, hashed};
 use super::replay::{PluginSource, ReplayFailure};
@@ -55,15 +54,6 @@ pub enum RebuildError {
     },
     #[error(transparent)]
     Task(#[from] tokio::task::JoinError),
-}
-
-impl From<FetchMeshError> for RebuildError {
-    fn from(error: FetchMeshError) -> Self {
-        match error {
-            FetchMeshError::Download(error) => error.into(),
-            FetchMeshError::Mesh(error) => error.into(),
-        }
-    }
 }
 
 /// Adds a session on `record` (its input not yet loaded) and starts loading it in the
@@ -160,7 +150,7 @@ async fn download_input<'a>(
 ) -> Result<(String, CurrentMesh, LoadReport, Stored<'a>), RebuildError> {
     let scope = host.downloads.scope(&record.peers)?;
     // On disk as it comes, kept as the blob by renaming; a packed input decoded meanwhile.
-    let fetched = host.downloads.mesh(&record.input_url, &scope, cancel).await?;
+    let fetched = host.downloads.mesh::<RebuildError>(&record.input_url, &scope, cancel).await?;
     let (spooled, current, encoding) = (fetched.spooled, fetched.mesh, fetched.encoding);
     let hash = &current.hash;
     // On a grid, the expected hash is the snapped mesh's: checked once it is snapped.

@@ -20,7 +20,6 @@ use meshflow_params::{ParamError, from_json as params_from_json, value_json};
 use meshflow_runtime::{Invocation, Plugin, RunError, ServiceInfo, ServiceKind};
 
 use crate::blobs::{BlobError, Stored};
-use crate::downloads::FetchMeshError;
 use crate::downloads::PeersError;
 use crate::edit_logs::StepLog;
 use crate::meshes::{self, CurrentMesh, MeshError};
@@ -62,15 +61,6 @@ pub enum StepError {
     Snap(#[source] EditError),
     #[error("naming the step: {0}")]
     Name(#[source] NameError),
-}
-
-impl From<FetchMeshError> for StepError {
-    fn from(error: FetchMeshError) -> Self {
-        match error {
-            FetchMeshError::Download(error) => error.into(),
-            FetchMeshError::Mesh(error) => error.into(),
-        }
-    }
 }
 
 /// Why a replay or an edit log was not used; the update falls back to the next transfer.
@@ -172,7 +162,7 @@ pub async fn update(
     }
     let url = &update.full.url;
     // On disk as it comes, kept as the blob by renaming; a packed mesh decoded meanwhile.
-    let fetched = host.downloads.mesh(url, &scope, &session.cancel).await?;
+    let fetched = host.downloads.mesh::<StepError>(url, &scope, &session.cancel).await?;
     download_ms += millis(fetched.download);
     downloaded += fetched.spooled.bytes;
     let (spooled, next, encoding) = (fetched.spooled, fetched.mesh, fetched.encoding);

@@ -239,13 +239,12 @@ fn wanted(plan: &Plan, workflow: &Workflow) -> Vec<(Arc<HostEntry>, Vec<Wanted>)
             continue;
         };
         let repeats = task.path.contains(".do[") || task.path.contains(".while");
-        let before = if repeats { &filters[..] } else { &filters[..index] };
+        let before = if repeats { tasks.len() } else { index };
         for (producer, plugins) in &mut wanted {
             if Arc::ptr_eq(producer, home) || producer.has_plugin(&digest) {
                 continue;
             }
-            let earlier = if repeats { &tasks[..] } else { &tasks[..index] };
-            for (filter, earlier) in before.iter().zip(earlier) {
+            for (filter, earlier) in filters[..before].iter().zip(&tasks) {
                 let Some((host, _, step)) = filter else { continue };
                 if !Arc::ptr_eq(host, producer) {
                     continue;
