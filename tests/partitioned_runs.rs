@@ -1,5 +1,5 @@
 //! Meshes larger than one sandbox (issue 33): services that declare themselves local
-//! (Laplacian and Taubin smoothing) run on partitions of a large mesh, and give the
+//! (Laplacian and Taubin smoothing, add-noise) run on partitions of a large mesh, and give the
 //! whole-mesh result bit for bit — by the step's edit log and by a replay on another run —
 //! and under a memory cap the whole run exceeds they still finish.
 
@@ -26,8 +26,9 @@ fn smoothing_a_2m_vertex_scan_on_partitions_gives_the_whole_mesh_hash() {
     let (edits, replay) = (path("step.mfc"), path("step.mfr"));
 
     for (service, params) in [
-        ("laplacian-smoothing", ["--param", "iterations=3"]),
-        ("taubin-smoothing", ["--param", "iterations=2"]),
+        ("laplacian-smoothing", vec!["--param", "iterations=3"]),
+        ("taubin-smoothing", vec!["--param", "iterations=2"]),
+        ("add-noise", vec!["--param", "amount=0.2", "--param", "seed=9"]),
     ] {
         let whole = apply(
             &scan,

@@ -9,6 +9,7 @@ use crate::attributes::{
     AttributeDomain, AttributeInfo, AttributeValues, COLOR, NORMAL, QUALITY, TEXCOORD,
 };
 use crate::bindings::meshflow::geometry::mesh::Mesh as RawMesh;
+use crate::geometry::{BoundingBox, bounding_box};
 
 /// What [`Mesh::triangles`] shows in all three corners of a triangle removed in this run.
 pub const REMOVED: u32 = u32::MAX;
@@ -107,6 +108,32 @@ impl<'a> Mesh<'a> {
     /// Vertices removed during this run, ascending.
     pub fn removed_vertices(&self) -> Vec<u32> {
         dispatch!(self, removed_vertices())
+    }
+
+    // ---- the whole mesh, for a service that runs on partitions ---------------------------
+
+    /// Per vertex slot, its id in the whole mesh: on a partition (see [`Service::local`]),
+    /// what the host says; on the whole mesh, the slot's own id. A key that stays with a
+    /// vertex however the mesh is cut.
+    ///
+    /// [`Service::local`]: crate::Service::local
+    pub fn whole_ids(&self) -> Vec<u32> {
+        dispatch!(self, whole_ids()).unwrap_or_else(|| (0..self.vertex_slots() as u32).collect())
+    }
+
+    /// The bounding box of the whole mesh as the step received it: on a partition, what the
+    /// host says; on the whole mesh, that of [`positions`](Self::positions) (so ask before
+    /// moving vertices). `None` when no coordinate is a number.
+    pub fn whole_bounds(&self) -> Option<BoundingBox> {
+        match dispatch!(self, whole_bounds()) {
+            None => bounding_box(&self.positions()),
+            Some(bounds) => match bounds[..] {
+                [x0, y0, z0, x1, y1, z1] => {
+                    Some(BoundingBox { min: [x0, y0, z0], max: [x1, y1, z1] })
+                }
+                _ => None,
+            },
+        }
     }
 
     // ---- derived connectivity: the host derives it once per mesh version ------------------

@@ -160,6 +160,12 @@ impl NativeMesh {
     pub fn removed_vertices(&self) -> Vec<u32> {
         self.read(|m| m.removed_vertices())
     }
+    pub fn whole_ids(&self) -> Option<Vec<u32>> {
+        self.read(|m| m.whole_ids())
+    }
+    pub fn whole_bounds(&self) -> Option<Vec<f32>> {
+        self.read(|m| m.whole_bounds())
+    }
     /// Derived from the current state at each call, as the host does in a run that edits.
     fn connectivity(&self) -> meshflow_topology::Connectivity {
         self.read(|m| {

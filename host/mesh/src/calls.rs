@@ -107,6 +107,12 @@ pub trait MeshCalls {
     fn removed_vertices(&self) -> Vec<u32> {
         self.store().removed_vertices()
     }
+    fn whole_ids(&self) -> Option<Vec<u32>> {
+        self.store().whole().map(|whole| whole.ids.clone())
+    }
+    fn whole_bounds(&self) -> Option<Vec<f32>> {
+        self.store().whole().map(|whole| whole.bounds.clone())
+    }
     fn position(&self, vertex: u32) -> Result<(f32, f32, f32), EditError> {
         self.store().position(vertex).map(|[x, y, z]| (x, y, z))
     }

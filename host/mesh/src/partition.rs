@@ -10,6 +10,8 @@
 //! code that visits neighbours or triangles in ascending id order (sums in a fixed order)
 //! visits them in the same order on the partition, the condition for bit-identical results.
 
+use meshflow_topology::geometry::{BoundingBox, bounding_box};
+
 use crate::MeshData;
 
 /// Bits of the Morton code per axis: 1024 cells along each side of the bounding box are
@@ -19,12 +21,25 @@ const MORTON_BITS: u32 = 10;
 /// A mesh prepared for cutting: its cores and the triangles around each vertex.
 pub struct Partitioning<'a> {
     mesh: &'a MeshData,
+    /// The mesh's bounding box as [`Whole::bounds`] gives it.
+    extent: Vec<f32>,
     /// Every vertex id, in Morton order; core `i` is `order[bounds[i]..bounds[i + 1]]`.
     order: Vec<u32>,
     bounds: Vec<usize>,
     /// The triangles around vertex `v`: `around[starts[v]..starts[v + 1]]`, ascending.
     starts: Vec<u32>,
     around: Vec<u32>,
+}
+
+/// What a partition is part of, as a service run on it reads it (WIT `whole-ids`,
+/// `whole-bounds`): what keeps a local service's result independent of the cut.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Whole {
+    /// The whole mesh's id of each of the partition's vertex slots.
+    pub ids: Vec<u32>,
+    /// `min x, min y, min z, max x, max y, max z` over the whole mesh's positions (NaNs
+    /// skipped); empty when no coordinate is a number.
+    pub bounds: Vec<f32>,
 }
 
 /// One partition: a mesh of its own and where its elements come from.
@@ -44,7 +59,11 @@ impl<'a> Partitioning<'a> {
     pub fn new(mesh: &'a MeshData, max_core_triangles: usize) -> Self {
         let vertex_count = mesh.vertex_count();
         let (starts, around) = triangles_around(vertex_count, &mesh.triangles);
-        let order = morton_order(&mesh.positions);
+        let bbox = bounding_box(&mesh.positions);
+        // Without a number among the coordinates every vertex falls in one cell: id order.
+        let unplaced = BoundingBox { min: [0.0; 3], max: [0.0; 3] };
+        let order = morton_order(&mesh.positions, bbox.unwrap_or(unplaced));
+        let extent = bbox.map_or_else(Vec::new, |b| [b.min, b.max].concat());
         // A core closes when its vertices' corners reach 3 × the budget, or its vertex
         // count reaches the budget (a cloud of points with no triangles).
         let budget = max_core_triangles.max(1);
@@ -61,7 +80,12 @@ impl<'a> Partitioning<'a> {
         if *bounds.last().expect("starts with 0") != order.len() {
             bounds.push(order.len());
         }
-        Self { mesh, order, bounds, starts, around }
+        Self { mesh, extent, order, bounds, starts, around }
+    }
+
+    /// What partition `part` (of this cut) is part of.
+    pub fn whole(&self, part: &Partition) -> Whole {
+        Whole { ids: part.vertices.clone(), bounds: self.extent.clone() }
     }
 
     /// How many partitions the mesh is cut into.
@@ -196,17 +220,10 @@ fn triangles_around(vertex_count: usize, triangles: &[u32]) -> (Vec<u32>, Vec<u3
     (starts, around)
 }
 
-/// Vertex ids sorted by the Morton code of their cell in the bounding box, then by id.
-fn morton_order(positions: &[f32]) -> Vec<u32> {
+/// Vertex ids sorted by the Morton code of their cell in the bounding box `bbox`, then by id.
+fn morton_order(positions: &[f32], bbox: BoundingBox) -> Vec<u32> {
     let (points, _) = positions.as_chunks::<3>();
-    let mut lo = [f32::INFINITY; 3];
-    let mut hi = [f32::NEG_INFINITY; 3];
-    for p in points {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
+    let BoundingBox { min: lo, max: hi } = bbox;
     let cells = (1u32 << MORTON_BITS) as f32;
     let scale = [0, 1, 2].map(|k| {
         let extent = hi[k] - lo[k];
@@ -293,6 +310,22 @@ mod tests {
             assert!(indices.windows(2).all(|w| w[0] < w[1]), "triangles keep their order");
         }
         assert!(owned.iter().all(|&n| n == 1), "{owned:?}");
+    }
+
+    #[test]
+    fn a_partition_knows_its_whole_mesh_and_coordinates_without_numbers_still_get_a_core() {
+        let mut mesh = strip(30);
+        let cut = Partitioning::new(&mesh, 8);
+        let part = cut.partition(2, 1, usize::MAX).unwrap();
+        let whole = cut.whole(&part);
+        assert_eq!(whole.ids, part.vertices);
+        assert_eq!(whole.bounds, [0.0, 0.0, 0.0, 30.0, 1.0, 0.0]);
+        // A hostile file: no coordinate is a number. Every vertex is still in one core.
+        mesh.positions.fill(f32::NAN);
+        let cut = Partitioning::new(&mesh, 8);
+        let cores: usize = (0..cut.len()).map(|i| cut.partition(i, 0, 0).unwrap().core.len()).sum();
+        assert_eq!(cores, mesh.vertex_count());
+        assert!(cut.whole(&cut.partition(0, 0, 0).unwrap()).bounds.is_empty());
     }
 
     #[test]

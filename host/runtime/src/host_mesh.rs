@@ -96,6 +96,14 @@ impl HostMesh for RunState {
         Ok(MeshCalls::removed_vertices(self))
     }
 
+    fn whole_ids(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<Option<Vec<u32>>> {
+        Ok(MeshCalls::whole_ids(self))
+    }
+
+    fn whole_bounds(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<Option<Vec<f32>>> {
+        Ok(MeshCalls::whole_bounds(self))
+    }
+
     fn position(&mut self, _: Resource<MeshHandle>, v: u32) -> EditResult<(f32, f32, f32)> {
         Ok(MeshCalls::position(self, v).map_err(to_wit))
     }

@@ -251,6 +251,7 @@ impl Work<'_> {
             });
         }
         let triangles = part.mesh.triangle_count();
+        let whole = self.cut.whole(&part);
         let (outcome, state) = self.runtime.call(
             slot,
             &self.plugin.pre,
@@ -259,6 +260,7 @@ impl Work<'_> {
             false,
             left,
             |store, p, _, mesh| {
+                store.data_mut().mesh.set_whole(whole);
                 p.meshflow_geometry_service().call_run(store, self.service, mesh, self.params)
             },
         )?;

@@ -38,7 +38,7 @@ fn partitioned(triangles: usize) -> Limits {
 #[test]
 fn smoothing_on_partitions_reaches_the_whole_mesh_hash() {
     let mesh = scan_mesh();
-    let cases: [(&str, Vec<(&str, Value)>); 4] = [
+    let cases: [(&str, Vec<(&str, Value)>); 5] = [
         ("laplacian-smoothing", vec![("iterations", Value::Integer(3))]),
         (
             "laplacian-smoothing",
@@ -50,6 +50,8 @@ fn smoothing_on_partitions_reaches_the_whole_mesh_hash() {
         ),
         ("taubin-smoothing", vec![("iterations", Value::Integer(2))]),
         ("laplacian-smoothing", vec![("iterations", Value::Integer(1))]),
+        // Reach 0: each partition is its core alone, and draws by the whole mesh's ids.
+        ("add-noise", vec![("amount", Value::Real(0.5)), ("seed", Value::Integer(3))]),
     ];
     for (service, params) in &cases {
         let whole = run(Limits::default(), service, &mesh, params);
@@ -69,9 +71,9 @@ fn smoothing_on_partitions_reaches_the_whole_mesh_hash() {
 #[test]
 fn a_service_that_is_not_local_runs_whole_and_a_small_mesh_is_not_cut() {
     let mesh = scan_mesh();
-    let noise = [("amount", Value::Real(0.5)), ("seed", Value::Integer(3))];
-    let output = run(partitioned(8_000), "add-noise", &mesh, &noise);
-    assert_eq!(output.partitions, None, "add-noise draws in vertex order: not local");
+    let mean = [("kind", Value::Text("mean".into()))];
+    let output = run(partitioned(8_000), "curvature", &mesh, &mean);
+    assert_eq!(output.partitions, None, "curvature declares no reach");
     let small = run(partitioned(mesh.triangle_count()), "laplacian-smoothing", &mesh, &[]);
     assert_eq!(small.partitions, None);
 }

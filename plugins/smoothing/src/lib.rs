@@ -8,7 +8,6 @@ pub mod noise;
 pub mod random;
 pub mod taubin;
 
-use meshflow_plugin_sdk::geometry::bounding_box;
 use meshflow_plugin_sdk::{Mesh, ParamSpec, Params, Result, Service};
 
 use laplacian::{Pinning, Weights};
@@ -47,6 +46,11 @@ fn laplacian_reach(params: &Params) -> Result<u32> {
     Ok(params.integer("iterations")? as u32)
 }
 
+/// Each vertex moves by a draw of its own.
+fn noise_reach(_: &Params) -> Result<u32> {
+    Ok(0)
+}
+
 /// A Taubin iteration is two Laplacian steps.
 fn taubin_reach(params: &Params) -> Result<u32> {
     Ok(2 * params.integer("iterations")? as u32)
@@ -55,10 +59,11 @@ fn taubin_reach(params: &Params) -> Result<u32> {
 fn add_noise(mesh: &Mesh, params: &Params) -> Result<String> {
     let percent = params.real("amount")?;
     let seed = params.integer("seed")? as u64;
-    let positions = mesh.positions();
-    let diagonal = bounding_box(&positions).map_or(0.0, |b| b.diagonal());
+    // The whole mesh's size and ids: the same draws on partitions as on the whole mesh.
+    let diagonal = mesh.whole_bounds().map_or(0.0, |b| b.diagonal());
     let radius = percent / 100.0 * diagonal;
-    mesh.set_positions(&noise::add_noise(&positions, radius, seed))?;
+    let positions = mesh.positions();
+    mesh.set_positions(&noise::add_noise(&positions, &mesh.whole_ids(), radius, seed))?;
     Ok(format!(
         "moved {} vertices by up to {radius:.6} ({percent}% of the bounding-box diagonal), seed {seed}",
         mesh.vertex_count()
@@ -143,7 +148,8 @@ fn services() -> Vec<Service> {
             ParamSpec::integer("seed", 0)
                 .range(0.0, i64::MAX as f64)
                 .doc("Seed of the random sequence."),
-        ),
+        )
+        .local(noise_reach),
         Service::filter(
             "curvature",
             "Writes each vertex's discrete curvature as its quality, to colour by (Meyer et \

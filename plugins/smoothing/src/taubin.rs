@@ -72,7 +72,8 @@ mod tests {
     #[test]
     fn taubin_keeps_the_volume_of_a_noised_sphere_where_laplacian_shrinks_it() {
         let (clean, triangles) = uv_sphere(40, 80);
-        let noised = add_noise(&clean, 0.02, 7);
+        let ids: Vec<u32> = (0..clean.len() as u32 / 3).collect();
+        let noised = add_noise(&clean, &ids, 0.02, 7);
         let before = volume(&noised, &triangles);
         assert!((before - 4.0 / 3.0 * std::f64::consts::PI).abs() < 0.05, "{before}");
         let taubin = smooth(&noised, &triangles, 0.5, -0.53, 10);

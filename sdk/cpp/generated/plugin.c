@@ -26,6 +26,12 @@ extern void __wasm_import_meshflow_geometry_mesh_method_mesh_triangles(int32_t, 
 __attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.removed-vertices")))
 extern void __wasm_import_meshflow_geometry_mesh_method_mesh_removed_vertices(int32_t, uint8_t *);
 
+__attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.whole-ids")))
+extern void __wasm_import_meshflow_geometry_mesh_method_mesh_whole_ids(int32_t, uint8_t *);
+
+__attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.whole-bounds")))
+extern void __wasm_import_meshflow_geometry_mesh_method_mesh_whole_bounds(int32_t, uint8_t *);
+
 __attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.half-edge-opposites")))
 extern void __wasm_import_meshflow_geometry_mesh_method_mesh_half_edge_opposites(int32_t, uint8_t *);
 
@@ -439,6 +445,18 @@ meshflow_geometry_mesh_borrow_mesh_t meshflow_geometry_mesh_borrow_mesh(meshflow
   return (meshflow_geometry_mesh_borrow_mesh_t) { arg.__handle };
 }
 
+void plugin_option_list_u32_free(plugin_option_list_u32_t *ptr) {
+  if (ptr->is_some) {
+    plugin_list_u32_free(&ptr->val);
+  }
+}
+
+void plugin_option_list_f32_free(plugin_option_list_f32_t *ptr) {
+  if (ptr->is_some) {
+    plugin_list_f32_free(&ptr->val);
+  }
+}
+
 void meshflow_geometry_mesh_result_tuple3_f32_f32_f32_edit_error_free(meshflow_geometry_mesh_result_tuple3_f32_f32_f32_edit_error_t *ptr) {
   if (!ptr->is_err) {
   } else {
@@ -483,12 +501,6 @@ void meshflow_geometry_mesh_result_attribute_values_edit_error_free(meshflow_geo
     meshflow_geometry_mesh_attribute_values_free(&ptr->val.ok);
   } else {
     meshflow_geometry_mesh_edit_error_free(&ptr->val.err);
-  }
-}
-
-void plugin_option_list_u32_free(plugin_option_list_u32_t *ptr) {
-  if (ptr->is_some) {
-    plugin_list_u32_free(&ptr->val);
   }
 }
 
@@ -603,6 +615,48 @@ void meshflow_geometry_mesh_method_mesh_removed_vertices(meshflow_geometry_mesh_
   uint8_t *ptr = (uint8_t *) &ret_area;
   __wasm_import_meshflow_geometry_mesh_method_mesh_removed_vertices((self).__handle, ptr);
   *ret = (plugin_list_u32_t) { (uint32_t*)(*((uint8_t **) (ptr + 0))), (*((size_t*) (ptr + sizeof(void*)))) };
+}
+
+bool meshflow_geometry_mesh_method_mesh_whole_ids(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_u32_t *ret) {
+  __attribute__((__aligned__(sizeof(void*))))
+  uint8_t ret_area[(3*sizeof(void*))];
+  uint8_t *ptr = (uint8_t *) &ret_area;
+  __wasm_import_meshflow_geometry_mesh_method_mesh_whole_ids((self).__handle, ptr);
+  plugin_option_list_u32_t option;
+  switch ((int32_t) *((uint8_t*) (ptr + 0))) {
+    case 0: {
+      option.is_some = false;
+      break;
+    }
+    case 1: {
+      option.is_some = true;
+      option.val = (plugin_list_u32_t) { (uint32_t*)(*((uint8_t **) (ptr + sizeof(void*)))), (*((size_t*) (ptr + (2*sizeof(void*))))) };
+      break;
+    }
+  }
+  *ret = option.val;
+  return option.is_some;
+}
+
+bool meshflow_geometry_mesh_method_mesh_whole_bounds(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_f32_t *ret) {
+  __attribute__((__aligned__(sizeof(void*))))
+  uint8_t ret_area[(3*sizeof(void*))];
+  uint8_t *ptr = (uint8_t *) &ret_area;
+  __wasm_import_meshflow_geometry_mesh_method_mesh_whole_bounds((self).__handle, ptr);
+  plugin_option_list_f32_t option;
+  switch ((int32_t) *((uint8_t*) (ptr + 0))) {
+    case 0: {
+      option.is_some = false;
+      break;
+    }
+    case 1: {
+      option.is_some = true;
+      option.val = (plugin_list_f32_t) { (float*)(*((uint8_t **) (ptr + sizeof(void*)))), (*((size_t*) (ptr + (2*sizeof(void*))))) };
+      break;
+    }
+  }
+  *ret = option.val;
+  return option.is_some;
 }
 
 void meshflow_geometry_mesh_method_mesh_half_edge_opposites(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_u32_t *ret) {

@@ -218,6 +218,16 @@ typedef struct meshflow_geometry_mesh_borrow_mesh_t {
 } meshflow_geometry_mesh_borrow_mesh_t;
 
 typedef struct {
+  bool is_some;
+  plugin_list_u32_t val;
+} plugin_option_list_u32_t;
+
+typedef struct {
+  bool is_some;
+  plugin_list_f32_t val;
+} plugin_option_list_f32_t;
+
+typedef struct {
   float f0;
   float f1;
   float f2;
@@ -273,11 +283,6 @@ typedef struct {
   } val;
 } meshflow_geometry_mesh_result_attribute_values_edit_error_t;
 
-typedef struct {
-  bool is_some;
-  plugin_list_u32_t val;
-} plugin_option_list_u32_t;
-
 typedef meshflow_geometry_types_service_info_t exports_meshflow_geometry_service_service_info_t;
 
 typedef meshflow_geometry_types_param_t exports_meshflow_geometry_service_param_t;
@@ -322,6 +327,16 @@ extern void meshflow_geometry_mesh_method_mesh_positions(meshflow_geometry_mesh_
 extern void meshflow_geometry_mesh_method_mesh_triangles(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_u32_t *ret);
 // Ids of the vertices removed during this run, ascending.
 extern void meshflow_geometry_mesh_method_mesh_removed_vertices(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_u32_t *ret);
+// ---- the whole mesh, for a service run on partitions (see `locality`): `none`
+// when this mesh is the whole one. ----------------------------------------------
+// Per vertex slot of a partition, its id in the whole mesh (ascending: partitions
+// keep the whole mesh's order). A key that stays with a vertex however the mesh is
+// cut, e.g. for randomness that must not depend on the cut.
+extern bool meshflow_geometry_mesh_method_mesh_whole_ids(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_u32_t *ret);
+// On a partition: `min x, min y, min z, max x, max y, max z` over every vertex
+// slot of the whole mesh as the step received it, NaN coordinates skipped (empty
+// when no coordinate is a number).
+extern bool meshflow_geometry_mesh_method_mesh_whole_bounds(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_f32_t *ret);
 // ---- derived connectivity: bulk reads the host derives once per mesh version and
 // keeps with it, so the services that follow on the same mesh (checks, mostly) read
 // it rather than each deriving it again. In a run that edits, each call derives it
@@ -478,6 +493,10 @@ extern void meshflow_geometry_mesh_mesh_drop_borrow(meshflow_geometry_mesh_borro
 
 extern meshflow_geometry_mesh_borrow_mesh_t meshflow_geometry_mesh_borrow_mesh(meshflow_geometry_mesh_own_mesh_t handle);
 
+void plugin_option_list_u32_free(plugin_option_list_u32_t *ptr);
+
+void plugin_option_list_f32_free(plugin_option_list_f32_t *ptr);
+
 void meshflow_geometry_mesh_result_tuple3_f32_f32_f32_edit_error_free(meshflow_geometry_mesh_result_tuple3_f32_f32_f32_edit_error_t *ptr);
 
 void meshflow_geometry_mesh_result_tuple3_u32_u32_u32_edit_error_free(meshflow_geometry_mesh_result_tuple3_u32_u32_u32_edit_error_t *ptr);
@@ -489,8 +508,6 @@ void meshflow_geometry_mesh_result_void_edit_error_free(meshflow_geometry_mesh_r
 void meshflow_geometry_mesh_list_attribute_info_free(meshflow_geometry_mesh_list_attribute_info_t *ptr);
 
 void meshflow_geometry_mesh_result_attribute_values_edit_error_free(meshflow_geometry_mesh_result_attribute_values_edit_error_t *ptr);
-
-void plugin_option_list_u32_free(plugin_option_list_u32_t *ptr);
 
 void exports_meshflow_geometry_service_service_info_free(exports_meshflow_geometry_service_service_info_t *ptr);
 

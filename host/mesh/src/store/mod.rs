@@ -41,6 +41,7 @@ use std::sync::Arc;
 
 use crate::MeshData;
 use crate::attributes::{Domain, NORMAL};
+use crate::partition::Whole;
 use attributes::{CornerOrigin, NormalTracking};
 use incidence::Incidence;
 
@@ -74,6 +75,8 @@ pub struct MeshStore {
     normals: Option<NormalTracking>,
     /// Vertices `add-vertices` made that took default attribute values, ascending.
     defaulted: Vec<u32>,
+    /// Present when the mesh is a partition: what it is part of.
+    whole: Option<Whole>,
 }
 
 impl MeshStore {
@@ -93,7 +96,18 @@ impl MeshStore {
             log: Vec::new(),
             normals,
             defaulted: Vec::new(),
+            whole: None,
         }
+    }
+
+    /// Marks the mesh as a partition of `whole`.
+    pub fn set_whole(&mut self, whole: Whole) {
+        self.whole = Some(whole);
+    }
+
+    /// What the mesh is a partition of; `None` when it is the whole mesh.
+    pub fn whole(&self) -> Option<&Whole> {
+        self.whole.as_ref()
     }
 
     // ---- reads -------------------------------------------------------------------------

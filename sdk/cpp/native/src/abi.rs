@@ -168,11 +168,11 @@ pub const NUMBER_U32: u8 = 2;
 pub const NUMBER_F32: u8 = 3;
 pub const NUMBER_F64: u8 = 4;
 
-/// `plugin_option_list_u32_t`.
+/// `plugin_option_list_u32_t`, `plugin_option_list_f32_t`.
 #[repr(C)]
-pub struct OptionListU32 {
+pub struct OptionList<T> {
     pub is_some: bool,
-    pub val: List<u32>,
+    pub val: List<T>,
 }
 
 /// The `{bool is_err; union {T ok; E err;}}` results of `plugin.h`.

@@ -209,6 +209,41 @@ pub unsafe extern "C" fn meshflow_geometry_mesh_method_mesh_removed_vertices(
     unsafe { put("removed-vertices", ret, list) }
 }
 
+/// A list if the mesh is a partition, written to `ret`; whether it is one.
+///
+/// # Safety
+/// `ret` is writable.
+unsafe fn put_whole<T>(call: &str, ret: *mut List<T>, list: Option<Vec<T>>) -> bool {
+    let Some(list) = list else { return false };
+    // SAFETY: the caller's promise.
+    unsafe { put(call, ret, c_list(list)) };
+    true
+}
+
+/// # Safety
+/// `ret` is writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn meshflow_geometry_mesh_method_mesh_whole_ids(
+    mesh: Handle,
+    ret: *mut List<u32>,
+) -> bool {
+    let ids = read("whole-ids", mesh, |m| m.whole_ids());
+    // SAFETY: the caller's promise.
+    unsafe { put_whole("whole-ids", ret, ids) }
+}
+
+/// # Safety
+/// `ret` is writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn meshflow_geometry_mesh_method_mesh_whole_bounds(
+    mesh: Handle,
+    ret: *mut List<f32>,
+) -> bool {
+    let bounds = read("whole-bounds", mesh, |m| m.whole_bounds());
+    // SAFETY: the caller's promise.
+    unsafe { put_whole("whole-bounds", ret, bounds) }
+}
+
 /// The connectivity of the mesh as it is now: derived at each call, as a host does in a
 /// run that edits (and as the Rust SDK's native runs do).
 fn connectivity(call: &str, mesh: Handle) -> meshflow_topology::Connectivity {

@@ -5,7 +5,7 @@
 
 use crate::abi::{
     AttributeInfo, AttributeValues, CResult, CResultVoid, CValue, EditError, List, OptionF64,
-    OptionListU32, OptionValue, OptionValueType, Outcome, Param, ParamInfo, ServiceInfo, Str,
+    OptionList, OptionValue, OptionValueType, Outcome, Param, ParamInfo, ServiceInfo, Str,
     TAG_TEXT, Tuple3F32, Tuple3U32, c_free, free_string, trap,
 };
 
@@ -251,18 +251,35 @@ pub unsafe extern "C" fn plugin_list_f64_free(ptr: *mut List<f64>) {
     unsafe { free_list(ptr, |_| ()) }
 }
 
+/// Frees an optional list's list, if it has one.
+///
 /// # Safety
 /// `ptr` is null or a valid option.
-#[unsafe(no_mangle)]
-pub unsafe extern "C" fn plugin_option_list_u32_free(ptr: *mut OptionListU32) {
+unsafe fn free_option_list<T>(ptr: *mut OptionList<T>, free: unsafe extern "C" fn(*mut List<T>)) {
     // SAFETY: null is allowed; the list is written when `is_some`.
     unsafe {
         if let Some(option) = ptr.as_mut()
             && option.is_some
         {
-            plugin_list_u32_free(&mut option.val);
+            free(&mut option.val);
         }
     }
+}
+
+/// # Safety
+/// `ptr` is null or a valid option.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn plugin_option_list_u32_free(ptr: *mut OptionList<u32>) {
+    // SAFETY: the caller's promise.
+    unsafe { free_option_list(ptr, plugin_list_u32_free) }
+}
+
+/// # Safety
+/// `ptr` is null or a valid option.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn plugin_option_list_f32_free(ptr: *mut OptionList<f32>) {
+    // SAFETY: the caller's promise.
+    unsafe { free_option_list(ptr, plugin_list_f32_free) }
 }
 
 /// # Safety
