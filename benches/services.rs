@@ -116,7 +116,8 @@ const FILTERS: [Filter; 6] = [
         service: "add-noise",
         native: |m| {
             let diagonal = bounding_box(&m.positions).map_or(0.0, |b| b.diagonal());
-            moved(add_noise(&m.positions, 0.01 * diagonal, 0), m)
+            let ids: Vec<u32> = (0..m.vertex_count() as u32).collect();
+            moved(add_noise(&m.positions, &ids, 0.01 * diagonal, 0), m)
         },
         meshlab_issue: None,
         meshlab: "ms.apply_coord_random_displacement(displacement=pymeshlab.PercentageValue(1))",

@@ -76,8 +76,9 @@ fn smoothing_a_2m_vertex_scan_on_partitions_gives_the_whole_mesh_hash() {
         assert!(rerun.contains(&hash), "{service}: {rerun}");
     }
 
-    // Under a cap a MiB below what the whole run needs, it fails whole and finishes on the
-    // partitions the cap itself chooses (without --max-partition-triangles), to the bit.
+    // Under a cap a MiB below what the whole run needs, it stops whole, and without
+    // --max-partition-triangles it is then cut into the partitions the cap itself chooses
+    // and finishes, to the bit.
     let service = "laplacian-smoothing";
     let whole = apply(&scan, &whole_out, service, &["--max-partition-triangles", NEVER]);
     let peak = whole["guest_peak_bytes"].as_u64().unwrap();

@@ -122,11 +122,12 @@ impl<'a> Mesh<'a> {
     }
 
     /// The bounding box of the whole mesh as the step received it: on a partition, what the
-    /// host says; on the whole mesh, that of [`positions`](Self::positions) (so ask before
-    /// moving vertices). `None` when no coordinate is a number.
-    pub fn whole_bounds(&self) -> Option<BoundingBox> {
+    /// host says; on the whole mesh, that of `positions`, which must be what
+    /// [`positions`](Self::positions) read before any move (passed in, not read again: a
+    /// copy of every position). `None` when no coordinate is a number.
+    pub fn whole_bounds(&self, positions: &[f32]) -> Option<BoundingBox> {
         match dispatch!(self, whole_bounds()) {
-            None => bounding_box(&self.positions()),
+            None => bounding_box(positions),
             Some(bounds) => match bounds[..] {
                 [x0, y0, z0, x1, y1, z1] => {
                     Some(BoundingBox { min: [x0, y0, z0], max: [x1, y1, z1] })

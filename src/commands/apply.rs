@@ -2,6 +2,7 @@
 
 use crate::output::out;
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
@@ -73,7 +74,10 @@ pub fn run(args: &ApplyArgs) -> anyhow::Result<()> {
     let grid = args.quantize.map(|bits| quantize::quantize(&mut mesh, bits)).transpose()?;
     let load_time = started.elapsed();
 
-    let output = runtime.run(plugin, &args.service, mesh.clone(), &params)?;
+    // Shared with the run, which copies it at its first edit: the input is kept for the
+    // correction without a copy of its own.
+    let mesh = Arc::new(mesh);
+    let output = runtime.run(plugin, &args.service, Arc::clone(&mesh), &params)?;
     crate::plugins::show_output(&args.plugins, &output);
     let result = output.mesh.expect("a filter returns a mesh");
     // The plugin computes freely; the step's result goes back onto the grid here.

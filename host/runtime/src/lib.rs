@@ -206,28 +206,52 @@ impl Runtime {
             .map(|(name, value)| Param { name: name.clone(), value: value.clone().into() })
             .collect();
         let is_check = info.kind == ServiceKind::Check;
-        if !is_check
-            && mesh.triangle_count() > self.limits.partition_triangles()
+        let triangles = mesh.triangle_count();
+        // A local filter on a mesh over the partition size is cut at once where the size was
+        // forced or the service is known not to fit the memory cap; else it runs whole (the
+        // faster where it fits: cutting costs a sort and a copy), and is cut only once it
+        // stops at the limit, from the input kept for that.
+        let may_cut =
+            !is_check && plugin.reach.is_some() && triangles > self.limits.partition_triangles();
+        let cut_first = self.limits.max_partition_triangles.is_some()
+            || self.footprints.known_not_to_fit(
+                &plugin.digest,
+                service,
+                triangles,
+                self.limits.memory_bytes,
+            );
+        if may_cut
+            && cut_first
             && let Some(output) = self.run_partitioned(plugin, info, &mesh, &params)?
         {
             return Ok(output);
         }
+        let kept = (may_cut && !cut_first).then(|| Arc::clone(&mesh));
         let (slot, queued) = self.acquire_slot(service)?;
         let started = Instant::now();
-        let triangles = mesh.triangle_count();
-        let (outcome, state) = self
-            .call(
-                &slot,
-                &plugin.pre,
-                service,
-                mesh,
-                is_check,
-                self.limits.deadline,
-                |store, p, _, mesh| {
-                    p.meshflow_geometry_service().call_run(store, service, mesh, &params)
-                },
-            )
-            .map_err(|error| self.footprints.explain(error, &plugin.digest, service))?;
+        let whole = self.call(
+            &slot,
+            &plugin.pre,
+            service,
+            mesh,
+            is_check,
+            self.limits.deadline,
+            |store, p, _, mesh| {
+                p.meshflow_geometry_service().call_run(store, service, mesh, &params)
+            },
+        );
+        let (outcome, state) = match (whole, kept) {
+            (Ok(ran), _) => ran,
+            (Err(error @ RunError::Memory { .. }), Some(input)) => {
+                drop(slot);
+                self.footprints.stopped(&plugin.digest, service, triangles);
+                return match self.run_partitioned(plugin, info, &input, &params)? {
+                    Some(output) => Ok(output),
+                    None => Err(self.footprints.explain(error, &plugin.digest, service)),
+                };
+            }
+            (Err(error), _) => return Err(self.footprints.explain(error, &plugin.digest, service)),
+        };
         if state.memory.grew {
             self.footprints.learn(&plugin.digest, service, state.memory.peak_bytes, triangles);
         }

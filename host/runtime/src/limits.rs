@@ -34,9 +34,10 @@ pub const DEFAULT_CONCURRENT_RUNS: usize = 4;
 /// derivation is on the critical path of the first check after every filter, and with
 /// two it took 0.6x the time on a 1M-vertex scan in arbitrary vertex order.
 pub const DERIVATION_THREADS: usize = 2;
-/// Without `--max-partition-triangles`, a mesh is cut into partitions (for services that
-/// declare themselves local) when it has more triangles than the memory cap over this:
-/// 16M triangles under the default 2 GiB, where smoothing needs ~60 bytes a triangle.
+/// Without `--max-partition-triangles`, partitions (for services that declare themselves
+/// local) have cores of the memory cap over this many triangles: 16M under the default
+/// 2 GiB, where smoothing needs ~60 bytes a triangle. A larger mesh is cut only when the
+/// service is known not to fit the cap whole, or has just stopped at it.
 pub const AUTO_PARTITION_BYTES_PER_TRIANGLE: usize = 128;
 /// A partition may grow with its overlap to this many times its core's triangles before
 /// partitioning is given up and the service runs on the whole mesh (a reach so long that
@@ -86,7 +87,8 @@ pub struct Limits {
     /// Runs waiting for one of the `concurrent_runs` slots before more are refused.
     pub queued_runs: usize,
     /// Triangles of a partition's core when a local service runs on partitions; a mesh
-    /// with more is cut. `None`: the memory cap over [`AUTO_PARTITION_BYTES_PER_TRIANGLE`].
+    /// with more is cut. `None`: the memory cap over [`AUTO_PARTITION_BYTES_PER_TRIANGLE`],
+    /// and a larger mesh is cut only where the service does not fit the cap whole.
     pub max_partition_triangles: Option<usize>,
 }
 
@@ -125,7 +127,7 @@ pub fn memory_cap_bytes(mib: u64) -> Result<usize, MemoryCapError> {
 }
 
 impl Limits {
-    /// The most triangles a local service takes in one piece: larger meshes are cut.
+    /// Triangles of a partition's core: a local service on a larger mesh may be cut.
     pub fn partition_triangles(&self) -> usize {
         self.max_partition_triangles
             .unwrap_or(self.memory_bytes / AUTO_PARTITION_BYTES_PER_TRIANGLE)

@@ -79,6 +79,28 @@ fn a_service_that_is_not_local_runs_whole_and_a_small_mesh_is_not_cut() {
 }
 
 #[test]
+fn over_the_automatic_partition_size_a_service_that_fits_runs_whole() {
+    // Many triangles over few vertices: over the partition size of 256 MiB (2.1M
+    // triangles), while add-noise, which reads positions only, fits the cap whole. Whole
+    // is faster (cutting costs a sort and copies), so it is not cut.
+    let positions = (0..3 * 1000).map(|i| (i % 17) as f32).collect();
+    let triangles = (0..3 * 2_200_000).map(|i| (i / 3 + i % 3) as u32 % 1000).collect();
+    let mesh = MeshData::new(positions, triangles);
+    let limits = Limits { memory_bytes: 256 << 20, concurrent_runs: 2, ..Limits::default() };
+    assert!(limits.partition_triangles() < mesh.triangle_count());
+    let noise = [("amount", Value::Real(0.5)), ("seed", Value::Integer(3))];
+    let forced = Limits { max_partition_triangles: Some(limits.partition_triangles()), ..limits };
+    let output = run(limits, "add-noise", &mesh, &noise);
+    assert_eq!(output.partitions, None);
+    // The same size given by the operator cuts it.
+    let cut = run(forced, "add-noise", &mesh, &noise);
+    assert_eq!(cut.partitions.map(|p| p.count), Some(2));
+    assert_eq!(cut.mesh.unwrap().content_hash(), output.mesh.as_ref().unwrap().content_hash());
+    let default = run(Limits::default(), "add-noise", &mesh, &noise);
+    assert_eq!(output.mesh.unwrap().content_hash(), default.mesh.unwrap().content_hash());
+}
+
+#[test]
 fn a_reach_over_most_of_the_mesh_runs_it_whole() {
     let mesh = scan_mesh();
     // 400 Taubin iterations reach 800 rings: every partition would be most of the mesh.

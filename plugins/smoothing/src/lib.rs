@@ -60,9 +60,9 @@ fn add_noise(mesh: &Mesh, params: &Params) -> Result<String> {
     let percent = params.real("amount")?;
     let seed = params.integer("seed")? as u64;
     // The whole mesh's size and ids: the same draws on partitions as on the whole mesh.
-    let diagonal = mesh.whole_bounds().map_or(0.0, |b| b.diagonal());
-    let radius = percent / 100.0 * diagonal;
     let positions = mesh.positions();
+    let diagonal = mesh.whole_bounds(&positions).map_or(0.0, |b| b.diagonal());
+    let radius = percent / 100.0 * diagonal;
     mesh.set_positions(&noise::add_noise(&positions, &mesh.whole_ids(), radius, seed))?;
     Ok(format!(
         "moved {} vertices by up to {radius:.6} ({percent}% of the bounding-box diagonal), seed {seed}",
