@@ -4,7 +4,8 @@ Build: `make` (a venv with componentize-py, then `py.wasm`). Run:
 `meshflow apply --plugin py.wasm taubin-smoothing-py bunny.obj -o out.ply`.
 """
 
-from meshflow_plugin import Integer, Mesh, Real, Service, check, filter  # noqa: F401 (Service: the export)
+# Service and Locality: the exports componentize-py binds.
+from meshflow_plugin import Integer, Locality, Mesh, Real, Service, check, filter  # noqa: F401
 
 import taubin
 
@@ -17,6 +18,9 @@ import taubin
         Real("mu", -0.53, min=-1.0, max=-1e-6, doc="Inflating step (negative)."),
         Integer("iterations", 10, min=1, max=1000, doc="lambda|mu steps."),
     ],
+    # Each lambda|mu step reads one ring further: a host may run it on partitions of a
+    # mesh too large for one sandbox.
+    reach=lambda params: 2 * params["iterations"],
 )
 def taubin_smoothing(mesh: Mesh, params: dict) -> str:
     # Read both arrays once, smooth, write every position back in one recorded edit.

@@ -232,3 +232,32 @@ def test_native_mesh_attributes(sdk):
         mesh.set_quality([1.0])
     mesh.remove_attribute("vertex", "color")
     assert mesh.vertex_colors() is None
+
+
+def test_a_filter_declares_its_reach_to_the_locality_export(sdk):
+    mp, t, Err = sdk
+
+    @mp.filter("smooth-py", "Smooths.", params=[mp.Integer("iterations", 1, min=1, max=9)],
+               reach=lambda params: params["iterations"])
+    def smooth(mesh, params):
+        return ""
+
+    @mp.filter("fixed-py", "Reaches one ring.", reach=1)
+    def fixed(mesh, params):
+        return ""
+
+    @mp.filter("global-py", "Reads the whole mesh.")
+    def whole(mesh, params):
+        return ""
+
+    @mp.filter("lying-py", "Says a negative reach.", reach=lambda params: -1)
+    def lying(mesh, params):
+        return ""
+
+    locality = mp.Locality()
+    assert locality.reach("smooth-py", [t.Param("iterations", t.Value_Integer(3))]) == 3
+    assert locality.reach("fixed-py", []) == 1
+    # Not local, unknown, or no ring count a u32 holds: the host runs it whole.
+    assert locality.reach("global-py", []) is None
+    assert locality.reach("nope", []) is None
+    assert locality.reach("lying-py", []) is None

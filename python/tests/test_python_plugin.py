@@ -81,6 +81,20 @@ def test_the_python_component_matches_the_builtin(binary, python_plugin, tmp_pat
           f"{'equal' if ours['output_hash'] == theirs['output_hash'] else 'differ'}")
 
 
+def test_the_python_component_runs_on_partitions_to_its_whole_mesh_hash(binary, python_plugin,
+                                                                         tmp_path):
+    # The template declares reach = 2 · iterations (world local-plugin): cut into cores of
+    # 500 triangles, the bunny's 3,674 give several partitions, each in a sandbox of its own.
+    whole, _ = apply(binary, "taubin-smoothing-py", BUNNY, tmp_path / "whole.obj",
+                     "--plugin", str(python_plugin), "--param", "iterations=2")
+    assert whole["partitions"] is None
+    parts, _ = apply(binary, "taubin-smoothing-py", BUNNY, tmp_path / "parts.obj",
+                     "--plugin", str(python_plugin), "--param", "iterations=2",
+                     "--max-partition-triangles", "500")
+    assert parts["partitions"]["count"] >= 5 and parts["partitions"]["rings"] == 4, parts
+    assert parts["output_hash"] == whole["output_hash"] != whole["input_hash"]
+
+
 def wait_until_idle(engine, timeout=60.0):
     """No host runs or has assigned tasks: the planner then breaks ties by registration."""
     deadline = time.monotonic() + timeout

@@ -16,8 +16,9 @@ interface::
         mesh.set_positions(p)                # one recorded edit
         return f"lifted {mesh.vertex_count()} vertices"
 
-Build it with ``componentize-py -d wit -w plugin componentize app -o plugin.wasm`` (see
-examples/plugin-template-python/). Inside the sandbox there is no numpy, no files, no
+Build it with ``componentize-py -d wit -w local-plugin componentize app -o plugin.wasm`` (see
+examples/plugin-template-python/; the module also re-exports :class:`Locality`, or use
+``-w plugin`` for a plugin that declares no ``reach``). Inside the sandbox there is no numpy, no files, no
 network, a frozen clock and seeded randomness: plain Python and the standard library.
 
 The host checks parameters against the description before ``run`` (names, types, ranges,
@@ -34,7 +35,7 @@ from typing import Any, Callable, NamedTuple, Sequence
 
 __all__ = [
     "Mesh", "MeshError", "ServiceError", "Boolean", "Integer", "Real", "Text", "filter", "check",
-    "services", "Service", "NativeMesh", "run_native", "AttributeInfo",
+    "services", "Service", "Locality", "NativeMesh", "run_native", "AttributeInfo",
     "blend_new_vertex_attributes",
 ]
 
@@ -121,8 +122,9 @@ def _to_value(ty: str, v):
 
 # ---- services -------------------------------------------------------------------------------
 class _Svc:
-    def __init__(self, name, kind, doc, params, fn, result):
+    def __init__(self, name, kind, doc, params, fn, result, reach=None):
         self.name, self.kind, self.doc, self.params, self.fn, self.result = name, kind, doc, list(params), fn, result
+        self.reach = reach
 
     def _info(self):
         from wit_world.imports import types as t
@@ -142,11 +144,19 @@ def _register(svc: _Svc) -> None:
     _SERVICES[svc.name] = svc
 
 
-def filter(name: str, doc: str, params: Sequence[_Param] = ()) -> Callable:
+def filter(name: str, doc: str, params: Sequence[_Param] = (),
+           reach: int | Callable[[dict], int] | None = None) -> Callable:
     """Declares a filter: ``fn(mesh, params) -> str`` edits ``mesh`` and returns a short
-    report (``None`` reads as an empty report)."""
+    report (``None`` reads as an empty report).
+
+    ``reach`` declares the filter local (WIT ``locality``): it only moves vertices, and a
+    vertex's new position depends only on the mesh within that many rings of it (an ``int``,
+    or ``fn(params) -> int``), neighbours visited in ascending id order. A host may then run
+    it on partitions of a mesh larger than one sandbox, and checks that the result is the
+    same bit for bit. Needs the plugin built for world ``local-plugin``, exporting
+    :class:`Locality`. ``None``: always the whole mesh."""
     def deco(fn):
-        _register(_Svc(name, "filter", doc, params, fn, None))
+        _register(_Svc(name, "filter", doc, params, fn, None, reach))
         return fn
     return deco
 
@@ -203,6 +213,20 @@ class Service:
             raise Err(f"{name}: {e}")
         except Exception as e:  # any other failure: the run's error, with its type
             raise Err(f"{name}: {type(e).__name__}: {e}")
+
+
+class Locality:
+    """The export componentize-py binds to ``locality`` in world ``local-plugin``: each
+    filter's ``reach`` (see :func:`filter`). A plugin built for that world makes it visible
+    with ``from meshflow_plugin import Locality``."""
+
+    def reach(self, name, params):
+        svc = _SERVICES.get(name)
+        if svc is None or svc.reach is None:
+            return None
+        rings = svc.reach({p.name: p.value.value for p in params}) if callable(svc.reach) else svc.reach
+        # Anything but a ring count a u32 holds: not local (the host runs it whole).
+        return rings if isinstance(rings, int) and 0 <= rings < 2**32 else None
 
 
 # ---- the mesh -------------------------------------------------------------------------------
