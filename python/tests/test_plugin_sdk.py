@@ -261,3 +261,44 @@ def test_a_filter_declares_its_reach_to_the_locality_export(sdk):
     assert locality.reach("global-py", []) is None
     assert locality.reach("nope", []) is None
     assert locality.reach("lying-py", []) is None
+
+
+class PartitionMesh(RawMesh):
+    """A partition of a larger mesh: the host says what it is part of."""
+
+    def vertex_slots(self):
+        return 3
+
+    def whole_ids(self):
+        return [5, 9, 40]
+
+    def whole_bounds(self):
+        return [-1.0, -2.0, -3.0, 4.0, 5.0, 6.0]
+
+
+def test_the_whole_mesh_as_a_partition_and_a_whole_mesh_see_it(sdk):
+    mp, t, Err = sdk
+
+    class WholeMesh(RawMesh):
+        def vertex_slots(self):
+            return 3
+
+        def whole_ids(self):
+            return None
+
+        def whole_bounds(self):
+            return None
+
+    whole = mp.Mesh(WholeMesh(None))
+    assert list(whole.whole_ids()) == [0, 1, 2]
+    assert whole.whole_bounds(whole.positions()) == ((0.0, 0.0, 0.0), (1.0, 1.0, 0.0))
+    part = mp.Mesh(PartitionMesh(None))
+    assert list(part.whole_ids()) == [5, 9, 40]
+    assert part.whole_bounds(part.positions()) == ((-1.0, -2.0, -3.0), (4.0, 5.0, 6.0))
+    native = mp.NativeMesh([0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], [0, 1, 2])
+    assert list(native.whole_ids()) == [0, 1, 2]
+    assert native.whole_bounds(native.positions()) == whole.whole_bounds(whole.positions())
+    # NaNs are skipped; an axis without a number gives no box.
+    nan = float("nan")
+    assert mp.bounds_of([nan, 1.0, 2.0, 3.0, nan, 4.0]) == ((3.0, 1.0, 2.0), (3.0, 1.0, 4.0))
+    assert mp.bounds_of([nan, 1.0, 2.0]) is None

@@ -35,7 +35,7 @@ from typing import Any, Callable, NamedTuple, Sequence
 
 __all__ = [
     "Mesh", "MeshError", "ServiceError", "Boolean", "Integer", "Real", "Text", "filter", "check",
-    "services", "Service", "Locality", "NativeMesh", "run_native", "AttributeInfo",
+    "services", "Service", "Locality", "NativeMesh", "bounds_of", "run_native", "AttributeInfo",
     "blend_new_vertex_attributes",
 ]
 
@@ -329,6 +329,19 @@ def blend_new_vertex_attributes(mesh: "Mesh", blends) -> int:
     return written
 
 
+def bounds_of(positions):
+    """``((min x, y, z), (max x, y, z))`` over ``x y z`` triples, NaNs skipped, as the host
+    and the Rust SDK compute it; ``None`` when an axis has no number."""
+    lo, hi = [math.inf] * 3, [-math.inf] * 3
+    for i, x in enumerate(positions):
+        k = i % 3
+        if x < lo[k]:
+            lo[k] = x
+        if x > hi[k]:
+            hi[k] = x
+    return (tuple(lo), tuple(hi)) if all(lo[k] <= hi[k] for k in range(3)) else None
+
+
 class Mesh:
     """The host's mesh (the WIT's ``mesh`` resource) with Python types: bulk reads as
     ``array('f')`` / ``array('I')``, bulk edits from any sequence, refused edits as
@@ -353,6 +366,22 @@ class Mesh:
         return array("I", self.raw.triangles())
 
     def removed_vertices(self) -> array: return array("I", self.raw.removed_vertices())
+
+    # the whole mesh, for a filter run on partitions (see `filter(…, reach=)`)
+    def whole_ids(self) -> array:
+        """Per vertex slot, its id in the whole mesh (on the whole mesh, the slot's own): a
+        key that stays with a vertex however the mesh is cut."""
+        ids = self.raw.whole_ids()
+        return array("I", range(self.vertex_slots()) if ids is None else ids)
+
+    def whole_bounds(self, positions):
+        """``((min x, y, z), (max x, y, z))`` of the whole mesh as the step received it: on a
+        partition, the host's; on the whole mesh, that of ``positions``, which must be what
+        ``positions()`` read before any move. ``None`` when no coordinate is a number."""
+        given = self.raw.whole_bounds()
+        if given is None:
+            return bounds_of(positions)
+        return (tuple(given[:3]), tuple(given[3:])) if len(given) == 6 else None
 
     # per element
     def position(self, v: int): return _edit(self.raw.position, v)
@@ -450,6 +479,8 @@ class NativeMesh:
     triangle_count = triangle_slots
     def positions(self): return array("f", self._p)
     def triangles(self): return array("I", self._t)
+    def whole_ids(self): return array("I", range(len(self._p) // 3))
+    def whole_bounds(self, positions): return bounds_of(positions)
 
     def set_positions(self, xyz):
         if len(xyz) != len(self._p):
