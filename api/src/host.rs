@@ -409,3 +409,27 @@ pub struct ErrorDetail {
 pub fn millis(duration: std::time::Duration) -> f64 {
     (duration.as_secs_f64() * 1e6).round() / 1e3
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_check_value_crosses_json_bit_for_bit() {
+        // The normal instability of a smoothed bunny: serde_json's default parser read it
+        // back one ulp low, and a host's WHILE disagreed with a local run.
+        let value = 10.943364815672625_f64;
+        let sent = CheckResult {
+            service: "normal-instability".into(),
+            plugin: "d".into(),
+            value: serde_json::json!(value),
+            compute_ms: 1.0,
+            queue_ms: 0.0,
+            report: String::new(),
+            resolved_params: Default::default(),
+        };
+        let text = serde_json::to_string(&sent).unwrap();
+        let read: CheckResult = serde_json::from_str(&text).unwrap();
+        assert_eq!(read.value.as_f64().unwrap().to_bits(), value.to_bits(), "{text}");
+    }
+}
