@@ -116,79 +116,120 @@ impl<'a> Partitioning<'a> {
             .expect("no bound on its triangles")
     }
 
-    /// The partition with `core` (any vertex ids) grown by `rings`.
-    fn grown(&self, mut core: Vec<u32>, rings: u32, max_triangles: usize) -> Option<Partition> {
-        core.sort_unstable();
-        let mut vertices = core.clone();
-        let mut triangles: Vec<u32> = Vec::new();
+    /// The partition with `core` (any vertex ids) grown by `rings`. Membership is kept as
+    /// bits over the whole mesh and local ids are ranks among them: no search or sort per
+    /// element (the searches took 2.6 s for a 10M-triangle partition of a 20M scan).
+    fn grown(&self, core: Vec<u32>, rings: u32, max_triangles: usize) -> Option<Partition> {
+        let mut vertices = Bits::new(self.mesh.vertex_count());
+        let mut triangles = Bits::new(self.mesh.triangles.len() / 3);
+        let mut triangle_count = 0;
+        for &v in &core {
+            vertices.insert(v);
+        }
         let mut frontier = core.clone();
         for _ in 0..rings {
-            let mut reached: Vec<u32> = frontier
-                .iter()
-                .flat_map(|&v| {
-                    &self.around
-                        [self.starts[v as usize] as usize..self.starts[v as usize + 1] as usize]
-                })
-                .copied()
-                .filter(|t| triangles.binary_search(t).is_err())
-                .collect();
-            reached.sort_unstable();
-            reached.dedup();
-            let mut new_vertices: Vec<u32> = reached
-                .iter()
-                .flat_map(|&t| &self.mesh.triangles[3 * t as usize..3 * t as usize + 3])
-                .copied()
-                .filter(|v| vertices.binary_search(v).is_err())
-                .collect();
-            new_vertices.sort_unstable();
-            new_vertices.dedup();
-            triangles = merge_sorted(&triangles, &reached);
-            if triangles.len() > max_triangles {
-                return None;
+            let mut reached = Vec::new();
+            for &v in &frontier {
+                let around = self.starts[v as usize] as usize..self.starts[v as usize + 1] as usize;
+                for &t in &self.around[around] {
+                    if !triangles.insert(t) {
+                        continue;
+                    }
+                    triangle_count += 1;
+                    if triangle_count > max_triangles {
+                        return None;
+                    }
+                    for &w in &self.mesh.triangles[3 * t as usize..3 * t as usize + 3] {
+                        if vertices.insert(w) {
+                            reached.push(w);
+                        }
+                    }
+                }
             }
-            vertices = merge_sorted(&vertices, &new_vertices);
-            if new_vertices.is_empty() && reached.is_empty() {
+            if reached.is_empty() {
                 break;
             }
-            frontier = new_vertices;
+            frontier = reached;
         }
-        let local = |v: u32| vertices.binary_search(&v).expect("a triangle's vertex is in") as u32;
-        let corners = triangles
+        let (vertices, triangles) = (vertices.ranked(), triangles.ranked());
+        let triangle_ids = triangles.ascending();
+        let corners = triangle_ids
             .iter()
             .flat_map(|&t| &self.mesh.triangles[3 * t as usize..3 * t as usize + 3])
-            .map(|&v| local(v))
+            .map(|&v| vertices.rank(v))
             .collect();
-        let positions = vertices
+        let vertex_ids = vertices.ascending();
+        let positions = vertex_ids
             .iter()
             .flat_map(|&v| &self.mesh.positions[3 * v as usize..3 * v as usize + 3])
             .copied()
             .collect();
-        let attributes = self.mesh.attributes.gather(&vertices, &triangles);
-        let core_local = core.iter().map(|&v| local(v)).collect();
+        let attributes = self.mesh.attributes.gather(&vertex_ids, &triangle_ids);
+        let mut core_local: Vec<u32> = core.iter().map(|&v| vertices.rank(v)).collect();
+        core_local.sort_unstable();
         Some(Partition {
             mesh: MeshData { positions, triangles: corners, attributes },
-            vertices,
+            vertices: vertex_ids,
             core: core_local,
         })
     }
 }
 
-/// Two ascending lists with nothing in common, as one.
-fn merge_sorted(a: &[u32], b: &[u32]) -> Vec<u32> {
-    let mut out = Vec::with_capacity(a.len() + b.len());
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() && j < b.len() {
-        if a[i] < b[j] {
-            out.push(a[i]);
-            i += 1;
-        } else {
-            out.push(b[j]);
-            j += 1;
-        }
+/// A set of ids below a bound, as bits.
+struct Bits {
+    words: Vec<u64>,
+}
+
+impl Bits {
+    fn new(len: usize) -> Self {
+        Self { words: vec![0; len.div_ceil(64)] }
     }
-    out.extend_from_slice(&a[i..]);
-    out.extend_from_slice(&b[j..]);
-    out
+
+    /// Whether `id` was not in yet.
+    fn insert(&mut self, id: u32) -> bool {
+        let (word, bit) = (&mut self.words[id as usize / 64], 1u64 << (id % 64));
+        let new = *word & bit == 0;
+        *word |= bit;
+        new
+    }
+
+    /// With the count of ids below each word, to rank in O(1).
+    fn ranked(self) -> Ranked {
+        let mut below = Vec::with_capacity(self.words.len());
+        let mut count = 0;
+        for word in &self.words {
+            below.push(count);
+            count += word.count_ones();
+        }
+        Ranked { words: self.words, below, len: count as usize }
+    }
+}
+
+/// [`Bits`] with ranks: an id's place among the ids in the set, ascending.
+struct Ranked {
+    words: Vec<u64>,
+    below: Vec<u32>,
+    len: usize,
+}
+
+impl Ranked {
+    /// The place of `id` (which is in the set) among the set's ids.
+    fn rank(&self, id: u32) -> u32 {
+        let (word, bit) = (id as usize / 64, id % 64);
+        self.below[word] + (self.words[word] & ((1u64 << bit) - 1)).count_ones()
+    }
+
+    fn ascending(&self) -> Vec<u32> {
+        let mut ids = Vec::with_capacity(self.len);
+        for (w, &word) in self.words.iter().enumerate() {
+            let mut rest = word;
+            while rest != 0 {
+                ids.push((64 * w) as u32 + rest.trailing_zeros());
+                rest &= rest - 1;
+            }
+        }
+        ids
+    }
 }
 
 /// The triangles at each vertex as offsets and items, each vertex's list ascending (a
