@@ -11,7 +11,7 @@ use std::sync::OnceLock;
 
 use common::{Cluster, Input, builtin, components_cache};
 use meshflow_mesh::MeshData;
-use meshflow_runtime::{Limits, Plugin, Runtime, Value};
+use meshflow_runtime::{Limits, Plugin, RunOutput, Runtime, Value};
 use serde_json::json;
 
 const CPP_SERVICE: &str = "taubin-smoothing-cpp";
@@ -85,6 +85,27 @@ fn the_cpp_taubin_matches_the_rust_one_on_the_bunny_and_a_raw_scan() {
             .fold(0.0f32, f32::max);
         assert!(largest <= 1e-6, "{}: the two differ by up to {largest}", input.name);
     }
+}
+
+#[test]
+fn the_cpp_taubin_declares_its_reach_and_runs_on_partitions_to_its_whole_hash() {
+    let input = Input::scan(20_000, 5);
+    let params = [("iterations".to_owned(), Value::Integer(2))];
+    let run = |limits: Limits| {
+        let runtime = Runtime::new(limits, Some(components_cache().as_path())).unwrap();
+        let cpp = runtime.load(cpp_plugin()).unwrap();
+        runtime.run(&cpp, CPP_SERVICE, input.mesh.clone(), &params).expect(CPP_SERVICE)
+    };
+    let whole = run(Limits::default());
+    assert_eq!(whole.partitions, None);
+    let cut =
+        Limits { max_partition_triangles: Some(4_000), concurrent_runs: 2, ..Limits::default() };
+    let parts = run(cut);
+    let partitions = parts.partitions.expect("the C++ service declared its reach");
+    assert!(partitions.count >= 5 && partitions.rings == 4, "{partitions:?}");
+    let hash = |out: &RunOutput| out.mesh.as_ref().unwrap().content_hash();
+    assert_eq!(hash(&parts), hash(&whole));
+    assert_ne!(hash(&whole), input.mesh.content_hash());
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

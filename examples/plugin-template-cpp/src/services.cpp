@@ -32,7 +32,12 @@ std::vector<meshflow::Service> services() {
             taubin_smoothing)
             .param(Param::real("lambda", 0.5).range(1e-6, 1.0).doc("Shrinking step."))
             .param(Param::real("mu", -0.53).range(-1.0, -1e-6).doc("Inflating step (negative)."))
-            .param(Param::integer("iterations", 10).range(1, 1000).doc("lambda|mu steps.")),
+            .param(Param::integer("iterations", 10).range(1, 1000).doc("lambda|mu steps."))
+            // Each lambda|mu step reads one ring further: a host may run it on partitions
+            // of a mesh too large for one sandbox.
+            .local([](const meshflow::Params& p) {
+                return uint32_t(2 * p.get_integer("iterations"));
+            }),
     };
 }
 

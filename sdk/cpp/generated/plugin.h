@@ -283,6 +283,18 @@ typedef struct {
   } val;
 } meshflow_geometry_mesh_result_attribute_values_edit_error_t;
 
+typedef meshflow_geometry_types_param_t exports_meshflow_geometry_locality_param_t;
+
+typedef struct {
+  exports_meshflow_geometry_locality_param_t *ptr;
+  size_t len;
+} exports_meshflow_geometry_locality_list_param_t;
+
+typedef struct {
+  bool is_some;
+  uint32_t val;
+} plugin_option_u32_t;
+
 typedef meshflow_geometry_types_service_info_t exports_meshflow_geometry_service_service_info_t;
 
 typedef meshflow_geometry_types_param_t exports_meshflow_geometry_service_param_t;
@@ -443,6 +455,9 @@ extern bool meshflow_geometry_mesh_method_mesh_set_attribute(meshflow_geometry_m
 // Drops an attribute (`not-applicable` if the mesh has none of that name).
 extern bool meshflow_geometry_mesh_method_mesh_remove_attribute(meshflow_geometry_mesh_borrow_mesh_t self, meshflow_geometry_mesh_attribute_domain_t domain, plugin_string_t *name, meshflow_geometry_mesh_edit_error_t *err);
 
+// Exported Functions from `meshflow:geometry/locality@0.1.0`
+bool exports_meshflow_geometry_locality_reach(plugin_string_t *name, exports_meshflow_geometry_locality_list_param_t *params, uint32_t *ret);
+
 // Exported Functions from `meshflow:geometry/service@0.1.0`
 void exports_meshflow_geometry_service_describe(exports_meshflow_geometry_service_list_service_info_t *ret);
 bool exports_meshflow_geometry_service_run(plugin_string_t *name, exports_meshflow_geometry_service_borrow_mesh_t target, exports_meshflow_geometry_service_list_param_t *params, exports_meshflow_geometry_service_outcome_t *ret, plugin_string_t *err);
@@ -508,6 +523,12 @@ void meshflow_geometry_mesh_result_void_edit_error_free(meshflow_geometry_mesh_r
 void meshflow_geometry_mesh_list_attribute_info_free(meshflow_geometry_mesh_list_attribute_info_t *ptr);
 
 void meshflow_geometry_mesh_result_attribute_values_edit_error_free(meshflow_geometry_mesh_result_attribute_values_edit_error_t *ptr);
+
+void exports_meshflow_geometry_locality_param_free(exports_meshflow_geometry_locality_param_t *ptr);
+
+void exports_meshflow_geometry_locality_list_param_free(exports_meshflow_geometry_locality_list_param_t *ptr);
+
+void plugin_option_u32_free(plugin_option_u32_t *ptr);
 
 void exports_meshflow_geometry_service_service_info_free(exports_meshflow_geometry_service_service_info_t *ptr);
 

@@ -713,18 +713,22 @@ using FilterFn = std::function<Result<std::string>(const Mesh&, const Params&)>;
 // A check reads the mesh (the host refuses edits) and returns a value.
 using CheckFn = std::function<Result<Value>(const Mesh&, const Params&)>;
 
+// How many rings of the mesh around a vertex a local filter's result there depends on.
+using ReachFn = std::function<uint32_t(const Params&)>;
+
 // One service of a plugin: its description and the function that runs it.
 struct Service {
     std::string name, doc;
     std::variant<FilterFn, CheckFn> run;
     ValueType result = ValueType::Integer;  // checks only
     std::vector<Param> params;
+    ReachFn reach;  // local filters only
 
     static Service filter(std::string name, std::string doc, FilterFn f) {
-        return {std::move(name), std::move(doc), std::move(f), ValueType::Integer, {}};
+        return {std::move(name), std::move(doc), std::move(f), ValueType::Integer, {}, {}};
     }
     static Service check(std::string name, std::string doc, ValueType result, CheckFn f) {
-        return {std::move(name), std::move(doc), std::move(f), result, {}};
+        return {std::move(name), std::move(doc), std::move(f), result, {}, {}};
     }
     // Declares a parameter; chains on a temporary and on a named service.
     Service& param(Param p) & {
@@ -732,6 +736,16 @@ struct Service {
         return *this;
     }
     Service param(Param p) && { return std::move(param(std::move(p))); }
+    // Declares the filter local (WIT `locality`), as the Rust SDK's `Service::local`: it
+    // only moves vertices, and a vertex's new position depends only on the mesh within
+    // `reach(params)` rings of it, neighbours taken in ascending id order. A host may then
+    // run it on partitions of a mesh too large for one sandbox, and checks that the result
+    // is the same bit for bit.
+    Service& local(ReachFn f) & {
+        reach = std::move(f);
+        return *this;
+    }
+    Service local(ReachFn f) && { return std::move(local(std::move(f))); }
 };
 
 namespace detail {
@@ -803,6 +817,32 @@ inline void describe(const std::vector<Service>& services,
     }
 }
 
+// The name and parameters the bindings pass, copied, and the bindings' copies freed.
+template <class List>
+std::pair<std::string, std::vector<std::pair<std::string, Value>>> take_call(
+    plugin_string_t* name, List* params, void (*free_params)(List*)) {
+    std::vector<std::pair<std::string, Value>> values;
+    for (size_t i = 0; i < params->len; ++i)
+        values.emplace_back(to_string(params->ptr[i].name), from_c(params->ptr[i].value));
+    std::string wanted = to_string(*name);
+    plugin_string_free(name);
+    free_params(params);
+    return {std::move(wanted), std::move(values)};
+}
+
+// reach(): the named filter's reach with these parameters, if it declared one.
+inline bool reach(const std::vector<Service>& services, plugin_string_t* name,
+                  exports_meshflow_geometry_locality_list_param_t* params, uint32_t* ret) {
+    auto [wanted, values] =
+        take_call(name, params, &exports_meshflow_geometry_locality_list_param_free);
+    for (const Service& s : services) {
+        if (s.name != wanted || !s.reach || s.run.index() != 0) continue;
+        *ret = s.reach(Params(std::move(values)));
+        return true;
+    }
+    return false;
+}
+
 // run(): the named service on the mesh. The arguments are freed here and the borrowed mesh
 // handle dropped before returning, as the component model requires; the outcome or the
 // error message is allocated for the bindings to free.
@@ -810,12 +850,9 @@ inline bool run(const std::vector<Service>& services, plugin_string_t* name,
                 exports_meshflow_geometry_service_borrow_mesh_t target,
                 exports_meshflow_geometry_service_list_param_t* params,
                 exports_meshflow_geometry_service_outcome_t* ret, plugin_string_t* err) {
-    std::string wanted = to_string(*name);
-    std::vector<std::pair<std::string, Value>> values;
-    for (size_t i = 0; i < params->len; ++i)
-        values.emplace_back(to_string(params->ptr[i].name), from_c(params->ptr[i].value));
-    plugin_string_free(name);
-    exports_meshflow_geometry_service_list_param_free(params);
+    auto call = take_call(name, params, &exports_meshflow_geometry_service_list_param_free);
+    const std::string& wanted = call.first;
+    std::vector<std::pair<std::string, Value>>& values = call.second;
 
     Result<meshflow_geometry_types_option_value_t> outcome = [&]() -> decltype(outcome) {
         for (const Service& s : services) {
@@ -1007,7 +1044,8 @@ inline Result<Outcome> run(std::string_view service, const MeshData& mesh,
 #endif
 
 // Exports the services returned by `std::vector<meshflow::Service> services()` as this
-// component's meshflow:geometry/service interface.
+// component's meshflow:geometry/service interface, and their reach (`Service::local`) as
+// its meshflow:geometry/locality.
 // It also gives weak definitions of the stack-protector symbols that Debian's wasm32
 // compiler-rt (128-bit division, which std::format uses) refers to and wasi-libc lacks.
 #define MESHFLOW_EXPORT_PLUGIN(services_fn)                                                    \
@@ -1021,6 +1059,11 @@ inline Result<Outcome> run(std::string_view service, const MeshData& mesh,
         exports_meshflow_geometry_service_list_param_t* params,                                \
         exports_meshflow_geometry_service_outcome_t* ret, plugin_string_t* err) {              \
         return ::meshflow::detail::run(services_fn(), name, target, params, ret, err);         \
+    }                                                                                          \
+    extern "C" bool exports_meshflow_geometry_locality_reach(                                  \
+        plugin_string_t* name, exports_meshflow_geometry_locality_list_param_t* params,        \
+        uint32_t* ret) {                                                                       \
+        return ::meshflow::detail::reach(services_fn(), name, params, ret);                    \
     }
 
 // Early return for results, like Rust's `?`: `auto xyz = MESHFLOW_TRY(mesh.position(v));`

@@ -21,9 +21,12 @@ pub fn generate() -> Result<Vec<(String, Vec<u8>)>> {
     let mut resolve = Resolve::default();
     let (package, _) =
         resolve.push_path(&wit).with_context(|| format!("parsing {}", wit.display()))?;
-    let world = resolve.select_world(&[package], Some("plugin"))?;
+    // World `local-plugin` (a plugin that may declare its services' reach), its generated
+    // names kept as world `plugin`'s: `plugin.h`, `plugin_string_t`, …
+    let world = resolve.select_world(&[package], Some("local-plugin"))?;
     let mut files = wit_bindgen_core::Files::default();
-    wit_bindgen_c::Opts::default().build().generate(&mut resolve, world, &mut files)?;
+    let opts = wit_bindgen_c::Opts { rename_world: Some("plugin".into()), ..Default::default() };
+    opts.build().generate(&mut resolve, world, &mut files)?;
     Ok(files.iter().map(|(name, bytes)| (name.to_owned(), bytes.to_vec())).collect())
 }
 
