@@ -83,9 +83,9 @@ impl<'a> Partitioning<'a> {
         Self { mesh, extent, order, bounds, starts, around }
     }
 
-    /// What partition `part` (of this cut) is part of.
-    pub fn whole(&self, part: &Partition) -> Whole {
-        Whole { ids: part.vertices.clone(), bounds: self.extent.clone() }
+    /// What a partition of this cut is part of, given its [`Partition::vertices`].
+    pub fn whole(&self, vertices: Vec<u32>) -> Whole {
+        Whole { ids: vertices, bounds: self.extent.clone() }
     }
 
     /// How many partitions the mesh is cut into.
@@ -358,7 +358,7 @@ mod tests {
         let mut mesh = strip(30);
         let cut = Partitioning::new(&mesh, 8);
         let part = cut.partition(2, 1, usize::MAX).unwrap();
-        let whole = cut.whole(&part);
+        let whole = cut.whole(part.vertices.clone());
         assert_eq!(whole.ids, part.vertices);
         assert_eq!(whole.bounds, [0.0, 0.0, 0.0, 30.0, 1.0, 0.0]);
         // A hostile file: no coordinate is a number. Every vertex is still in one core.
@@ -366,7 +366,7 @@ mod tests {
         let cut = Partitioning::new(&mesh, 8);
         let cores: usize = (0..cut.len()).map(|i| cut.partition(i, 0, 0).unwrap().core.len()).sum();
         assert_eq!(cores, mesh.vertex_count());
-        assert!(cut.whole(&cut.partition(0, 0, 0).unwrap()).bounds.is_empty());
+        assert!(cut.whole(cut.partition(0, 0, 0).unwrap().vertices).bounds.is_empty());
     }
 
     #[test]

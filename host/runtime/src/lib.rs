@@ -213,17 +213,16 @@ impl Runtime {
         // stops at the limit, from the input kept for that.
         let may_cut =
             !is_check && plugin.reach.is_some() && triangles > self.limits.partition_triangles();
-        let cut_first = self.limits.max_partition_triangles.is_some()
-            || self.footprints.known_not_to_fit(
-                &plugin.digest,
-                service,
-                triangles,
-                self.limits.memory_bytes,
-            );
-        if may_cut
-            && cut_first
-            && let Some(output) = self.run_partitioned(plugin, info, &mesh, &params)?
-        {
+        // Asked only of such a filter: a check or a small mesh pays no lookup.
+        let cut_first = may_cut
+            && (self.limits.max_partition_triangles.is_some()
+                || self.footprints.known_not_to_fit(
+                    &plugin.digest,
+                    service,
+                    triangles,
+                    self.limits.memory_bytes,
+                ));
+        if cut_first && let Some(output) = self.run_partitioned(plugin, info, &mesh, &params)? {
             return Ok(output);
         }
         let kept = (may_cut && !cut_first).then(|| Arc::clone(&mesh));

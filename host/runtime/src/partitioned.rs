@@ -24,7 +24,7 @@ use super::state::RunState;
 use super::work_queue::{End, WorkQueue};
 use super::{MAX_PARTITION_GROWTH, RunError, RunOutput, Runtime, captured, permits};
 use meshflow_mesh::MeshData;
-use meshflow_mesh::partition::Partitioning;
+use meshflow_mesh::partition::{Partition, Partitioning};
 use meshflow_mesh::store::{MeshStore, Op, OpKind};
 use meshflow_params::ServiceInfo;
 
@@ -196,7 +196,7 @@ struct Work<'a> {
     /// Triangles of a core at most.
     core_triangles: usize,
     /// Partition 0, built already to decide whether to partition at all.
-    first: Mutex<Option<meshflow_mesh::partition::Partition>>,
+    first: Mutex<Option<Partition>>,
     queue: WorkQueue,
     /// The whole step's deadline: every partition runs within what is left of it.
     ends: Instant,
@@ -250,13 +250,16 @@ impl Work<'_> {
                 deadline: self.runtime.limits.deadline,
             });
         }
-        let triangles = part.mesh.triangle_count();
-        let whole = self.cut.whole(&part);
+        let Partition { mesh, vertices, core } = part;
+        let triangles = mesh.triangle_count();
+        // The partition's ids go to its store (the plugin may read them) and are read back
+        // there to place its core: not copied.
+        let whole = self.cut.whole(vertices);
         let (outcome, state) = self.runtime.call(
             slot,
             &self.plugin.pre,
             &label,
-            Arc::new(part.mesh),
+            Arc::new(mesh),
             false,
             left,
             |store, p, _, mesh| {
@@ -270,8 +273,8 @@ impl Work<'_> {
             return Err(RunError::NotLocal { service: label, edit: op.kind().name() });
         }
         let positions = state.mesh.positions();
-        let cores =
-            part.core.iter().map(|&c| (3 * c as usize, 3 * part.vertices[c as usize] as usize));
+        let vertices = &state.mesh.whole().expect("its whole was set before the run").ids;
+        let cores = core.iter().map(|&c| (3 * c as usize, 3 * vertices[c as usize] as usize));
         let mut guard = self.merged.lock().unwrap_or_else(|e| e.into_inner());
         let merged = &mut *guard;
         if audit {
