@@ -17,6 +17,9 @@ async fn a_result_downloads_while_its_producer_is_stopped() {
     let record = cluster.run(&workflow, &input).await;
     assert_eq!(record["status"], "completed", "{record}");
     let result = &record["result"];
+    // Completed once both held it; settled once both had packed it.
+    assert!(record["settled_ms"].as_f64().unwrap() >= record["total_ms"].as_f64().unwrap());
+    assert!(result["bytes"].as_u64().is_some_and(|b| b > 0), "{result}");
     let copies = result["copies"].as_array().cloned().unwrap_or_default();
     assert_eq!(copies.len(), 1, "the result has a second holder: {result}");
     let producer = result["url"].as_str().unwrap().to_owned();

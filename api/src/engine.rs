@@ -214,7 +214,8 @@ pub enum Status {
 }
 
 impl Status {
-    /// Whether the run has ended (nothing about it changes any more).
+    /// Whether the run has ended: its status no longer changes (a completed run's record
+    /// still gains its result's packed sizes until it is settled, see `RunRecord::settled_ms`).
     pub fn is_final(self) -> bool {
         matches!(self, Self::Completed | Self::Failed | Self::Cancelled | Self::Interrupted)
     }
@@ -238,7 +239,15 @@ pub struct RunRecord {
     pub prefetches: Vec<PrefetchRecord>,
     pub steps: Vec<StepRecord>,
     pub result: Option<ResultRecord>,
+    /// Milliseconds from submission to the end: for a completed run, until its result was
+    /// held by two hosts (or by its only one), hash checked.
     pub total_ms: Option<f64>,
+    /// Milliseconds from submission until nothing about the record changes any more: a
+    /// completed run's result packed and stored on the hosts holding it, and every edit
+    /// log's real size known (after `total_ms`, off the run's time). Any other end settles
+    /// at once; records from before this field have none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub settled_ms: Option<f64>,
     /// The workflow as submitted, so a record alone is enough to run it again.
     #[serde(default)]
     pub workflow: Json,
@@ -477,6 +486,12 @@ pub struct ResultRecord {
 }
 
 impl RunRecord {
+    /// Whether nothing about the run changes any more: settled, or ended otherwise than
+    /// completed (records from before `settled_ms` have none).
+    pub fn is_settled(&self) -> bool {
+        self.settled_ms.is_some() || (self.status.is_final() && self.status != Status::Completed)
+    }
+
     pub fn new(id: String, transfer: Transfer) -> Self {
         Self {
             id,
@@ -490,6 +505,7 @@ impl RunRecord {
             steps: Vec::new(),
             result: None,
             total_ms: None,
+            settled_ms: None,
             workflow: Json::Null,
             rerun_of: None,
             user: None,

@@ -120,7 +120,11 @@ impl Engine {
         let mut unfinished = Vec::new();
         for stored in stored {
             if stored.record.status.is_final() {
-                engine.keep(engine.revive(&stored));
+                let run = engine.revive(&stored);
+                engine.keep(run.clone());
+                if !stored.record.is_settled() {
+                    tokio::spawn(keep_after_restart(engine.clone(), run));
+                }
             } else {
                 unfinished.push(stored);
             }
@@ -227,13 +231,13 @@ impl Engine {
         table.order.iter().filter_map(|id| table.by_id.get(id).cloned()).collect()
     }
 
-    /// Keeps `run`, forgetting the oldest finished runs beyond [`KEPT_RUNS`] (in memory
+    /// Keeps `run`, forgetting the oldest settled runs beyond [`KEPT_RUNS`] (in memory
     /// here, in the database by the janitor).
     fn keep(&self, run: Arc<Run>) {
         let mut table = self.runs.lock().unwrap();
         while table.order.len() >= KEPT_RUNS {
             let RunTable { by_id, order } = &mut *table;
-            let Some(position) = order.iter().position(|id| by_id[id].is_finished()) else {
+            let Some(position) = order.iter().position(|id| by_id[id].is_settled()) else {
                 break;
             };
             let id = order.remove(position);
@@ -364,10 +368,13 @@ async fn drive(
     resumed: bool,
 ) {
     let cancelled = || run.set_status(Status::Cancelled, Some("cancelled on request".into()));
+    let mut keeping = None;
     tokio::select! {
         slot = ticket.slot() => {
             tokio::select! {
-                () = executor::execute(run.clone(), workflow, engine.registry.clone(), resumed) => {}
+                kept = executor::execute(run.clone(), workflow, engine.registry.clone(), resumed) => {
+                    keeping = kept;
+                }
                 () = run.cancelled() => cancelled(),
             }
             drop(slot);
@@ -375,8 +382,22 @@ async fn drive(
         () = run.cancelled() => cancelled(),
     }
     engine.registry.metrics.run_finished(run.status());
+    // A completed run is past cancelling: its result is packed before its sessions go.
+    if let Some(keeping) = keeping {
+        keeping.keep().await;
+    }
     engine.close_sessions(&run).await;
     drop(ticket);
+}
+
+/// Keeps the result of a run that completed just before the engine stopped (its sessions
+/// were kept for that), then deletes its sessions.
+async fn keep_after_restart(engine: Arc<Engine>, run: Arc<Run>) {
+    match executor::Keeping::from_record(run.clone(), &engine.registry) {
+        Some(keeping) => keeping.keep().await,
+        None => run.settle(),
+    }
+    engine.close_sessions(&run).await;
 }
 
 /// Writes changed runs to the database, at most every [`PERSIST_INTERVAL`].

@@ -26,7 +26,7 @@ pub struct OpenSession {
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Event {
-    /// `status`, `broadcast`, `step` or `transfer`.
+    /// `status`, `broadcast`, `step`, `transfer`, ..., `settled` last.
     pub kind: &'static str,
     pub data: Json,
 }
@@ -129,12 +129,18 @@ impl Run {
         self.events.subscribe()
     }
 
-    /// Changes the record and tells subscribers what changed. A finished run's record no
-    /// longer changes (a cancelled run's last host answers are dropped).
+    /// Whether nothing about the run changes any more (see [`Run::settle`]).
+    pub fn is_settled(&self) -> bool {
+        self.record.lock().unwrap().is_settled()
+    }
+
+    /// Changes the record and tells subscribers what changed. A settled run's record no
+    /// longer changes (a cancelled run's last host answers are dropped); a completed one
+    /// still takes its result's packed sizes and its edit logs' real sizes.
     pub fn update(&self, kind: &'static str, change: impl FnOnce(&mut RunRecord) -> Json) {
         let data = {
             let mut record = self.record.lock().unwrap();
-            if record.status.is_final() {
+            if record.is_settled() {
                 return;
             }
             change(&mut record)
@@ -171,7 +177,12 @@ impl Run {
         index
     }
 
+    /// Sets the status; a run that has ended keeps the status it ended with. Every end but
+    /// completion settles the run at once.
     pub fn set_status(&self, status: Status, error: Option<String>) {
+        if self.is_finished() {
+            return;
+        }
         let total_ms = self.elapsed_ms();
         self.update("status", |record| {
             record.status = status;
@@ -179,7 +190,20 @@ impl Run {
             if status.is_final() {
                 record.total_ms = Some(total_ms);
             }
+            if status.is_final() && status != Status::Completed {
+                record.settled_ms = Some(total_ms);
+            }
             serde_json::json!({"status": status, "error": record.error, "total_ms": record.total_ms})
+        });
+    }
+
+    /// Marks a completed run's record as final: its result is packed where it will be
+    /// served and its edit logs' sizes are in (`RunRecord::settled_ms`).
+    pub fn settle(&self) {
+        let settled_ms = self.elapsed_ms();
+        self.update("settled", |record| {
+            record.settled_ms = Some(settled_ms);
+            serde_json::json!({"settled_ms": settled_ms, "result": record.result})
         });
     }
 
@@ -225,6 +249,7 @@ impl Run {
             steps: Vec::new(),
             result: record.result.clone(),
             total_ms: record.total_ms,
+            settled_ms: record.settled_ms,
             // The store keeps the workflow in a column of its own, not in every record write.
             workflow: serde_json::Value::Null,
             rerun_of: record.rerun_of.clone(),
@@ -239,3 +264,4 @@ impl Run {
         self.changed.notify_one();
     }
 }
+

@@ -200,10 +200,15 @@ class Run:
 
     @property
     def record(self) -> dict:
-        """The run record; fetched again unless the run has ended."""
-        if self._record.get("status") not in FINAL or "steps" not in self._record:
+        """The run record; fetched again until it has settled (ended, and a completed run's
+        result packed where it is held)."""
+        if not self._settled() or "steps" not in self._record:
             self.refresh()
         return self._record
+
+    def _settled(self) -> bool:
+        status = self._record.get("status")
+        return status in FINAL and (status != "completed" or "settled_ms" in self._record)
 
     @property
     def status(self) -> str:

@@ -181,7 +181,7 @@ pub(super) async fn upload_input(engine: &EngineClient, path: &Path) -> anyhow::
 const RECONNECT_FOR: Duration = Duration::from_secs(120);
 const RECONNECT_PAUSE: Duration = Duration::from_secs(1);
 
-/// Follows the run's events until it ends, with a line per finished step. A dropped
+/// Follows the run's events until it ends and settles, with a line per finished step. A dropped
 /// connection is re-attached: the engine starts every stream with the whole record, so
 /// nothing is missed.
 async fn follow(engine: &EngineClient, id: &str, show: bool) -> anyhow::Result<()> {
@@ -253,7 +253,7 @@ async fn watch(
                     let Ok(record) = serde_json::from_value::<RunRecord>(data) else { continue };
                     let broadcast = record.broadcast.as_ref().map(|b| json!(b));
                     show(broadcast.as_ref(), &record.steps, Some(record.status));
-                    record.status.is_final()
+                    record.is_settled()
                 }
                 "broadcast" => {
                     show(Some(&data), &[], None);
@@ -264,11 +264,13 @@ async fn watch(
                     show(None, &[step], None);
                     false
                 }
+                // A completed run goes on until its result is packed where it is held.
                 "status" => {
                     let state = serde_json::from_value::<Status>(data["status"].clone()).ok();
                     show(None, &[], state);
-                    state.is_some_and(Status::is_final)
+                    state.is_some_and(|state| state.is_final() && state != Status::Completed)
                 }
+                "settled" => true,
                 _ => false,
             };
             if ended {

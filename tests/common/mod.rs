@@ -196,12 +196,13 @@ impl EngineApi {
         answer.json().await.unwrap()
     }
 
-    /// Polls the run until it ends; its record.
+    /// Polls the run until it ends and its record settles (a completed run's result
+    /// packed on its holders); its record.
     pub async fn finished(&self, id: &str) -> Json {
         let deadline = tokio::time::Instant::now() + RUN_TIMEOUT;
         loop {
             let record = self.record(id).await;
-            if has_ended(&record) {
+            if has_settled(&record) {
                 return record;
             }
             assert!(tokio::time::Instant::now() < deadline, "run {id} still going: {record:#}");
@@ -298,6 +299,11 @@ async fn start_hosts_configured_allowing(
 /// Whether a run record's status is final.
 pub fn has_ended(record: &Json) -> bool {
     matches!(record["status"].as_str(), Some("completed" | "failed" | "cancelled" | "interrupted"))
+}
+
+/// Whether nothing about the run changes any more: ended, and a completed run settled.
+pub fn has_settled(record: &Json) -> bool {
+    has_ended(record) && (record["status"] != "completed" || record["settled_ms"].is_number())
 }
 
 /// An HTTP client that sends `token` as a bearer token with every request.

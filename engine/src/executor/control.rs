@@ -10,6 +10,7 @@ use serde_json::{Value as Json, json};
 
 use super::Executor;
 use super::error::{CompareError, ExecError};
+use super::finish::Keeping;
 use crate::registry::HostEntry;
 use crate::workflow::{Condition, Step, Workflow};
 
@@ -20,8 +21,8 @@ struct Active {
 }
 
 impl Executor {
-    /// Walks the workflow from the current mesh, then records the result.
-    pub(super) async fn execute(&mut self, workflow: &Workflow) -> Result<(), ExecError> {
+    /// Walks the workflow from the current mesh, then records the result once it is held.
+    pub(super) async fn execute(&mut self, workflow: &Workflow) -> Result<Keeping, ExecError> {
         let mut active: VecDeque<Active> =
             workflow.steps.iter().map(|step| Active { step: step.clone(), rounds: 0 }).collect();
         while let Some(Active { step, rounds }) = active.pop_front() {
@@ -63,8 +64,7 @@ impl Executor {
             }
         }
         self.settle_trust().await?;
-        self.finish().await;
-        Ok(())
+        Ok(self.finish().await)
     }
 
     /// The hosts of every task still on the active list, bodies of IF and WHILE included.

@@ -1,16 +1,19 @@
 //! A finished run's result held by a second host (issue 30 item 5): a host of the run that
 //! already holds the final mesh in a session (a replica), or that takes it cheaply — the
-//! last step's edit log when it is smaller than the mesh, else the full mesh — packs and
-//! stores it too, so the result outlives its producer; result downloads fall back to it
+//! last step's edit log when it is smaller than the mesh, else the full mesh. The run ends
+//! once it holds the result (hash checked); it packs and stores it after (`finish::Keeping`),
+//! so the result outlives its producer; result downloads fall back to it
 //! (`crate::downloads`).
 
+use meshflow_api::HostClient;
 use meshflow_api::host::{FullRef, Transfer as Use, Update};
 
 use super::Executor;
 
 impl Executor {
-    /// The URL of the result packed on a second host of the run, if one could take it.
-    pub(super) async fn second_copy(&mut self) -> Option<String> {
+    /// A second host of the run holding the result in its session, and the URL it will
+    /// serve it packed at, if one could take it.
+    pub(super) async fn second_copy(&mut self) -> Option<(HostClient, String)> {
         let producer = self.current.producer.clone()?;
         let hash = self.current.hash.clone();
         let full = FullRef { url: self.current.full.url.clone(), hash: hash.clone() };
@@ -42,10 +45,7 @@ impl Executor {
                 }
             }
             let url = format!("{}/blobs/{hash}.mfm", replica.host.url);
-            match replica.host.client.packed_size(&url).await {
-                Ok(_) => return Some(url),
-                Err(error) => tracing::debug!("a second copy of the result on {url}: {error}"),
-            }
+            return Some((replica.host.client.clone(), url));
         }
         None
     }

@@ -1,5 +1,5 @@
-//! The end of a run: where the final mesh is and its packed size, the real sizes of the
-//! edit logs written meanwhile, and the run's final status.
+//! The end of a run: where the final mesh is, the run's final status, and after it the
+//! result's packing and the real sizes of the edit logs written meanwhile.
 
 use std::sync::Arc;
 
@@ -15,40 +15,88 @@ use crate::registry::Registry;
 use crate::run::Run;
 
 impl Executor {
-    /// Records where the final mesh is and its packed size: its host packs and stores it
-    /// now, so the result outlives the run's sessions (and the host's memory of recent
-    /// outputs).
-    pub(super) async fn finish(&mut self) {
-        // The result is packed while the last edit logs are still being written and while a
-        // second host takes its copy: all three are the hosts' work at the end of a run, and
-        // none needs another (a second host that falls back to the full mesh waits for the
-        // producer's one packing, see the host's `pack_output`).
+    /// Records the result once it is held: by its producer and, where the run has another
+    /// host that can take it, by a second one (hash checked); the packing and the edit logs'
+    /// real sizes are left to the returned [`Keeping`], after the run's end.
+    pub(super) async fn finish(&mut self) -> Keeping {
         let producer = self.current.producer.as_ref().map(|host| self.registry.client(host));
         let url = self.current.full.url.clone();
-        let packed = async {
-            match producer {
-                Some(client) => client.packed_size(&url).await.ok(),
-                None => None,
-            }
-        };
-        let log_sizes = futures_util::future::join_all(std::mem::take(&mut self.log_sizes));
-        // The result outlives its producer: a second host of the run keeps it packed too.
-        let (bytes, _, copy) = tokio::join!(packed, log_sizes, self.second_copy());
-        let copies = copy.into_iter().collect();
+        let copy = self.second_copy().await;
         let current = &self.current;
         let result = ResultRecord {
-            url: current.full.url.clone(),
+            url: url.clone(),
             hash: current.hash.clone(),
-            bytes,
+            bytes: None,
             vertices: current.vertices,
             triangles: current.triangles,
-            copies,
+            copies: copy.iter().map(|(_, url)| url.clone()).collect(),
         };
         self.run.update("result", |r| {
             let json = json!(result);
             r.result = Some(result);
             json
         });
+        Keeping {
+            run: self.run.clone(),
+            producer: producer.map(|client| (client, url)),
+            copy,
+            log_sizes: std::mem::take(&mut self.log_sizes),
+        }
+    }
+}
+
+/// What a completed run still does after its end, off its time: its result packed and
+/// stored by the hosts holding it, so it outlives the run's sessions (and the hosts' memory
+/// of recent outputs), and the real sizes of the edit logs written meanwhile; then the run
+/// is settled (`RunRecord::settled_ms`). The engine deletes the run's sessions after it.
+pub struct Keeping {
+    run: Arc<Run>,
+    /// The producer and the URL of the result packed there.
+    producer: Option<(HostClient, String)>,
+    /// The second host holding the result, and its URL there.
+    copy: Option<(HostClient, String)>,
+    log_sizes: Vec<tokio::task::JoinHandle<()>>,
+}
+
+impl Keeping {
+    /// Keeping for a completed run the engine found unsettled at a restart, if its result
+    /// was not packed yet: its holders from the record (their sessions outlive the engine).
+    pub fn from_record(run: Arc<Run>, registry: &Registry) -> Option<Self> {
+        let result = run.record().result.filter(|result| result.bytes.is_none())?;
+        let holder = |url: &str| {
+            let host = url.rsplit_once("/blobs/")?.0;
+            Some((registry.client(host), url.to_owned()))
+        };
+        let producer = holder(&result.url);
+        let copy = result.copies.first().and_then(|url| holder(url));
+        Some(Self { run, producer, copy, log_sizes: Vec::new() })
+    }
+
+    /// Packs the result on its holders (both at once) while the last edit logs' sizes come
+    /// in, records the packed size, drops a copy that could not be packed, and settles.
+    pub async fn keep(self) {
+        let pack = |holder: Option<(HostClient, String)>| async move {
+            let (client, url) = holder?;
+            match client.packed_size(&url).await {
+                Ok(bytes) => Some(bytes),
+                Err(error) => {
+                    tracing::warn!("packing the result at {url}: {error}");
+                    None
+                }
+            }
+        };
+        let had_copy = self.copy.is_some();
+        let log_sizes = futures_util::future::join_all(self.log_sizes);
+        let (bytes, copied, _) = tokio::join!(pack(self.producer), pack(self.copy), log_sizes);
+        self.run.update("result", |r| {
+            let Some(result) = r.result.as_mut() else { return json!(null) };
+            result.bytes = bytes;
+            if had_copy && copied.is_none() {
+                result.copies.clear();
+            }
+            json!(result)
+        });
+        self.run.settle();
     }
 }
 

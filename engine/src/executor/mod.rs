@@ -38,6 +38,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use error::ExecError;
+pub use finish::Keeping;
 
 use crate::plan::Plan;
 use crate::record::{Status, StepRecord};
@@ -49,15 +50,21 @@ use current::Current;
 use replica::Replica;
 
 /// Runs `workflow` on the run's input and records everything in `run`; never panics on a
-/// bad host or input, ends with the run completed or failed. The caller deletes the host
-/// sessions the run opened (`Run::take_sessions`).
+/// bad host or input, ends with the run completed or failed. A completed run returns what
+/// is left to keep its result ([`Keeping::keep`]), which the caller runs before it deletes
+/// the host sessions the run opened (`Run::take_sessions`).
 ///
 /// `resumed`: the engine restarted while the run was going. Its recorded steps are taken
 /// as done (the control flow is walked again over their recorded results, no host is
 /// asked), and the first new task's host fetches the current mesh from a host that held
 /// it, or rebuilds it from the input. A resumed run that fails before finishing a new step
 /// ends `interrupted` with the reason.
-pub async fn execute(run: Arc<Run>, workflow: Workflow, registry: Arc<Registry>, resumed: bool) {
+pub async fn execute(
+    run: Arc<Run>,
+    workflow: Workflow,
+    registry: Arc<Registry>,
+    resumed: bool,
+) -> Option<Keeping> {
     let done = match resumed {
         true => resume::recorded_steps(&run),
         false => VecDeque::new(),
@@ -67,8 +74,12 @@ pub async fn execute(run: Arc<Run>, workflow: Workflow, registry: Arc<Registry>,
         resume::start_over(&run);
     }
     run.set_status(Status::Running, None);
-    let outcome = run_workflow(&run, &workflow, registry, done).await;
+    let (outcome, keeping) = match run_workflow(&run, &workflow, registry, done).await {
+        Ok(keeping) => (Ok(()), Some(keeping)),
+        Err(error) => (Err(error), None),
+    };
     finish::conclude(&run, outcome, resumed.then_some(resuming_at));
+    keeping
 }
 
 /// Plans the run, loads (or restores) its input, then runs the workflow over it.
@@ -77,7 +88,7 @@ async fn run_workflow(
     workflow: &Workflow,
     registry: Arc<Registry>,
     done: VecDeque<StepRecord>,
-) -> Result<(), ExecError> {
+) -> Result<Keeping, ExecError> {
     let mut plan = Plan::new(workflow, &registry)?;
     // The plugins the plan's hosts may replay, fetched and compiled on each host once it
     // holds the input, while the others still load it and the first tasks run.

@@ -17,7 +17,8 @@ use crate::record::Status;
 use crate::users::User;
 
 /// First the whole record (`record`), then each change (`status`, `broadcast`, `step`,
-/// `transfer`, ...); the stream ends with the run.
+/// `transfer`, ...); the stream ends once the run has settled (`settled`, after a completed
+/// run's `status`; with the `status` of any other end).
 pub async fn stream(
     State(engine): State<Arc<Engine>>,
     Path(id): Path<String>,
@@ -27,12 +28,12 @@ pub async fn stream(
     // Subscribe before taking the snapshot, so no change falls between the two.
     let live = BroadcastStream::new(run.subscribe());
     let snapshot = run.record();
-    let finished = snapshot.status.is_final();
+    let finished = snapshot.is_settled();
     let first = stream::once(async move {
         Ok(SseEvent::default().event("record").json_data(&snapshot).expect("a record is JSON"))
     });
-    // Each change as it happens, ending after the one that finishes the run (at once for
-    // a run that had finished). A subscriber that fell behind gets the whole record again.
+    // Each change as it happens, ending after the one that settles the run (at once for a
+    // run that had settled). A subscriber that fell behind gets the whole record again.
     let changes = stream::unfold((live, finished), move |(mut live, ended)| {
         let run = run.clone();
         async move {
@@ -45,8 +46,9 @@ pub async fn stream(
             };
             let last = match kind {
                 "status" => serde_json::from_value::<Status>(data["status"].clone())
-                    .is_ok_and(Status::is_final),
-                "record" => run.is_finished(),
+                    .is_ok_and(|status| status.is_final() && status != Status::Completed),
+                "settled" => true,
+                "record" => run.is_settled(),
                 _ => false,
             };
             let event = SseEvent::default().event(kind).json_data(&data).expect("events are JSON");

@@ -15,6 +15,7 @@ const PATCHES = {
   input: (record, data) => { record.input = data; },
   broadcast: (record, data) => { record.broadcast = data; },
   result: (record, data) => { record.result = data; },
+  settled: (record, data) => Object.assign(record, data),
   warning: (record, data) => { record.warnings.push(data); },
   step: (record, data) => { record.steps[data.index] = data; },
   transfer: (record, data) => { record.steps[data.step]?.transfers.push(data.transfer); },
