@@ -37,6 +37,8 @@ pub struct BlobStore {
     /// Recent output meshes by full-mesh blob name, newest last: packed only if asked for.
     recent: Mutex<VecDeque<(String, Arc<MeshData>)>>,
     recent_capacity: usize,
+    /// What the recent outputs' arrays may take together (the newest is always kept).
+    recent_bytes: usize,
     /// Held shared from storing a blob until a session record names it, and exclusively
     /// while evicting, so a blob is never evicted between being written and being needed.
     gate: tokio::sync::RwLock<()>,
@@ -68,12 +70,15 @@ impl Drop for Packing<'_> {
 }
 
 impl BlobStore {
-    pub fn new(dir: PathBuf, budget: u64, recent_capacity: usize) -> Self {
+    /// A store in `dir` holding at most `budget` bytes of blobs on disk, and at most
+    /// `recent_capacity` recent outputs taking `recent_bytes` in memory.
+    pub fn new(dir: PathBuf, budget: u64, (recent_capacity, recent_bytes): (usize, usize)) -> Self {
         Self {
             dir,
             budget,
             recent: Mutex::default(),
             recent_capacity,
+            recent_bytes,
             gate: tokio::sync::RwLock::new(()),
             packing: Mutex::default(),
         }
@@ -128,13 +133,18 @@ impl BlobStore {
     }
 
     /// Remembers an output mesh so its full blob can be made later; returns that name.
+    /// The oldest are forgotten beyond the count or the bytes allowed (the newest stays).
     pub fn remember(&self, mesh: Arc<MeshData>, content_hash: &str) -> String {
         let name = meshes::full_mesh_name(content_hash);
         let mut recent = self.recent.lock().expect("recent outputs lock");
         recent.retain(|(n, _)| n != &name);
         recent.push_back((name.clone(), mesh));
-        while recent.len() > self.recent_capacity {
-            recent.pop_front();
+        let mut bytes: usize = recent.iter().map(|(_, mesh)| mesh.array_bytes()).sum();
+        while recent.len() > self.recent_capacity
+            || (recent.len() > 1 && bytes > self.recent_bytes)
+        {
+            let (_, oldest) = recent.pop_front().expect("not empty");
+            bytes -= oldest.array_bytes();
         }
         name
     }
@@ -211,7 +221,7 @@ mod tests {
     #[tokio::test]
     async fn one_packing_per_output_at_a_time_and_no_entry_left_behind() {
         let dir = tempfile::tempdir().unwrap();
-        let store = BlobStore::new(dir.path().to_owned(), u64::MAX, 4);
+        let store = BlobStore::new(dir.path().to_owned(), u64::MAX, (4, usize::MAX));
         let first = store.packing("a.mfm").await;
         let other = store.packing("b.mfm").await;
         let second = store.packing("a.mfm");
@@ -224,6 +234,23 @@ mod tests {
         assert_eq!(store.packing.lock().unwrap().len(), 2);
         drop((second, other));
         assert!(store.packing.lock().unwrap().is_empty());
+    }
+
+    #[test]
+    fn recent_outputs_are_kept_within_their_count_and_bytes_the_newest_always() {
+        let dir = tempfile::tempdir().unwrap();
+        // Room for two meshes of 3 vertices and 1 triangle (48 bytes each), or 3 of them.
+        let store = BlobStore::new(dir.path().to_owned(), u64::MAX, (3, 100));
+        let mesh = |x: f32| Arc::new(MeshData::new(vec![x; 9], vec![0, 1, 2]));
+        let names: Vec<String> =
+            (0..3u8).map(|i| store.remember(mesh(f32::from(i)), &hex::encode([i; 32]))).collect();
+        assert!(store.recent(&names[0]).is_none(), "three outputs of 48 bytes in 100");
+        assert!(store.recent(&names[1]).is_some() && store.recent(&names[2]).is_some());
+        // An output larger than the whole allowance is still kept while it is the newest.
+        let large = Arc::new(MeshData::new(vec![0.0; 300], vec![0, 1, 2]));
+        let name = store.remember(large, &hex::encode([9; 32]));
+        assert!(store.recent(&name).is_some());
+        assert!(store.recent(&names[2]).is_none());
     }
 
     #[test]

@@ -28,6 +28,10 @@ pub const DEFAULT_SESSION_TTL: Duration = Duration::from_secs(6 * 3600);
 pub const DEFAULT_BLOB_BUDGET_BYTES: u64 = 8 << 30;
 /// Output meshes kept in memory so their full (packed) blob can be made on first request.
 pub const DEFAULT_RECENT_OUTPUTS: usize = 16;
+/// The arrays those outputs may take together: beyond it the oldest are forgotten (the
+/// newest is always kept; a session's current mesh is served from the session anyway), so
+/// a WHILE over a large mesh does not keep every round's output.
+pub const DEFAULT_RECENT_OUTPUT_BYTES: usize = 1 << 30;
 /// How often idle sessions and excess blobs are looked for.
 pub const EVICTION_INTERVAL: Duration = Duration::from_secs(60);
 /// How long `GET /sessions/{id}?wait=ready` waits for a loading session.
@@ -96,6 +100,7 @@ pub struct HostConfig {
     pub session_ttl: Duration,
     pub blob_budget_bytes: u64,
     pub recent_outputs: usize,
+    pub recent_output_bytes: usize,
 }
 
 impl HostConfig {
@@ -119,6 +124,7 @@ impl HostConfig {
             session_ttl: DEFAULT_SESSION_TTL,
             blob_budget_bytes: DEFAULT_BLOB_BUDGET_BYTES,
             recent_outputs: DEFAULT_RECENT_OUTPUTS,
+            recent_output_bytes: DEFAULT_RECENT_OUTPUT_BYTES,
         }
     }
 }

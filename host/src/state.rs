@@ -100,8 +100,8 @@ impl Host {
             downloads.client().clone(),
             config.foreign_plugins,
         );
-        let blobs =
-            BlobStore::new(dirs.blobs.clone(), config.blob_budget_bytes, config.recent_outputs);
+        let recent = (config.recent_outputs, config.recent_output_bytes);
+        let blobs = BlobStore::new(dirs.blobs.clone(), config.blob_budget_bytes, recent);
         Ok(Self {
             sessions: Sessions::new(dirs.sessions.clone()),
             blobs: Arc::new(blobs),

@@ -51,6 +51,13 @@ impl MeshData {
         Self { positions, triangles, attributes: Attributes::default() }
     }
 
+    /// The bytes its arrays take: positions, corners and attribute values.
+    pub fn array_bytes(&self) -> usize {
+        let attributes: usize =
+            self.attributes.iter().map(|a| a.values.len() * a.values.number_type().size()).sum();
+        (self.positions.len() + self.triangles.len()) * 4 + attributes
+    }
+
     /// The mesh with `attributes`, which must fit it (see [`Attributes::check`]).
     pub fn with_attributes(mut self, attributes: Attributes) -> Result<Self, AttributeError> {
         attributes.check(self.vertex_count(), self.triangle_count())?;
