@@ -6,10 +6,16 @@ impl MeshStore {
     /// The live triangles edge-connected to `seed` (sharing two distinct corners), ascending.
     fn component_of(&mut self, seed: u32) -> Vec<u32> {
         self.incidence();
-        let (incidence, triangles) =
-            (self.incidence.as_ref().expect("built above"), &self.mesh.triangles);
+        let slots = self.triangle_slots() as usize;
+        if self.component_marks.len() < slots {
+            self.component_marks.resize(slots, false);
+        }
+        let (incidence, triangles, in_component) = (
+            self.incidence.as_ref().expect("built above"),
+            &self.mesh.triangles,
+            &mut self.component_marks,
+        );
         let corners = |t: u32| &triangles[3 * t as usize..3 * t as usize + 3];
-        let mut in_component = vec![false; triangles.len() / 3];
         in_component[seed as usize] = true;
         let mut component = vec![seed];
         let mut next = 0;
@@ -29,6 +35,10 @@ impl MeshStore {
                 }
             }
         }
+        // Cleared where set, so the next component's search starts from all false without
+        // a pass over every triangle (removing 150 small pieces of a 2M-triangle scan wrote
+        // 300 MB of marks).
+        component.iter().for_each(|&t| in_component[t as usize] = false);
         component.sort_unstable();
         component
     }

@@ -69,6 +69,9 @@ pub struct MeshStore {
     /// Built once a step has asked for the triangles around a vertex more than
     /// [`SCANS_BEFORE_INDEX`] times; until then each answer is a scan of the triangles.
     incidence: Option<Incidence>,
+    /// Per triangle slot, whether a component search reached it: all false between
+    /// searches (`component_of` clears what it set).
+    component_marks: Vec<bool>,
     scans: usize,
     log: Vec<Op>,
     /// Present while the mesh has vertex normals: what the step touched and set.
@@ -92,6 +95,7 @@ impl MeshStore {
             removed_vertex_count: 0,
             removed_triangle_count: 0,
             incidence: None,
+            component_marks: Vec::new(),
             scans: 0,
             log: Vec::new(),
             normals,
