@@ -63,10 +63,11 @@ impl Prefetches {
                 let (wanted, why): (Vec<WantedPlugin>, Vec<Vec<String>>) = wanted
                     .into_iter()
                     .filter_map(|w| {
+                        let bytes = registry.plugin_bytes(&w.plugin.digest);
                         let expected = w
                             .needs
                             .iter()
-                            .filter(|n| n.expected(measured, transfer, held.vertices));
+                            .filter(|n| n.expected(measured, transfer, held.vertices, bytes));
                         let why: Vec<String> = expected.map(|n| n.why.clone()).collect();
                         (!why.is_empty()).then_some((w.plugin, why))
                     })
@@ -166,8 +167,18 @@ enum NeedKind {
 
 impl Need {
     /// Whether the cost model is expected to act on it, by the step's learned shape on a
-    /// mesh of `vertices`: a step never seen, or a mesh of unknown size, is.
-    fn expected(&self, measured: &Measured, transfer: Transfer, vertices: Option<u64>) -> bool {
+    /// mesh of `vertices` (a step never seen, or a mesh of unknown size, is), and whether
+    /// that saves more than the plugin's `plugin_bytes` cost on the link into the host
+    /// fetching it: while they arrive, every request into that host queues behind them —
+    /// the edit log the host just made, asked for by the next step's host, waited 0.3–0.7 s
+    /// behind 480 KB of plugins on a 5 Mbit/s link, for a move that saved 50 ms.
+    fn expected(
+        &self,
+        measured: &Measured,
+        transfer: Transfer,
+        vertices: Option<u64>,
+        plugin_bytes: Option<u64>,
+    ) -> bool {
         let (Some(vertices), Some(shape)) = (vertices, measured.step_shape(&self.step)) else {
             return true;
         };
@@ -179,10 +190,24 @@ impl Need {
         };
         let estimates = cost::estimate(&StepOutput::expected(&shape, vertices), &receiver);
         let way = cost::choose(transfer, &estimates);
-        match self.kind {
-            NeedKind::Replay => way == Use::Replay,
-            NeedKind::Move => cost::expected_ms(&estimates, way) >= MOVE_MARGIN_MS,
-        }
+        // What acting on it saves, and the link the plugin takes into the asking host (a
+        // replay's receiver fetches it from the producer; a producer, from the moving
+        // task's planned host).
+        let (saved_ms, plugin_link) = match self.kind {
+            NeedKind::Replay if way == Use::Replay => {
+                let otherwise = estimates.correction_ms.min(estimates.full_ms);
+                (otherwise - estimates.replay_ms, receiver.link)
+            }
+            NeedKind::Replay => return false,
+            NeedKind::Move => {
+                let saved_ms = cost::expected_ms(&estimates, way);
+                if saved_ms < MOVE_MARGIN_MS {
+                    return false;
+                }
+                (saved_ms, measured.link(&self.to.url, &self.from.url))
+            }
+        };
+        plugin_bytes.is_none_or(|bytes| saved_ms > plugin_link.transfer_ms(bytes))
     }
 }
 
@@ -363,7 +388,8 @@ mod tests {
             to: to.clone(),
             kind,
         };
-        let expected = |need: Need, vertices| need.expected(measured, Transfer::Auto, vertices);
+        let expected =
+            |need: Need, vertices| need.expected(measured, Transfer::Auto, vertices, None);
         let at = Some(1_000_000);
         // A step never seen, or a mesh of unknown size: wanted, as before anything is learned.
         assert!(expected(need("never seen", NeedKind::Replay), at));
@@ -382,7 +408,19 @@ mod tests {
         // On a mesh a hundredth the size the log is a few KB: no move either.
         assert!(!expected(need("holes", NeedKind::Move), Some(10_000)));
         // A workflow that asks for replays gets its plugins whatever the shapes.
-        assert!(need("components", NeedKind::Replay).expected(measured, Transfer::Replay, at));
+        let replays = need("components", NeedKind::Replay);
+        assert!(replays.expected(measured, Transfer::Replay, at, None));
+
+        // Only where it saves more than the plugin's time on the link into the host that
+        // fetches it (5 Mbit/s into `from` too): 2 MB of plugin (3.2 s) for a move that
+        // saves about half a second is not worth it; 100 KB (0.16 s) is. The noise's replay
+        // saves seconds: worth a plugin of 2 MB.
+        measured.downloaded(None, &from.url, 6_250_000, 10_000.0);
+        let sized = |need: Need, bytes| need.expected(measured, Transfer::Auto, at, Some(bytes));
+        assert!(!sized(need("holes", NeedKind::Move), 2_000_000));
+        assert!(sized(need("holes", NeedKind::Move), 100_000));
+        assert!(sized(need("noise", NeedKind::Replay), 2_000_000));
+        assert!(!sized(need("noise", NeedKind::Replay), 20_000_000));
     }
 
     #[test]
