@@ -382,12 +382,13 @@ async fn drive(
         () = run.cancelled() => cancelled(),
     }
     engine.registry.metrics.run_finished(run.status());
-    // A completed run is past cancelling: its result is packed before its sessions go.
+    // The client's place is free once the run has ended; a completed run is past
+    // cancelling, and its result is packed before its sessions go.
+    drop(ticket);
     if let Some(keeping) = keeping {
         keeping.keep().await;
     }
     engine.close_sessions(&run).await;
-    drop(ticket);
 }
 
 /// Keeps the result of a run that completed just before the engine stopped (its sessions
