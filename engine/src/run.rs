@@ -264,4 +264,3 @@ impl Run {
         self.changed.notify_one();
     }
 }
-

@@ -140,8 +140,7 @@ impl BlobStore {
         recent.retain(|(n, _)| n != &name);
         recent.push_back((name.clone(), mesh));
         let mut bytes: usize = recent.iter().map(|(_, mesh)| mesh.array_bytes()).sum();
-        while recent.len() > self.recent_capacity
-            || (recent.len() > 1 && bytes > self.recent_bytes)
+        while recent.len() > self.recent_capacity || (recent.len() > 1 && bytes > self.recent_bytes)
         {
             let (_, oldest) = recent.pop_front().expect("not empty");
             bytes -= oldest.array_bytes();
