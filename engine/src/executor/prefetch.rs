@@ -194,6 +194,8 @@ impl Need {
         // replay's receiver fetches it from the producer; a producer, from the moving
         // task's planned host).
         let (saved_ms, plugin_link) = match self.kind {
+            // A workflow that asks for replays replays whatever the plugin costs.
+            NeedKind::Replay if transfer == Transfer::Replay => return true,
             NeedKind::Replay if way == Use::Replay => {
                 let otherwise = estimates.correction_ms.min(estimates.full_ms);
                 (otherwise - estimates.replay_ms, receiver.link)
@@ -410,6 +412,7 @@ mod tests {
         // A workflow that asks for replays gets its plugins whatever the shapes.
         let replays = need("components", NeedKind::Replay);
         assert!(replays.expected(measured, Transfer::Replay, at, None));
+        assert!(replays.expected(measured, Transfer::Replay, at, Some(20_000_000)));
 
         // Only where it saves more than the plugin's time on the link into the host that
         // fetches it (5 Mbit/s into `from` too): 2 MB of plugin (3.2 s) for a move that
