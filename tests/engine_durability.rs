@@ -210,6 +210,38 @@ async fn workflows_that_would_grow_without_bound_are_refused() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_result_the_engine_died_before_packing_is_packed_when_it_restarts() {
+    let data = tempfile::tempdir().unwrap();
+    let (_hosts, mut engine, api) = hosts_and_engine_process(data.path()).await;
+    let input = api.upload(&Input::bunny()).await;
+    let done = api.run(&json!([{"run": "laplacian-smoothing"}]), &input).await;
+    assert_eq!(done["status"], "completed", "{}", done["error"]);
+    let (id, packed) = (text(&done["id"]).to_owned(), done["result"]["bytes"].as_u64().unwrap());
+
+    // The record as a crash right after the run's end leaves it: completed, held, not
+    // packed, not settled (once the settled one is written, within PERSIST_INTERVAL).
+    tokio::time::sleep(PERSIST_INTERVAL * 3).await;
+    engine.kill();
+    let database = rusqlite::Connection::open(data.path().join("engine/engine.sqlite3")).unwrap();
+    let stored: String = database
+        .query_row("SELECT record FROM runs WHERE id = ?1", [&id], |row| row.get(0))
+        .unwrap();
+    let mut record: Json = serde_json::from_str(&stored).unwrap();
+    assert_eq!(record["result"]["bytes"].as_u64(), Some(packed), "{record:#}");
+    record["result"]["bytes"] = Json::Null;
+    record.as_object_mut().unwrap().remove("settled_ms");
+    let unsettled = serde_json::to_string(&record).unwrap();
+    database.execute("UPDATE runs SET record = ?2 WHERE id = ?1", [&id, &unsettled]).unwrap();
+    drop(database);
+
+    engine.restart().await;
+    let settled = api.finished(&id).await;
+    assert_eq!(settled["status"], "completed");
+    assert!(settled["settled_ms"].is_number(), "{settled:#}");
+    assert_eq!(settled["result"]["bytes"].as_u64(), Some(packed), "{settled:#}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn event_streams_end_with_their_run_and_at_once_for_a_finished_one() {
     let cluster = Cluster::start(&[&["smoothing", "checks"]]).await;
     let url = cluster.upload(&Input::bunny()).await;

@@ -120,11 +120,7 @@ impl Engine {
         let mut unfinished = Vec::new();
         for stored in stored {
             if stored.record.status.is_final() {
-                let run = engine.revive(&stored);
-                engine.keep(run.clone());
-                if !stored.record.is_settled() {
-                    tokio::spawn(keep_after_restart(engine.clone(), run));
-                }
+                engine.keep(engine.revive(&stored));
             } else {
                 unfinished.push(stored);
             }
@@ -219,6 +215,14 @@ impl Engine {
             }
             (Err(error), _) => interrupted(error.to_string()),
             (_, Err(busy)) => interrupted(busy.to_string()),
+        }
+    }
+
+    /// Keeps the results of runs that completed just before the engine stopped, once their
+    /// hosts are registered again (see [`executor::Keeping::from_record`]).
+    pub(crate) fn settle_completed(self: &Arc<Self>) {
+        for run in self.runs().into_iter().filter(|run| run.is_finished() && !run.is_settled()) {
+            tokio::spawn(keep_after_restart(self.clone(), run));
         }
     }
 

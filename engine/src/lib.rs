@@ -97,6 +97,7 @@ pub async fn start(
             tracing::warn!("host {} does not answer yet: {error}", entry.url);
         }
     }
+    engine.settle_completed();
     for stored in unfinished {
         tracing::info!("resuming run {}", stored.id);
         engine.resume(stored);

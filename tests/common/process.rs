@@ -85,6 +85,11 @@ impl EngineProcess {
     /// stored.
     pub async fn kill_and_restart(&mut self) {
         self.kill();
+        self.restart().await;
+    }
+
+    /// A new engine on the same port and data (after [`kill`](Self::kill)).
+    pub async fn restart(&mut self) {
         self.child = Self::spawn(self.port, &self.data, &self.args);
         self.wait_healthy().await;
     }

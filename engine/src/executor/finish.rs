@@ -60,13 +60,11 @@ pub struct Keeping {
 
 impl Keeping {
     /// Keeping for a completed run the engine found unsettled at a restart, if its result
-    /// was not packed yet: its holders from the record (their sessions outlive the engine).
+    /// was not packed yet: its holders from the record (their sessions outlive the engine),
+    /// each only if it is a registered host (the cluster token goes to no other server).
     pub fn from_record(run: Arc<Run>, registry: &Registry) -> Option<Self> {
         let result = run.record().result.filter(|result| result.bytes.is_none())?;
-        let holder = |url: &str| {
-            let host = url.rsplit_once("/blobs/")?.0;
-            Some((registry.client(host), url.to_owned()))
-        };
+        let holder = |url: &str| Some((registry.registered(url)?, url.to_owned()));
         let producer = holder(&result.url);
         let copy = result.copies.first().and_then(|url| holder(url));
         Some(Self { run, producer, copy, log_sizes: Vec::new() })
@@ -85,13 +83,12 @@ impl Keeping {
                 }
             }
         };
-        let had_copy = self.copy.is_some();
         let log_sizes = futures_util::future::join_all(self.log_sizes);
         let (bytes, copied, _) = tokio::join!(pack(self.producer), pack(self.copy), log_sizes);
         self.run.update("result", |r| {
             let Some(result) = r.result.as_mut() else { return json!(null) };
             result.bytes = bytes;
-            if had_copy && copied.is_none() {
+            if copied.is_none() {
                 result.copies.clear();
             }
             json!(result)
