@@ -194,6 +194,41 @@ async fn filters_and_checks_run_and_other_hosts_follow_by_correction_or_full_mes
     assert_ne!(next_on_a.output_hash, step.output_hash);
 }
 
+/// A plugin goes to a host that replays its steps compressed when that host accepts zstd
+/// (a third of the bytes over a slow link), and `GET /services` says how many bytes that
+/// is; a client that does not ask gets the component as it is. Either way the bytes are
+/// the component the digest names.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_plugin_is_sent_compressed_to_a_host_that_accepts_zstd() {
+    let dir = tempfile::tempdir().unwrap();
+    let (handle, host) = start_host(config(dir.path())).await;
+    let services = host.services().await.unwrap();
+    let smoothing = services.iter().find(|s| s.info.name == "laplacian-smoothing").unwrap();
+    let (component, sent) = (smoothing.plugin_bytes.unwrap(), smoothing.plugin_sent_bytes.unwrap());
+    let url = format!("{}/plugins/{}/wasm", handle.url, smoothing.plugin);
+    let http = reqwest::Client::new();
+
+    let compressed = http.get(&url).header("accept-encoding", "gzip, zstd").send().await.unwrap();
+    assert_eq!(compressed.headers()["content-encoding"], "zstd");
+    let body = compressed.bytes().await.unwrap();
+    assert_eq!(body.len() as u64, sent);
+    assert!(sent * 2 < component, "{sent} B sent for a {component} B component");
+    let unpacked = zstd::decode_all(&body[..]).unwrap();
+    assert_eq!(unpacked.len() as u64, component);
+    assert_eq!(meshflow_runtime::digest(&unpacked), smoothing.plugin);
+
+    for accept in [None, Some("gzip"), Some("zstd;q=0")] {
+        let mut request = http.get(&url);
+        if let Some(accept) = accept {
+            request = request.header("accept-encoding", accept);
+        }
+        let plain = request.send().await.unwrap();
+        assert!(plain.headers().get("content-encoding").is_none(), "{accept:?}");
+        let body = plain.bytes().await.unwrap();
+        assert_eq!(meshflow_runtime::digest(&body), smoothing.plugin, "{accept:?}");
+    }
+}
+
 /// DESIGN §4: a receiver re-runs the named step in its own sandbox, fetching the plugin it
 /// lacks from the producer; a replay that reaches another mesh falls back to the edit log;
 /// a restart re-runs it again from the stored plugin.

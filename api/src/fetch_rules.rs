@@ -3,7 +3,7 @@
 //! metadata endpoints, also inside an IPv6 address that embeds an IPv4 one, whether named in
 //! the URL or reached by resolving its name ([`GuardedResolver`], so DNS rebinding cannot get
 //! around it). Beyond that, a [`FetchScope`] says which origins are allowed and which of them
-//! get the cluster token; [`fetch`](crate::fetch) checks every redirect hop against it.
+//! get the cluster token; [`fetch_compressible`](crate::fetch_compressible) checks every redirect hop against it.
 
 use std::collections::BTreeSet;
 use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr};
@@ -214,7 +214,7 @@ impl Resolve for GuardedResolver {
 }
 
 /// A client builder whose names resolve through [`GuardedResolver`] and which follows no
-/// redirect by itself ([`fetch`](crate::fetch) re-checks each hop), with the process's TLS
+/// redirect by itself ([`fetch_compressible`](crate::fetch_compressible) re-checks each hop), with the process's TLS
 /// trust ([`crate::tls`]).
 pub fn guarded_client() -> reqwest::ClientBuilder {
     crate::tls::client_builder()

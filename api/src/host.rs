@@ -43,6 +43,10 @@ pub struct ServiceEntry {
     /// to replay a step of it (older hosts do not say).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub plugin_bytes: Option<u64>,
+    /// What such a host downloads: the component zstd-compressed, as `GET
+    /// /plugins/{digest}/wasm` sends it to a client accepting zstd (older hosts do not say).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plugin_sent_bytes: Option<u64>,
 }
 
 /// `POST /plugins`.

@@ -24,5 +24,5 @@ pub use host_client::{ClusterAccess, HostClient};
 pub use meshflow_params as params;
 pub use transport::{
     CONNECT_TIMEOUT, ClientError, LONG_POLL_TIMEOUT, MAX_ERROR_BODY_BYTES, MAX_REDIRECTS,
-    QUERY_TIMEOUT, WORK_TIMEOUT, fetch, fetch_response,
+    QUERY_TIMEOUT, WORK_TIMEOUT, accepts_zstd, fetch_compressible, fetch_response,
 };

@@ -4,6 +4,7 @@
 use std::time::Duration;
 
 use futures_util::StreamExt;
+use reqwest::header::{ACCEPT_ENCODING, CONTENT_ENCODING, HeaderMap};
 use reqwest::{Method, RequestBuilder, Response, StatusCode};
 use serde::de::DeserializeOwned;
 
@@ -75,7 +76,7 @@ pub const DROPPED_RETRY_PAUSE: Duration = Duration::from_millis(100);
 /// Error bodies are read up to this size; the rest is not kept.
 pub const MAX_ERROR_BODY_BYTES: usize = 16 << 10;
 
-/// Redirects [`fetch`] follows, each checked against the fetch rules.
+/// Redirects [`fetch_compressible`] follows, each checked against the fetch rules.
 pub const MAX_REDIRECTS: usize = 5;
 /// The largest JSON answer a client reads (a host's services or run result, an engine's run
 /// record): far above any real one, and what a lying server can make it hold.
@@ -252,41 +253,94 @@ fn code_of(status: StatusCode) -> String {
 /// [`read_capped`]). The URL and every redirect's target must pass `scope`, and only
 /// cluster origins get the cluster token. The URL may be anyone's: an error answer's body is
 /// neither read nor repeated, only its status, and the URL is quoted ([`quoted`]).
-pub async fn fetch(
+///
+/// The body is asked for zstd-compressed (`Accept-Encoding: zstd`): a host sends a plugin
+/// so, a third of its bytes. It is decompressed here, held to `limit` bytes compressed and
+/// again decompressed; a server that ignores the header is read as it answers, and any
+/// other content coding is refused.
+pub async fn fetch_compressible(
     http: &reqwest::Client,
     url: &str,
     scope: &FetchScope,
     limit: u64,
     deadline: Duration,
 ) -> Result<Vec<u8>, ClientError> {
-    let quoted_url = quoted(url);
-    let timed_out = || ClientError::Timeout {
-        url: quoted_url.clone(),
-        message: format!("the download took longer than {} s", deadline.as_secs()),
+    let fetched = async {
+        let (response, shown) = fetch_response_with(http, url, scope, Some("zstd")).await?;
+        let coding = response.headers().get(CONTENT_ENCODING).cloned();
+        let body = read_capped(response, &shown, limit).await?;
+        let protocol = |message: String| ClientError::Protocol { url: shown.clone(), message };
+        match coding.as_ref().map(|c| c.to_str().map(str::trim)) {
+            None => Ok(body),
+            Some(Ok(c)) if c.eq_ignore_ascii_case("identity") => Ok(body),
+            Some(Ok(c)) if c.eq_ignore_ascii_case("zstd") => {
+                tokio::task::spawn_blocking(move || unzstd_capped(&body, limit))
+                    .await
+                    .map_err(|e| protocol(e.to_string()))?
+                    .ok_or_else(|| ClientError::TooLarge { url: shown.clone(), limit })?
+                    .map_err(|e| protocol(format!("the zstd body does not decode: {e}")))
+            }
+            Some(_) => Err(protocol(format!("a content coding other than zstd: {coding:?}"))),
+        }
     };
-    tokio::time::timeout(deadline, fetch_following(http, url, scope, limit))
-        .await
-        .unwrap_or_else(|_| Err(timed_out()))
+    tokio::time::timeout(deadline, fetched).await.unwrap_or_else(|_| {
+        Err(ClientError::Timeout {
+            url: quoted(url),
+            message: format!("the download took longer than {} s", deadline.as_secs()),
+        })
+    })
 }
 
-async fn fetch_following(
-    http: &reqwest::Client,
-    url: &str,
-    scope: &FetchScope,
-    limit: u64,
-) -> Result<Vec<u8>, ClientError> {
-    let (response, shown) = fetch_response(http, url, scope).await?;
-    read_capped(response, &shown, limit).await
+/// `compressed` decoded, or `None` once it would exceed `limit` bytes (a small body may
+/// decode to gigabytes).
+fn unzstd_capped(compressed: &[u8], limit: u64) -> Option<std::io::Result<Vec<u8>>> {
+    use std::io::Read;
+    let decoder = match zstd::stream::read::Decoder::new(compressed) {
+        Ok(decoder) => decoder,
+        Err(e) => return Some(Err(e)),
+    };
+    let mut out = Vec::new();
+    if let Err(e) = decoder.take(limit + 1).read_to_end(&mut out) {
+        return Some(Err(e));
+    }
+    (out.len() as u64 <= limit).then_some(Ok(out))
+}
+
+/// Whether a request's `Accept-Encoding` takes zstd (a `q` of zero declines it).
+pub fn accepts_zstd(headers: &HeaderMap) -> bool {
+    let declined = |param: &str| {
+        param.strip_prefix("q=").is_some_and(|q| q.trim().parse::<f32>().is_ok_and(|q| q <= 0.0))
+    };
+    headers
+        .get_all(ACCEPT_ENCODING)
+        .iter()
+        .filter_map(|value| value.to_str().ok())
+        .flat_map(|value| value.split(','))
+        .any(|item| {
+            let mut parts = item.split(';').map(str::trim);
+            let coding = parts.next().unwrap_or_default();
+            coding.eq_ignore_ascii_case("zstd") && !parts.any(declined)
+        })
 }
 
 /// The successful answer to a GET of `url` within `scope`, redirects followed and each
-/// checked (see [`fetch`]), with the URL it came from as errors quote it; its body is
+/// checked (see [`fetch_compressible`]), with the URL it came from as errors quote it; its body is
 /// the caller's to read (and to cap: the announced length is not checked here). No
 /// overall deadline: the caller sets one.
 pub async fn fetch_response(
     http: &reqwest::Client,
     url: &str,
     scope: &FetchScope,
+) -> Result<(Response, String), ClientError> {
+    fetch_response_with(http, url, scope, None).await
+}
+
+/// [`fetch_response`], asking for a content coding when one is given.
+async fn fetch_response_with(
+    http: &reqwest::Client,
+    url: &str,
+    scope: &FetchScope,
+    accept_encoding: Option<&'static str>,
 ) -> Result<(Response, String), ClientError> {
     let mut next = reqwest::Url::parse(url).map_err(|_| Refusal::NotAUrl(quoted(url)))?;
     for _ in 0..=MAX_REDIRECTS {
@@ -296,7 +350,10 @@ pub async fn fetch_response(
         if let Some(message) = token.and_then(|_| crate::tls::plain_http_refusal(&next)) {
             return Err(ClientError::PlainHttp { url: shown, message });
         }
-        let request = authorized(http.get(next.clone()), token);
+        let mut request = authorized(http.get(next.clone()), token);
+        if let Some(coding) = accept_encoding {
+            request = request.header(ACCEPT_ENCODING, coding);
+        }
         let response = request.send().await.map_err(|e| ClientError::transport(&shown, e))?;
         let status = response.status();
         if status.is_redirection() {
@@ -346,6 +403,31 @@ pub(crate) async fn read_capped(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn zstd_is_taken_when_accepted_and_not_declined() {
+        let with = |values: &[&str]| {
+            let mut headers = HeaderMap::new();
+            for v in values {
+                headers.append(ACCEPT_ENCODING, v.parse().unwrap());
+            }
+            accepts_zstd(&headers)
+        };
+        assert!(with(&["zstd"]) && with(&["gzip, ZSTD;q=0.5"]) && with(&["gzip", "zstd"]));
+        assert!(!with(&[]) && !with(&["gzip, br"]) && !with(&["zstd;q=0"]) && !with(&["zstdx"]));
+    }
+
+    #[test]
+    fn a_zstd_body_decodes_only_within_the_limit() {
+        let component: Vec<u8> = (0..300_000u32).map(|i| (i % 251) as u8).collect();
+        let packed = zstd::bulk::compress(&component, 9).unwrap();
+        assert_eq!(unzstd_capped(&packed, 300_000).unwrap().unwrap(), component);
+        // 64 MB of zeros in a few kilobytes: refused at the limit, not decoded whole.
+        let bomb = zstd::bulk::compress(&vec![0u8; 64 << 20], 9).unwrap();
+        assert!(bomb.len() < 64 << 10, "{} B", bomb.len());
+        assert!(unzstd_capped(&bomb, 1 << 20).is_none());
+        assert!(unzstd_capped(b"not zstd at all", 1 << 20).unwrap().is_err());
+    }
     use tokio::io::{AsyncReadExt, AsyncWriteExt};
 
     /// A server that resets its first `drops` connections after reading their request, then

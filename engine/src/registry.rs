@@ -16,6 +16,22 @@ use crate::measured::Measured;
 use crate::store::{self, Store};
 use crate::trust::{self, Trust};
 
+/// A plugin's size as a host offering it said (nothing from a host that did not).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PluginSize {
+    /// The component's bytes, which compiling it scales with.
+    pub component: Option<u64>,
+    /// The bytes a fetch of it moves: the component zstd-compressed, about a third.
+    pub sent: Option<u64>,
+}
+
+impl PluginSize {
+    /// The bytes a fetch moves: the component's from a host that does not compress.
+    pub fn sent(self) -> Option<u64> {
+        self.sent.or(self.component)
+    }
+}
+
 /// How often the engine asks every host for its health and services.
 pub const POLL_INTERVAL: Duration = Duration::from_secs(2);
 
@@ -170,10 +186,12 @@ impl HostEntry {
         Some((entry.plugin.clone(), entry.info.kind))
     }
 
-    /// The component size of the plugin `digest`, if the host offers it and said.
-    pub fn plugin_bytes(&self, digest: &str) -> Option<u64> {
+    /// The size of the plugin `digest`, if the host offers it and said.
+    pub fn plugin_size(&self, digest: &str) -> Option<PluginSize> {
         let state = self.state.lock().unwrap();
-        state.services.iter().find(|s| s.plugin == digest).and_then(|s| s.plugin_bytes)
+        let service = state.services.iter().find(|s| s.plugin == digest)?;
+        let size = PluginSize { component: service.plugin_bytes, sent: service.plugin_sent_bytes };
+        (size != PluginSize::default()).then_some(size)
     }
 
     pub fn offers(&self, service: &str) -> bool {
@@ -473,10 +491,10 @@ impl Registry {
         self.hosts.lock().unwrap().clone()
     }
 
-    /// The size of the plugin `digest`'s component as a host offering it last said: what
-    /// a host lacking it downloads to replay a step of it.
-    pub fn plugin_bytes(&self, digest: &str) -> Option<u64> {
-        self.hosts().iter().find_map(|h| h.plugin_bytes(digest))
+    /// The size of the plugin `digest` as a host offering it last said: what a host lacking
+    /// it downloads and compiles to replay a step of it.
+    pub fn plugin_size(&self, digest: &str) -> PluginSize {
+        self.hosts().iter().find_map(|h| h.plugin_size(digest)).unwrap_or_default()
     }
 
     /// Polls every host, concurrently.
@@ -608,6 +626,7 @@ impl HostEntry {
             },
             pinned_only: false,
             plugin_bytes: None,
+            plugin_sent_bytes: None,
         };
         let mut state = self.state.lock().unwrap();
         state.up = true;

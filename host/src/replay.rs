@@ -446,7 +446,7 @@ impl ReplayPlugins {
                     .ok_or_else(|| fail("not here, and no host to fetch it from".into()))?;
                 let url = format!("{producer}/plugins/{digest}/wasm");
                 let (limit, deadline) = (MAX_PLUGIN_BYTES as u64, PLUGIN_FETCH_TIMEOUT);
-                meshflow_api::fetch(&self.http, &url, source.scope, limit, deadline)
+                meshflow_api::fetch_compressible(&self.http, &url, source.scope, limit, deadline)
                     .await
                     .map_err(|e| fail(format!("fetching it: {e}")))?
             }

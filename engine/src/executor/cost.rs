@@ -13,11 +13,12 @@ use meshflow_api::engine::TransferEstimates;
 use meshflow_api::host::Transfer as Use;
 
 use crate::measured::{HostSpeed, Link, StepShape};
+use crate::registry::PluginSize;
 use crate::workflow::Transfer;
 
 /// Fallbacks only, for a plugin no host has said the size of (a host older than the
 /// `plugin_bytes` of `GET /services`): what a receiver lacking it downloads (the built-in
-/// plugins are 0.1-0.2 MB), and what compiling it costs at least.
+/// plugins are 0.2-0.35 MB, 66-110 KB compressed), and what compiling it costs at least.
 pub const PLUGIN_BYTES_GUESS: u64 = 256 << 10;
 pub const PLUGIN_COMPILE_MS_GUESS: f64 = 100.0;
 /// Compiling scales with the component: an 18 MB Python component took 20-40 s uncached
@@ -30,8 +31,8 @@ pub const PLUGIN_COMPILE_MS_PER_MIB_GUESS: f64 = 1_500.0;
 pub enum PluginAt {
     /// Compiled there: offered, fetched for an earlier replay, or prefetched for this run.
     Ready,
-    /// To be fetched and compiled first; `bytes` as a host that has it said.
-    Missing { bytes: Option<u64> },
+    /// To be fetched and compiled first.
+    Missing(PluginSize),
 }
 
 impl PluginAt {
@@ -39,12 +40,12 @@ impl PluginAt {
     pub fn ready_ms(self, link: &Link) -> f64 {
         match self {
             PluginAt::Ready => 0.0,
-            PluginAt::Missing { bytes } => {
-                let compile = bytes.map_or(PLUGIN_COMPILE_MS_GUESS, |b| {
+            PluginAt::Missing(size) => {
+                let compile = size.component.map_or(PLUGIN_COMPILE_MS_GUESS, |b| {
                     (b as f64 / f64::from(1 << 20) * PLUGIN_COMPILE_MS_PER_MIB_GUESS)
                         .max(PLUGIN_COMPILE_MS_GUESS)
                 });
-                link.transfer_ms(bytes.unwrap_or(PLUGIN_BYTES_GUESS)) + compile
+                link.transfer_ms(size.sent().unwrap_or(PLUGIN_BYTES_GUESS)) + compile
             }
         }
     }
@@ -181,18 +182,20 @@ mod tests {
     fn receiver(link: Link, has_plugin: bool, load: u32) -> Receiver {
         let plugin = match has_plugin {
             true => PluginAt::Ready,
-            false => PluginAt::Missing { bytes: None },
+            false => PluginAt::Missing(PluginSize::default()),
         };
         Receiver { link, speed: SPEED, plugin, load }
     }
 
     #[test]
     fn a_large_plugin_the_receiver_lacks_is_not_replayed_but_a_prefetched_one_is() {
-        // An 18 MB Python component over 5 Mbit/s: half a minute to fetch, more to compile.
-        let python = PluginAt::Missing { bytes: Some(18 << 20) };
+        // An 18 MB Python component, 5 MB compressed, over 5 Mbit/s: 8 s to fetch and
+        // about 27 s to compile (by the component's size, not the bytes sent).
+        let size = PluginSize { component: Some(18 << 20), sent: Some(5 << 20) };
+        let python = PluginAt::Missing(size);
         let lacking = Receiver { plugin: python, ..receiver(MBIT_5, false, 0) };
         let lacking = estimate(&GLOBAL, &lacking);
-        assert!(lacking.replay_ms > 50_000.0, "{lacking:?}");
+        assert!(lacking.replay_ms > 35_000.0, "{lacking:?}");
         assert_ne!(choose(Transfer::Auto, &lacking), Use::Replay, "{lacking:?}");
         // The size unknown: the fallback guess, which would still replay.
         let guessed = estimate(&GLOBAL, &receiver(MBIT_5, false, 0));
@@ -200,7 +203,7 @@ mod tests {
         // Prefetched while the input broadcast: ready, and replayed.
         let prefetched = estimate(&GLOBAL, &receiver(MBIT_5, true, 0));
         assert_eq!(choose(Transfer::Auto, &prefetched), Use::Replay, "{prefetched:?}");
-        assert!(prefetched.replay_ms < lacking.replay_ms / 100.0);
+        assert!(prefetched.replay_ms < lacking.replay_ms / 50.0, "{prefetched:?}");
     }
 
     #[test]

@@ -63,7 +63,7 @@ impl Prefetches {
                 let (wanted, why): (Vec<WantedPlugin>, Vec<Vec<String>>) = wanted
                     .into_iter()
                     .filter_map(|w| {
-                        let bytes = registry.plugin_bytes(&w.plugin.digest);
+                        let bytes = registry.plugin_size(&w.plugin.digest).sent();
                         let expected = w
                             .needs
                             .iter()
@@ -134,7 +134,7 @@ impl Prefetches {
             || self.ready(&host.url, digest);
         match ready {
             true => PluginAt::Ready,
-            false => PluginAt::Missing { bytes: registry.plugin_bytes(digest) },
+            false => PluginAt::Missing(registry.plugin_size(digest)),
         }
     }
 }
@@ -168,7 +168,7 @@ enum NeedKind {
 impl Need {
     /// Whether the cost model is expected to act on it, by the step's learned shape on a
     /// mesh of `vertices` (a step never seen, or a mesh of unknown size, is), and whether
-    /// that saves more than the plugin's `plugin_bytes` cost on the link into the host
+    /// that saves more than the plugin's `plugin_bytes` (as sent) cost on the link into the host
     /// fetching it: while they arrive, every request into that host queues behind them —
     /// the edit log the host just made, asked for by the next step's host, waited 0.3–0.7 s
     /// behind 480 KB of plugins on a 5 Mbit/s link, for a move that saved 50 ms.

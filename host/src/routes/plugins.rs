@@ -6,7 +6,8 @@ use std::sync::Arc;
 use axum::Json;
 use axum::body::Bytes;
 use axum::extract::{Path, Query, State};
-use axum::http::StatusCode;
+use axum::http::{HeaderMap, StatusCode, header};
+use axum::response::{IntoResponse, Response};
 use serde::Deserialize;
 
 use super::error::{ApiError, ApiJson};
@@ -53,15 +54,25 @@ pub async fn services(State(host): State<Arc<Host>>) -> Json<Vec<ServiceEntry>> 
 }
 
 /// `GET /plugins/{digest}/wasm` (cluster token): a loaded plugin's component, for a host
-/// that replays a step of this one.
+/// that replays a step of this one; zstd-compressed (a third of the bytes) to a client
+/// that accepts it.
 pub async fn component(
     State(host): State<Arc<Host>>,
     Path(digest): Path<String>,
-) -> Result<impl axum::response::IntoResponse, ApiError> {
-    let bytes = host.plugins.bytes(&digest).ok_or_else(|| {
-        ApiError::new(StatusCode::NOT_FOUND, "no-plugin", format!("no plugin {digest} here"))
-    })?;
-    Ok(([(axum::http::header::CONTENT_TYPE, "application/wasm")], bytes))
+    headers: HeaderMap,
+) -> Result<Response, ApiError> {
+    let missing =
+        || ApiError::new(StatusCode::NOT_FOUND, "no-plugin", format!("no plugin {digest} here"));
+    let wasm = (header::CONTENT_TYPE, "application/wasm");
+    // The answer depends on the header: a cache must not give one form for the other.
+    let vary = (header::VARY, "accept-encoding");
+    if meshflow_api::accepts_zstd(&headers) {
+        let sent = host.plugins.sent(&digest).ok_or_else(missing)?;
+        let zstd = (header::CONTENT_ENCODING, "zstd");
+        return Ok(([wasm, zstd, vary], Vec::clone(&sent)).into_response());
+    }
+    let bytes = host.plugins.bytes(&digest).ok_or_else(missing)?;
+    Ok(([wasm, vary], bytes).into_response())
 }
 
 /// `POST /replay-plugins` (cluster token): makes ready the plugins a run may replay
