@@ -16,6 +16,8 @@ use crate::limits::MAX_HOSTS;
 
 /// Weight of a new sample in the moving averages.
 const SMOOTHING: f64 = 0.3;
+/// A compile its cache answered still takes a moment: the least a sample may say.
+const MIN_COMPILE_MS: f64 = 1.0;
 /// Only transfers at least this large tell the bandwidth; smaller ones tell the latency.
 pub const MIN_BANDWIDTH_SAMPLE_BYTES: u64 = 64 << 10;
 /// Until measured: a 100 Mbit/s link with 2 ms to the first byte.
@@ -164,6 +166,9 @@ pub struct Snapshot {
     /// Absent from snapshots of engines before step shapes were learned.
     #[serde(default)]
     shapes: Vec<(String, StepShape, u32)>,
+    /// Absent from snapshots of engines before compile times were learned.
+    #[serde(default)]
+    compiles: Vec<(String, f64, u32)>,
 }
 
 #[derive(Default)]
@@ -178,6 +183,9 @@ struct Tables {
     fetched: HashSet<(String, String)>,
     /// By [`step_key`], with the sample count.
     shapes: HashMap<String, (StepShape, u32)>,
+    /// By host: milliseconds to compile a MiB of component there (a compile its cache
+    /// answers counts as what it cost), with the sample count.
+    compiles: HashMap<String, (f64, u32)>,
     /// Something changed since the last [`Measured::take_snapshot`].
     changed: bool,
 }
@@ -210,6 +218,12 @@ impl Measured {
                 .take(MAX_STEP_SHAPES)
                 .map(|(key, shape, samples)| (key, (shape, samples)))
                 .collect();
+            tables.compiles = snapshot
+                .compiles
+                .into_iter()
+                .take(MAX_MEASURED_PAIRS)
+                .map(|(host, rate, samples)| (host, (rate, samples)))
+                .collect();
         }
         measured
     }
@@ -226,6 +240,7 @@ impl Measured {
             speeds: tables.speeds.iter().map(|(h, (s, n))| (h.clone(), *s, *n)).collect(),
             fetched: tables.fetched.iter().cloned().collect(),
             shapes: tables.shapes.iter().map(|(k, (s, n))| (k.clone(), *s, *n)).collect(),
+            compiles: tables.compiles.iter().map(|(h, (r, n))| (h.clone(), *r, *n)).collect(),
         };
         // In a stable order, so equal measurements save equal bytes.
         snapshot.pairs.sort_by(|a, b| (&a.0, &a.1).cmp(&(&b.0, &b.1)));
@@ -233,6 +248,7 @@ impl Measured {
         snapshot.speeds.sort_by(|a, b| a.0.cmp(&b.0));
         snapshot.fetched.sort();
         snapshot.shapes.sort_by(|a, b| a.0.cmp(&b.0));
+        snapshot.compiles.sort_by(|a, b| a.0.cmp(&b.0));
         Some(snapshot)
     }
 
@@ -243,6 +259,7 @@ impl Measured {
         tables.into.remove(host);
         tables.speeds.remove(host);
         tables.fetched.retain(|(r, _)| r != host);
+        tables.compiles.remove(host);
         tables.changed = true;
     }
 
@@ -283,6 +300,33 @@ impl Measured {
         if tables.fetched.len() < MAX_REMEMBERED_FETCHES {
             tables.changed |= tables.fetched.insert((receiver.to_owned(), digest.to_owned()));
         }
+    }
+
+    /// Milliseconds `host` takes to compile a MiB of component, once a prefetch showed it.
+    pub fn compile_ms_per_mib(&self, host: &str) -> Option<f64> {
+        self.tables().compiles.get(host).map(|(rate, _)| *rate)
+    }
+
+    /// `host` fetched a plugin of `component` bytes, `sent` over the link from `producer`,
+    /// and compiled it, in `ms` all told: what the link does not explain was the compile.
+    pub fn fetched_and_compiled(
+        &self,
+        (producer, host): (&str, &str),
+        (component, sent): (u64, u64),
+        ms: f64,
+    ) {
+        if !ms.is_finite() || component == 0 {
+            return;
+        }
+        let compile_ms = (ms - self.link(producer, host).transfer_ms(sent)).max(MIN_COMPILE_MS);
+        let mib = component as f64 / f64::from(1 << 20);
+        let mut tables = self.tables();
+        if tables.compiles.len() >= MAX_MEASURED_PAIRS && !tables.compiles.contains_key(host) {
+            return;
+        }
+        tables.changed = true;
+        let (rate, samples) = tables.compiles.entry(host.to_owned()).or_insert((0.0, 0));
+        *rate = learned(*rate, compile_ms / mib, samples);
     }
 
     /// A download of `bytes` in `ms` by `receiver`, from `producer` (a host) or from
@@ -517,6 +561,7 @@ mod tests {
             replay_bytes: 170.0,
         };
         measured.learn_step("holes", shape);
+        measured.fetched_and_compiled(("a", "b"), (1 << 20, 1 << 18), 300.0);
         let snapshot = measured.take_snapshot().expect("changed");
         assert_eq!(measured.take_snapshot(), None, "saved once until something changes");
 
@@ -528,6 +573,13 @@ mod tests {
         assert_eq!(restored.speed("b"), measured.speed("b"));
         assert!(restored.has_fetched("b", "digest"));
         assert_eq!(restored.step_shape("holes"), Some(shape));
+        assert_eq!(restored.compile_ms_per_mib("b"), measured.compile_ms_per_mib("b"));
+        // A snapshot from before compile times were learned still restores.
+        let older: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let mut older = older.as_object().unwrap().clone();
+        older.remove("compiles");
+        let older = Measured::restore(serde_json::from_value(older.into()).unwrap());
+        assert_eq!((older.step_shape("holes"), older.compile_ms_per_mib("b")), (Some(shape), None));
 
         restored.forget_host("b");
         assert_eq!(restored.link("a", "b"), DEFAULT_LINK);
@@ -536,5 +588,27 @@ mod tests {
         assert!(!restored.has_fetched("b", "digest"));
         let left = restored.take_snapshot().expect("forgetting is a change");
         assert!(left.pairs.is_empty() && left.into.is_empty() && left.speeds.is_empty());
+        assert_eq!(restored.compile_ms_per_mib("b"), None);
+    }
+
+    #[test]
+    fn a_compile_is_what_the_link_does_not_explain_of_a_fetch() {
+        let measured = Measured::default();
+        assert_eq!(measured.compile_ms_per_mib("b"), None);
+        // 5 Mbit/s into b: 256 KiB sent take 420 ms; a 1 MiB component ready after 920 ms
+        // compiled in about 500 ms.
+        measured.downloaded(None, "b", 5_000_000, 8_000.0);
+        measured.fetched_and_compiled(("a", "b"), (1 << 20, 256 << 10), 920.0);
+        let rate = measured.compile_ms_per_mib("b").unwrap();
+        assert!((rate - 500.0).abs() < 5.0, "{rate}");
+        // The next one came from the compile cache: ready as soon as it arrived. The rate
+        // falls towards it, never below the least a compile takes.
+        measured.fetched_and_compiled(("a", "b"), (1 << 20, 256 << 10), 300.0);
+        let cached = measured.compile_ms_per_mib("b").unwrap();
+        assert!(cached < rate && cached >= MIN_COMPILE_MS, "{cached}");
+        // Nonsense teaches nothing.
+        measured.fetched_and_compiled(("a", "b"), (0, 256 << 10), 300.0);
+        measured.fetched_and_compiled(("a", "b"), (1 << 20, 256 << 10), f64::NAN);
+        assert_eq!(measured.compile_ms_per_mib("b"), Some(cached));
     }
 }

@@ -22,8 +22,9 @@ use crate::workflow::Transfer;
 pub const PLUGIN_BYTES_GUESS: u64 = 256 << 10;
 pub const PLUGIN_COMPILE_MS_GUESS: f64 = 100.0;
 /// Compiling scales with the component: an 18 MB Python component took 20-40 s uncached
-/// on this machine kind (2 cores), about 1.5 s per MiB. Still a guess: the engine does not
-/// learn compile speeds, but a prefetch takes the compile off the critical path.
+/// on this machine kind (2 cores), about 1.5 s per MiB (the built-ins: about 0.5 s per
+/// MiB). Only until a prefetch to the host showed its speed (`Measured::compile_ms_per_mib`,
+/// which a compile its cache answers makes small).
 pub const PLUGIN_COMPILE_MS_PER_MIB_GUESS: f64 = 1_500.0;
 
 /// Whether the receiver can re-run the step's plugin at once.
@@ -31,8 +32,9 @@ pub const PLUGIN_COMPILE_MS_PER_MIB_GUESS: f64 = 1_500.0;
 pub enum PluginAt {
     /// Compiled there: offered, fetched for an earlier replay, or prefetched for this run.
     Ready,
-    /// To be fetched and compiled first.
-    Missing(PluginSize),
+    /// To be fetched and compiled first: its size, and the milliseconds the receiver takes
+    /// to compile a MiB of component once a prefetch there showed it.
+    Missing(PluginSize, Option<f64>),
 }
 
 impl PluginAt {
@@ -40,11 +42,15 @@ impl PluginAt {
     pub fn ready_ms(self, link: &Link) -> f64 {
         match self {
             PluginAt::Ready => 0.0,
-            PluginAt::Missing(size) => {
-                let compile = size.component.map_or(PLUGIN_COMPILE_MS_GUESS, |b| {
-                    (b as f64 / f64::from(1 << 20) * PLUGIN_COMPILE_MS_PER_MIB_GUESS)
-                        .max(PLUGIN_COMPILE_MS_GUESS)
-                });
+            PluginAt::Missing(size, compile_ms_per_mib) => {
+                let mib = |bytes: u64| bytes as f64 / f64::from(1 << 20);
+                let compile = match (size.component, compile_ms_per_mib) {
+                    (Some(bytes), Some(rate)) => mib(bytes) * rate,
+                    (Some(bytes), None) => {
+                        (mib(bytes) * PLUGIN_COMPILE_MS_PER_MIB_GUESS).max(PLUGIN_COMPILE_MS_GUESS)
+                    }
+                    (None, _) => PLUGIN_COMPILE_MS_GUESS,
+                };
                 link.transfer_ms(size.sent().unwrap_or(PLUGIN_BYTES_GUESS)) + compile
             }
         }
@@ -182,7 +188,7 @@ mod tests {
     fn receiver(link: Link, has_plugin: bool, load: u32) -> Receiver {
         let plugin = match has_plugin {
             true => PluginAt::Ready,
-            false => PluginAt::Missing(PluginSize::default()),
+            false => PluginAt::Missing(PluginSize::default(), None),
         };
         Receiver { link, speed: SPEED, plugin, load }
     }
@@ -192,7 +198,7 @@ mod tests {
         // An 18 MB Python component, 5 MB compressed, over 5 Mbit/s: 8 s to fetch and
         // about 27 s to compile (by the component's size, not the bytes sent).
         let size = PluginSize { component: Some(18 << 20), sent: Some(5 << 20) };
-        let python = PluginAt::Missing(size);
+        let python = PluginAt::Missing(size, None);
         let lacking = Receiver { plugin: python, ..receiver(MBIT_5, false, 0) };
         let lacking = estimate(&GLOBAL, &lacking);
         assert!(lacking.replay_ms > 35_000.0, "{lacking:?}");
@@ -204,6 +210,10 @@ mod tests {
         let prefetched = estimate(&GLOBAL, &receiver(MBIT_5, true, 0));
         assert_eq!(choose(Transfer::Auto, &prefetched), Use::Replay, "{prefetched:?}");
         assert!(prefetched.replay_ms < lacking.replay_ms / 50.0, "{prefetched:?}");
+        // A host whose compile cache answered: the fetch alone, 8 s.
+        let cached = PluginAt::Missing(size, Some(1.0));
+        let cached = estimate(&GLOBAL, &Receiver { plugin: cached, ..receiver(MBIT_5, false, 0) });
+        assert!(cached.replay_ms < 10_000.0 && cached.replay_ms > 8_000.0, "{cached:?}");
     }
 
     #[test]

@@ -13,7 +13,7 @@
 use std::collections::HashSet;
 use std::sync::{Arc, Mutex};
 
-use meshflow_api::host::{PrefetchOutcome, PrefetchedPlugins, WantedPlugin};
+use meshflow_api::host::{PluginPrefetch, PrefetchOutcome, PrefetchedPlugins, WantedPlugin};
 use meshflow_api::params::ServiceKind;
 use serde_json::json;
 
@@ -92,6 +92,11 @@ impl Prefetches {
                 });
                 let answer = receiver.client.prefetch_plugins(wanted.clone()).await;
                 let finished_ms = run.elapsed_ms();
+                for answered in answer.iter().flat_map(|a| &a.plugins) {
+                    if let Some(w) = wanted.iter().find(|w| w.digest == answered.digest) {
+                        learn_compile(&registry, (&w.from, &receiver.url), answered);
+                    }
+                }
                 let timing = (started_ms, finished_ms);
                 let records = explained(records(&receiver.url, &wanted, answer, timing));
                 for record in &records {
@@ -134,7 +139,10 @@ impl Prefetches {
             || self.ready(&host.url, digest);
         match ready {
             true => PluginAt::Ready,
-            false => PluginAt::Missing(registry.plugin_size(digest)),
+            false => PluginAt::Missing(
+                registry.plugin_size(digest),
+                registry.measured.compile_ms_per_mib(&host.url),
+            ),
         }
     }
 }
@@ -294,6 +302,22 @@ fn wanted(plan: &Plan, workflow: &Workflow) -> Vec<(Arc<HostEntry>, Vec<Wanted>)
 fn filter_plugin(host: &HostEntry, service: &str, pin: Option<&str>) -> Option<String> {
     let (plugin, kind) = host.plugin_for(service, pin)?;
     (kind == ServiceKind::Filter).then_some(plugin)
+}
+
+/// What a plugin fetched and compiled on `host` (from `from`) tells of the host's compile
+/// speed.
+pub(super) fn learn_compile(
+    registry: &Registry,
+    (from, host): (&str, &str),
+    prefetch: &PluginPrefetch,
+) {
+    if prefetch.outcome != PrefetchOutcome::Fetched {
+        return;
+    }
+    let size = registry.plugin_size(&prefetch.digest);
+    if let (Some(component), Some(sent)) = (prefetch.bytes.or(size.component), size.sent()) {
+        registry.measured.fetched_and_compiled((from, host), (component, sent), prefetch.ms);
+    }
 }
 
 /// A prefetch asked for and not answered yet (the record keeps it if the run ends first).

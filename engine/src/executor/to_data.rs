@@ -14,6 +14,7 @@ use meshflow_api::engine::MovedToData;
 use meshflow_api::host::{PrefetchOutcome, WantedPlugin};
 
 use super::Executor;
+use super::prefetch::learn_compile;
 use crate::plan::QUEUE_MS_PER_TASK;
 use crate::registry::HostEntry;
 use crate::trust::Trust;
@@ -67,6 +68,9 @@ impl Executor {
         if !ready {
             let wanted = vec![WantedPlugin { digest: plugin.clone(), from: planned.url.clone() }];
             let answer = producer.client.prefetch_plugins(wanted).await.ok()?;
+            if let Some(fetched) = answer.plugins.first() {
+                learn_compile(&self.registry, (&planned.url, &producer.url), fetched);
+            }
             let made_ready = answer.plugins.first().is_some_and(|p| {
                 matches!(
                     p.outcome,
