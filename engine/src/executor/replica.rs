@@ -108,6 +108,11 @@ impl Replica {
         self.hash = hash.to_owned();
     }
 
+    /// Whether an update to `hash` is still on its way to the session.
+    pub fn is_catching_up(&self, hash: &str) -> bool {
+        self.hash == hash && self.pending.as_ref().is_some_and(|p| !p.is_finished())
+    }
+
     /// How long until the session is expected to hold `hash`, as of `now`: 0 once its
     /// updates are done; `None` when no update of `hash` is on its way (the host must fetch
     /// the mesh whole, which the engine does not estimate here).

@@ -8,12 +8,13 @@
 //! plugins (not one started with `--no-foreign-plugins`) and that the admin trusts fully.
 
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use meshflow_api::engine::MovedToData;
 use meshflow_api::host::{PrefetchOutcome, WantedPlugin};
 
 use super::Executor;
+use super::cost::{PLUGIN_BYTES_GUESS, PluginAt};
 use super::prefetch::learn_compile;
 use crate::plan::QUEUE_MS_PER_TASK;
 use crate::registry::HostEntry;
@@ -54,20 +55,33 @@ impl Executor {
         let waiting_ms = replica.expected_wait_ms(&self.current.hash, Instant::now())?;
         let (plugin, _) = planned.plugin_for(&task.service, task.plugin.as_deref())?;
         let measured = &self.registry.measured;
-        let at = self.prefetches.plugin_at(&self.registry, &producer, &plugin);
-        let plugin_ms = at.ready_ms(&measured.link(&planned.url, &producer.url));
+        // The producer may be busy with other runs' tasks: as the planner counts them.
+        let queue_ms = QUEUE_MS_PER_TASK * f64::from(producer.load());
+        let budget_ms = waiting_ms - queue_ms - MOVE_MARGIN_MS;
+        // The plugin's bytes must cross the link within that; its compile is not estimated
+        // but raced (a compile cache may answer it in milliseconds, a busy machine take a
+        // second): the producer is asked for it, and the task moves only if it is ready
+        // while the planned host is still expected to wait by the margin.
+        let fetch_ms = match self.prefetches.plugin_at(&self.registry, &producer, &plugin) {
+            PluginAt::Ready => 0.0,
+            PluginAt::Missing(size, _) => measured
+                .link(&planned.url, &producer.url)
+                .transfer_ms(size.sent().unwrap_or(PLUGIN_BYTES_GUESS)),
+        };
+        if fetch_ms >= budget_ms {
+            return None;
+        }
+        let asked = Instant::now();
         // What an earlier run fetched there is only a hint for the estimate: a host that
         // restarted since holds its fetched plugins no longer. Unless it offers the plugin
         // or this run's prefetch made it ready, it is asked (a plugin it has: "present").
         let ready = producer.has_plugin(&plugin) || self.prefetches.ready(&producer.url, &plugin);
-        // The producer may be busy with other runs' tasks: as the planner counts them.
-        let queue_ms = QUEUE_MS_PER_TASK * f64::from(producer.load());
-        if plugin_ms + queue_ms + MOVE_MARGIN_MS >= waiting_ms {
-            return None;
-        }
         if !ready {
             let wanted = vec![WantedPlugin { digest: plugin.clone(), from: planned.url.clone() }];
-            let answer = producer.client.prefetch_plugins(wanted).await.ok()?;
+            // A prefetch that loses the race goes on there: the plugin is ready next time.
+            let prefetch = producer.client.prefetch_plugins(wanted);
+            let limit = Duration::from_secs_f64(budget_ms / 1e3);
+            let answer = tokio::time::timeout(limit, prefetch).await.ok()?.ok()?;
             if let Some(fetched) = answer.plugins.first() {
                 learn_compile(&self.registry, (&planned.url, &producer.url), fetched);
             }
@@ -81,12 +95,17 @@ impl Executor {
                 return None;
             }
             measured.prefetched(&producer.url, &plugin);
+            // The planned host may have caught up sooner than expected meanwhile.
+            if !replica.is_catching_up(&self.current.hash) {
+                return None;
+            }
         }
+        let plugin_ms = asked.elapsed().as_secs_f64() * 1e3;
         let record = MovedToData {
             planned: planned.url.clone(),
             why: format!(
                 "{} holds the current mesh; {} was expected to hold it in {:.0} ms, the \
-                 plugin to be ready here in {:.0} ms",
+                 plugin was ready here in {:.0} ms",
                 producer.url, planned.url, waiting_ms, plugin_ms
             ),
         };
