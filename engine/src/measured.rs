@@ -205,25 +205,10 @@ impl Measured {
                 tables.pairs.insert((producer, receiver), learned);
             }
             tables.into = snapshot.into.into_iter().take(MAX_MEASURED_PAIRS).collect();
-            tables.speeds = snapshot
-                .speeds
-                .into_iter()
-                .take(MAX_MEASURED_PAIRS)
-                .map(|(host, speed, samples)| (host, (speed, samples)))
-                .collect();
+            tables.speeds = with_samples(snapshot.speeds, MAX_MEASURED_PAIRS);
             tables.fetched = snapshot.fetched.into_iter().take(MAX_REMEMBERED_FETCHES).collect();
-            tables.shapes = snapshot
-                .shapes
-                .into_iter()
-                .take(MAX_STEP_SHAPES)
-                .map(|(key, shape, samples)| (key, (shape, samples)))
-                .collect();
-            tables.compiles = snapshot
-                .compiles
-                .into_iter()
-                .take(MAX_MEASURED_PAIRS)
-                .map(|(host, rate, samples)| (host, (rate, samples)))
-                .collect();
+            tables.shapes = with_samples(snapshot.shapes, MAX_STEP_SHAPES);
+            tables.compiles = with_samples(snapshot.compiles, MAX_MEASURED_PAIRS);
         }
         measured
     }
@@ -418,6 +403,11 @@ impl Measured {
             _ => {}
         }
     }
+}
+
+/// A saved table of figures with their sample counts, by key, as at most `limit` entries.
+fn with_samples<T, N>(rows: Vec<(String, T, N)>, limit: usize) -> HashMap<String, (T, N)> {
+    rows.into_iter().take(limit).map(|(key, figure, samples)| (key, (figure, samples))).collect()
 }
 
 /// A figure after a new sample: the sample itself if it is the first, else the moving

@@ -43,6 +43,9 @@ pub enum PluginSetError {
     Task(#[from] tokio::task::JoinError),
     #[error("{0}")]
     Storage(String),
+    /// zstd could not compress the component for other hosts.
+    #[error("compressing the plugin for other hosts: {0}")]
+    Compress(#[source] std::io::Error),
 }
 
 /// What an upload changed: the services no plugin offered before, and those it now
@@ -82,9 +85,9 @@ struct Kept {
 }
 
 impl Kept {
-    fn of(component: &[u8]) -> Result<Self, String> {
-        let sent = zstd::bulk::compress(component, SENT_ZSTD_LEVEL)
-            .map_err(|e| format!("compressing the plugin: {e}"))?;
+    fn of(component: &[u8]) -> Result<Self, PluginSetError> {
+        let sent =
+            zstd::bulk::compress(component, SENT_ZSTD_LEVEL).map_err(PluginSetError::Compress)?;
         Ok(Self { bytes: component.len() as u64, sent: Arc::new(sent) })
     }
 }
@@ -126,7 +129,7 @@ impl PluginSet {
             builtins.iter().map(|p| p.digest.clone()).zip(builtin_bytes.iter().copied()).collect();
         let mut kept = HashMap::new();
         for (digest, bytes) in &builtin_bytes {
-            kept.insert(digest.clone(), Kept::of(bytes).map_err(anyhow::Error::msg)?);
+            kept.insert(digest.clone(), Kept::of(bytes)?);
         }
         let mut stored: Vec<_> = std::fs::read_dir(&dir)?
             .flatten()
@@ -139,7 +142,7 @@ impl PluginSet {
         for (_, path) in stored {
             match std::fs::read(&path).map_err(|e| e.to_string()).and_then(|bytes| {
                 let plugin = runtime.load(&bytes).map_err(|e| e.to_string())?;
-                Ok((plugin, Kept::of(&bytes)?))
+                Ok((plugin, Kept::of(&bytes).map_err(|e| e.to_string())?))
             }) {
                 Ok((plugin, sent)) => {
                     kept.insert(plugin.digest.clone(), sent);
@@ -194,7 +197,7 @@ impl PluginSet {
 
     /// Every service of every plugin; those another plugin replaced are `pinned_only`.
     pub fn services(&self) -> Vec<ServiceEntry> {
-        let loaded = self.read();
+        let (loaded, kept) = (self.read(), self.kept());
         loaded
             .catalog
             .every_service()
@@ -204,8 +207,8 @@ impl PluginSet {
                 builtin: loaded.is_builtin(&plugin.digest),
                 info: info.clone(),
                 pinned_only: !serves_unpinned,
-                plugin_bytes: self.size(&plugin.digest),
-                plugin_sent_bytes: self.kept().get(&plugin.digest).map(|k| k.sent.len() as u64),
+                plugin_bytes: kept.get(&plugin.digest).map(|k| k.bytes),
+                plugin_sent_bytes: kept.get(&plugin.digest).map(|k| k.sent.len() as u64),
             })
             .collect()
     }
@@ -263,12 +266,11 @@ impl PluginSet {
         let (runtime, loaded) = (runtime.clone(), bytes.clone());
         let (plugin, kept) = tokio::task::spawn_blocking(move || {
             let plugin = runtime.load(loaded.as_ref()).map_err(PluginSetError::Invalid)?;
-            Ok::<_, PluginSetError>((plugin, Kept::of(loaded.as_ref())))
+            Ok::<_, PluginSetError>((plugin, Kept::of(loaded.as_ref())?))
         })
         .await??;
         let services = plugin.services.clone();
-        let outcome =
-            self.add(plugin, bytes.as_ref(), kept.map_err(PluginSetError::Storage)?, replace)?;
+        let outcome = self.add(plugin, bytes.as_ref(), kept, replace)?;
         tracing::info!("plugin {digest} uploaded (replacing: {:?})", outcome.replaced);
         Ok(Upload { digest, services, present: false, outcome })
     }

@@ -67,7 +67,10 @@ impl Replica {
         let now = Instant::now();
         let after =
             self.expected_done.filter(|_| self.pending.is_some()).map_or(now, |t| t.max(now));
-        self.expected_done = Some(after + Duration::from_secs_f64(expected_ms.max(0.0) / 1e3));
+        // An estimate past any duration (a host's figures can make it so) expects nothing.
+        self.expected_done = Duration::try_from_secs_f64(expected_ms.max(0.0) / 1e3)
+            .ok()
+            .and_then(|expected| after.checked_add(expected));
         let previous = self.pending.take();
         let (run, receiver, producer) = (run.clone(), self.host.clone(), producer.clone());
         let (session, announced) = (self.session.clone(), hash.to_owned());

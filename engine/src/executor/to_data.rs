@@ -80,7 +80,7 @@ impl Executor {
             let wanted = vec![WantedPlugin { digest: plugin.clone(), from: planned.url.clone() }];
             // A prefetch that loses the race goes on there: the plugin is ready next time.
             let prefetch = producer.client.prefetch_plugins(wanted);
-            let limit = Duration::from_secs_f64(budget_ms / 1e3);
+            let limit = Duration::try_from_secs_f64(budget_ms / 1e3).ok()?;
             let answer = tokio::time::timeout(limit, prefetch).await.ok()?.ok()?;
             if let Some(fetched) = answer.plugins.first() {
                 learn_compile(&self.registry, (&planned.url, &producer.url), fetched);

@@ -74,6 +74,7 @@ impl From<PluginSetError> for ApiError {
                 Self::new(StatusCode::FORBIDDEN, "builtin", error.to_string())
             }
             PluginSetError::Storage(message) => Self::internal(message),
+            PluginSetError::Compress(_) => Self::internal(error.to_string()),
             PluginSetError::Invalid(error) => unprocessable("invalid-plugin", error.to_string()),
             PluginSetError::Task(error) => task_failed(error),
         }
