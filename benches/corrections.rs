@@ -8,7 +8,9 @@
 //! ring of new vertices and a centre, added as vertices then triangles), RDT (collapses,
 //! swaps and removals at scattered thin triangles). Per step: correction bytes, the
 //! result's packed (.mfm) and binary PLY + zstd-19 bytes, and encode / apply / pack /
-//! unpack times (best of a few runs). The scan runs twice: as generated, and quantised to
+//! unpack times (best of a few runs); for the steps that set every position, also the
+//! encode and apply with the base's neighbour means gathered before (as a host does beside
+//! the plugin's run and the log's download), and that gathering. The scan runs twice: as generated, and quantised to
 //! 16 bits per axis at ingest (`--quantize 16`), each step snapped back onto the grid.
 //!
 //! `cargo bench --bench corrections -- attributes` measures instead what attributes cost
@@ -165,6 +167,9 @@ struct Row {
     apply: Duration,
     pack: Duration,
     unpack: Duration,
+    /// A log that sets every position: the base's neighbour means gathered, then the
+    /// encode and the apply with them.
+    prepared: Option<[Duration; 3]>,
 }
 
 /// Runs the steps from `input`; on a `grid`, each result is snapped back onto it as the
@@ -195,6 +200,22 @@ fn steps(name: &'static str, input: MeshData, grid: Option<Grid>, rows: &mut Vec
         let (apply, applied) =
             best(RUNS, || correction::apply(Arc::clone(&shared), &bytes).expect("applies"));
         assert_eq!(applied.content_hash(), result.content_hash());
+        let prepared = matches!(log.first(), Some(Op::SetPositions { .. })).then(|| {
+            let (base_hash, result_hash) = (mesh.content_hash(), result.content_hash());
+            let (gather, means) = best(RUNS, || correction::NeighbourMeans::of(&mesh, base_hash));
+            let (encode, again) = best(RUNS, || {
+                let base = Arc::clone(&shared);
+                correction::encode_known(base, base_hash, &log, &result, result_hash, Some(&means))
+                    .expect("encodes")
+            });
+            assert_eq!(again, bytes);
+            let (apply, _) = best(RUNS, || {
+                let base = Arc::clone(&shared);
+                correction::apply_known(base, base_hash, &bytes, result_hash, Some(&means))
+                    .expect("applies")
+            });
+            [gather, encode, apply]
+        });
         let (pack_time, packed) = best(RUNS, || pack::encode(&result).expect("packs"));
         let (unpack, unpacked) = best(RUNS, || pack::decode(&packed).expect("unpacks"));
         assert_eq!(unpacked.content_hash(), result.content_hash());
@@ -224,6 +245,7 @@ fn steps(name: &'static str, input: MeshData, grid: Option<Grid>, rows: &mut Vec
             apply,
             pack: pack_time,
             unpack,
+            prepared,
         });
         mesh = result;
     }
@@ -657,7 +679,7 @@ fn main() {
         "pack ms",
         "unpack ms"
     );
-    for r in rows {
+    for r in &rows {
         println!(
             "{:<8} {:<6} {:>9} {:>10} {:<34} {:>10} {:>10} {:>6.3} {:>9.1} {:>9.1} {:>9.1} {:>9.1}",
             r.mesh,
@@ -673,5 +695,24 @@ fn main() {
             ms(r.pack),
             ms(r.unpack)
         );
+    }
+    println!("\nWith the base's neighbour means gathered before (ms):");
+    println!(
+        "{:<8} {:<6} {:>9} {:>9} {:>11} {:>9} {:>11}",
+        "mesh", "step", "means", "enc", "enc, ready", "apply", "apply, ready"
+    );
+    for r in &rows {
+        if let Some([gather, encode, apply]) = r.prepared {
+            println!(
+                "{:<8} {:<6} {:>9.1} {:>9.1} {:>11.1} {:>9.1} {:>11.1}",
+                r.mesh,
+                r.step,
+                ms(gather),
+                ms(r.encode),
+                ms(encode),
+                ms(r.apply),
+                ms(apply)
+            );
+        }
     }
 }

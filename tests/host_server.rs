@@ -155,6 +155,8 @@ async fn filters_and_checks_run_and_other_hosts_follow_by_correction_or_full_mes
     let log = a.download(&step.correction.url).await.unwrap();
     let rebuilt = meshflow_codec::correction::apply(input.clone(), &log).unwrap();
     assert_eq!(rebuilt.content_hash().to_hex(), step.output_hash);
+    // It sets every position: a receiver gathers the prediction while it downloads.
+    assert!(step.correction.sets_positions && !step.replay.sets_positions);
 
     let RunResult::Check(check) =
         a.run(&on_a, &request("vertex-count", serde_json::json!({}))).await.unwrap()
@@ -192,6 +194,19 @@ async fn filters_and_checks_run_and_other_hosts_follow_by_correction_or_full_mes
         filter(&a, &on_a, "add-noise", serde_json::json!({"amount": 0.5, "seed": 7})).await;
     assert_eq!(next_on_a.output_hash, next_on_b.output_hash);
     assert_ne!(next_on_a.output_hash, step.output_hash);
+    // A smoothing step again: A learned that it sets every position and gathered the
+    // prediction while the plugin ran; B gathers it while the log downloads. Same bits.
+    let again =
+        filter(&a, &on_a, "laplacian-smoothing", serde_json::json!({"iterations": 2})).await;
+    let update = Update {
+        correction: Some(again.correction.clone()),
+        replay: None,
+        full: again.full.clone(),
+        use_: Transfer::Correction,
+    };
+    let updated = b.update(&on_b, &update).await.unwrap();
+    assert_eq!((updated.via, updated.fallback), (Transfer::Correction, None));
+    assert_eq!(updated.hash, again.output_hash);
 }
 
 /// A plugin goes to a host that replays its steps compressed when that host accepts zstd

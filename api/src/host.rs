@@ -268,11 +268,23 @@ pub struct SessionStatus {
     pub grid: Option<[i32; 3]>,
 }
 
-/// A blob another host produced: a correction.
+/// A blob another host produced: an edit log (`.mfc`) or a named step (`.mfr`).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct BlobRef {
     pub url: String,
     pub bytes: u64,
+    /// The edit log sets every vertex's position (a smoothing step's, say): a receiver
+    /// gathers the codec's prediction from its own mesh while the log downloads. Never set
+    /// on a named step.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub sets_positions: bool,
+}
+
+impl BlobRef {
+    /// A blob no more is known of than its URL and size.
+    pub fn new(url: String, bytes: u64) -> Self {
+        Self { url, bytes, sets_positions: false }
+    }
 }
 
 /// A full mesh another host can produce, named by its content hash.

@@ -54,6 +54,10 @@ pub const MIN_EDIT_LOG_BYTES: u64 = 100;
 /// first (about 5 ms at most): per-edit rates learned on one mesh misjudged another's
 /// component and hole repairs by 30-500×, and sent receivers to replay them.
 pub const ENCODE_BEFORE_ANSWER_EDITS: usize = 20_000;
+/// Meshes of at most this many vertices have their neighbour means gathered before the
+/// edit log that needs them (25 bytes a vertex: 100 MB here), beside the plugin's run or
+/// the log's download; a larger mesh's encode and apply gather them when they need them.
+pub const MAX_PREPARED_MEANS_VERTICES: usize = 4_000_000;
 /// Plugins whose bytes per edit are remembered for the estimate.
 pub const MAX_EDIT_LOG_ESTIMATES: usize = 1024;
 /// Attempts to register with the engine, and the pause between them.

@@ -11,42 +11,111 @@
 //! step's last log took. Those rates are kept in the data folder (`edit-log-rates.json`),
 //! so a restarted host estimates its first uniform smoothing as 1 KB, not as 6 bytes per
 //! moved vertex (which sent receivers to replay a step whose log was tiny).
+//!
+//! A log that sets every position (a smoothing step's) is predicted from the neighbour
+//! means of the mesh before it, most of its encode and of its apply. They depend on that
+//! mesh alone, so they are gathered before the log exists ([`prepare_means`]): here while
+//! the plugin runs, when the same kind of step set every position last time (kept with its
+//! rate), and on a receiver while the log downloads (the answer says what the log does).
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+use serde::{Deserialize, Serialize};
 use tokio::sync::{Semaphore, watch};
+use tokio::task::JoinHandle;
 
 use super::blobs::BlobStore;
 use super::config::{
     DEFAULT_EDIT_LOG_BYTES_PER_EDIT, EDIT_LOG_WAIT, ENCODE_BEFORE_ANSWER_EDITS,
-    MAX_EDIT_LOG_ESTIMATES, MAX_ENCODING_EDIT_LOGS, MIN_EDIT_LOG_BYTES,
+    MAX_EDIT_LOG_ESTIMATES, MAX_ENCODING_EDIT_LOGS, MAX_PREPARED_MEANS_VERTICES,
+    MIN_EDIT_LOG_BYTES,
 };
 use super::meshes;
-use meshflow_codec::correction;
+use meshflow_codec::correction::{self, NeighbourMeans};
 use meshflow_mesh::store::Op;
 use meshflow_mesh::{ContentHash, MeshData};
 
+/// A kind of step: the plugin's digest, the service and its resolved parameters (as JSON),
+/// each of which keeps its own bytes per edit (cotangent smoothing costs 40 times uniform).
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct StepKind(String);
+
+impl StepKind {
+    pub fn of(plugin: &str, service: &str, params: &str) -> Self {
+        Self(format!("{plugin}/{service}/{}", blake3::hash(params.as_bytes()).to_hex()))
+    }
+}
+
+/// A mesh's neighbour means being gathered on a blocking thread.
+pub type PreparedMeans = JoinHandle<NeighbourMeans>;
+
+/// When means are gathered: beside a plugin's run (on one thread, not to slow it), or
+/// while a log downloads (on two: nothing else is done meanwhile).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Beside {
+    Run,
+    Download,
+}
+
+/// Starts gathering `mesh`'s neighbour means, unless it has more than
+/// [`MAX_PREPARED_MEANS_VERTICES`] vertices (25 bytes a vertex, held beside the plugin's
+/// run: a large mesh's encode gathers them itself, later).
+pub fn prepare_means(
+    mesh: &Arc<MeshData>,
+    hash: ContentHash,
+    beside: Beside,
+) -> Option<PreparedMeans> {
+    (mesh.vertex_count() <= MAX_PREPARED_MEANS_VERTICES).then(|| {
+        let mesh = mesh.clone();
+        tokio::task::spawn_blocking(move || match beside {
+            Beside::Run => NeighbourMeans::beside(&mesh, hash),
+            Beside::Download => NeighbourMeans::of(&mesh, hash),
+        })
+    })
+}
+
+/// What the gathering gave, if it is still wanted: a failed gathering only costs the time
+/// to gather again.
+pub async fn prepared(means: Option<PreparedMeans>) -> Option<NeighbourMeans> {
+    means?.await.ok()
+}
+
+/// Whether a log starts by setting every position: what prepared means serve.
+pub fn sets_positions(log: &[Op]) -> bool {
+    matches!(log.first(), Some(Op::SetPositions { .. }))
+}
+
 /// A step whose edit log is still to be encoded.
 pub struct StepLog {
-    /// The plugin's digest, the service and its resolved parameters as JSON: each such
-    /// step keeps its own bytes per edit (cotangent smoothing costs 40 times uniform).
-    pub plugin: String,
-    pub service: String,
-    pub params: String,
+    pub kind: StepKind,
     pub base: Arc<MeshData>,
     pub base_hash: ContentHash,
     pub log: Vec<Op>,
     pub result: Arc<MeshData>,
     pub result_hash: ContentHash,
+    /// The base's neighbour means, if their gathering started while the plugin ran.
+    pub prepared: Option<PreparedMeans>,
 }
+
+/// What a kind of step's last encoded log taught.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+struct Learned {
+    /// Bytes per edit beyond the header: the next log's estimate.
+    bytes_per_edit: f64,
+    /// It started by setting every position: the next one's means are prepared.
+    #[serde(default)]
+    sets_positions: bool,
+}
+
+type LearnedTable = HashMap<String, Learned>;
 
 pub struct EditLogs {
     pending: Pending,
-    /// Bytes per edit of each kind of step's last encoded log: the next estimate.
-    bytes_per_edit: Arc<Mutex<HashMap<String, f64>>>,
+    /// What each kind of step's last encoded log taught.
+    learned: Arc<Mutex<LearnedTable>>,
     /// Where the rates are kept across restarts; none in tests.
     rates_file: Option<PathBuf>,
     /// Each encoding holds a base and a result mesh: a step waits for a slot before its
@@ -58,7 +127,7 @@ impl Default for EditLogs {
     fn default() -> Self {
         Self {
             pending: Pending::default(),
-            bytes_per_edit: Arc::default(),
+            learned: Arc::default(),
             rates_file: None,
             slots: Arc::new(Semaphore::new(MAX_ENCODING_EDIT_LOGS)),
         }
@@ -112,8 +181,8 @@ impl EditLogs {
     /// is missing, unreadable or not a table of finite positive rates starts empty (with a
     /// warning for the last two): estimates are only estimates.
     pub fn kept_in(file: PathBuf) -> Self {
-        let rates = match std::fs::read(&file) {
-            Ok(bytes) => read_rates(&bytes).unwrap_or_else(|| {
+        let learned = match std::fs::read(&file) {
+            Ok(bytes) => read_learned(&bytes).unwrap_or_else(|| {
                 tracing::warn!("ignoring {}: not a table of edit-log rates", file.display());
                 HashMap::new()
             }),
@@ -123,15 +192,23 @@ impl EditLogs {
                 HashMap::new()
             }
         };
-        Self {
-            bytes_per_edit: Arc::new(Mutex::new(rates)),
-            rates_file: Some(file),
-            ..Self::default()
-        }
+        Self { learned: Arc::new(Mutex::new(learned)), rates_file: Some(file), ..Self::default() }
     }
 
-    fn rates(&self) -> std::sync::MutexGuard<'_, HashMap<String, f64>> {
-        lock_rates(&self.bytes_per_edit)
+    fn learned(&self) -> std::sync::MutexGuard<'_, LearnedTable> {
+        lock_learned(&self.learned)
+    }
+
+    /// Starts gathering `base`'s neighbour means for a step of `kind` about to run, if the
+    /// last such step here set every position.
+    pub fn prepare_for(
+        &self,
+        kind: &StepKind,
+        base: &Arc<MeshData>,
+        hash: ContentHash,
+    ) -> Option<PreparedMeans> {
+        let expected = self.learned().get(&kind.0).is_some_and(|l| l.sets_positions);
+        expected.then(|| prepare_means(base, hash, Beside::Run)).flatten()
     }
 
     /// Starts encoding `step`'s edit log in the background, once a slot is free, and then
@@ -142,22 +219,24 @@ impl EditLogs {
         let permit = self.slots.clone().acquire_owned().await.expect("the slots are never closed");
         let name = meshes::edit_log_name(step.base_hash, step.result_hash);
         let edits: usize = step.log.iter().map(Op::edit_count).sum();
-        let params = blake3::hash(step.params.as_bytes()).to_hex();
-        let key = format!("{}/{}/{params}", step.plugin, step.service);
-        let estimate = self.estimate(&key, edits);
+        let estimate = self.estimate(&step.kind, edits);
         let encoding = self.pending.begin(&name);
-        let (rates, blobs) = (self.bytes_per_edit.clone(), blobs.clone());
+        let (learned, blobs) = (self.learned.clone(), blobs.clone());
         let rates_file = self.rates_file.clone();
         let job = tokio::spawn(async move {
             let _permit = permit;
-            let StepLog { base, base_hash, log, result, result_hash, .. } = step;
+            let StepLog { kind, base, base_hash, log, result, result_hash, prepared: means } = step;
+            let means = prepared(means).await;
             let encoded = tokio::task::spawn_blocking(move || {
-                let bytes = correction::encode_known(base, base_hash, &log, &result, result_hash);
-                if let Ok(bytes) = &bytes
-                    && let Some(kept) = learn(&mut lock_rates(&rates), &key, edits, bytes.len())
-                    && let Some(file) = rates_file
-                {
-                    keep_rates(&file, &kept);
+                let (known, means) = ((base_hash, result_hash), means.as_ref());
+                let bytes = correction::encode_known(base, known.0, &log, &result, known.1, means);
+                if let Ok(bytes) = &bytes {
+                    let taught = Learned::from(&log, edits, bytes.len());
+                    if let Some(kept) = learn(&mut lock_learned(&learned), &kind, edits, taught)
+                        && let Some(file) = rates_file
+                    {
+                        keep_learned(&file, &kept);
+                    }
                 }
                 bytes
             })
@@ -203,58 +282,67 @@ impl EditLogs {
     }
 
     /// A header and the step's last bytes per edit, or a moved vertex's typical cost.
-    fn estimate(&self, key: &str, edits: usize) -> u64 {
-        let rate = self.rates().get(key).copied().unwrap_or(DEFAULT_EDIT_LOG_BYTES_PER_EDIT);
+    fn estimate(&self, kind: &StepKind, edits: usize) -> u64 {
+        let rate = self
+            .learned()
+            .get(&kind.0)
+            .map_or(DEFAULT_EDIT_LOG_BYTES_PER_EDIT, |l| l.bytes_per_edit);
         MIN_EDIT_LOG_BYTES + (edits as f64 * rate).round() as u64
     }
 
     #[cfg(test)]
-    fn learn(&self, key: &str, edits: usize, bytes: usize) {
-        learn(&mut self.rates(), key, edits, bytes);
+    fn learn(&self, kind: &StepKind, edits: usize, bytes: usize) {
+        learn(&mut self.learned(), kind, edits, Learned::from(&[], edits, bytes));
     }
 }
 
-fn lock_rates(
-    rates: &Mutex<HashMap<String, f64>>,
-) -> std::sync::MutexGuard<'_, HashMap<String, f64>> {
-    rates.lock().expect("edit log estimates lock")
+impl Learned {
+    /// What log `log` of `edits` edits, encoded in `bytes`, teaches.
+    fn from(log: &[Op], edits: usize, bytes: usize) -> Self {
+        let beyond_header = (bytes as u64).saturating_sub(MIN_EDIT_LOG_BYTES);
+        let bytes_per_edit = if edits == 0 { 0.0 } else { beyond_header as f64 / edits as f64 };
+        Self { bytes_per_edit, sets_positions: sets_positions(log) }
+    }
 }
 
-/// Keeps the bytes per edit beyond the header of `key`'s last log, within
-/// [`MAX_EDIT_LOG_ESTIMATES`] keys; returns the table as it now is, to be written out
-/// without the lock. A log without edits teaches nothing: a hole filler's 143-byte log on
-/// a mesh without holes, taken as 143 bytes an edit, later estimated its 58,000 edits on a
-/// scan at 8.3 MB (the log was 271 KB) and sent the receiver to replay it.
+fn lock_learned(learned: &Mutex<LearnedTable>) -> std::sync::MutexGuard<'_, LearnedTable> {
+    learned.lock().expect("edit log estimates lock")
+}
+
+/// Keeps what `kind`'s last log of `edits` edits taught, within [`MAX_EDIT_LOG_ESTIMATES`]
+/// kinds; returns the table as it now is, to be written out without the lock. A log without
+/// edits teaches nothing: a hole filler's 143-byte log on a mesh without holes, taken as
+/// 143 bytes an edit, later estimated its 58,000 edits on a scan at 8.3 MB (the log was
+/// 271 KB) and sent the receiver to replay it.
 fn learn(
-    rates: &mut HashMap<String, f64>,
-    key: &str,
+    table: &mut LearnedTable,
+    kind: &StepKind,
     edits: usize,
-    bytes: usize,
-) -> Option<HashMap<String, f64>> {
+    taught: Learned,
+) -> Option<LearnedTable> {
     if edits == 0 {
         return None;
     }
-    if rates.len() >= MAX_EDIT_LOG_ESTIMATES && !rates.contains_key(key) {
-        rates.clear();
+    if table.len() >= MAX_EDIT_LOG_ESTIMATES && !table.contains_key(&kind.0) {
+        table.clear();
     }
-    let beyond_header = (bytes as u64).saturating_sub(MIN_EDIT_LOG_BYTES);
-    rates.insert(key.to_owned(), beyond_header as f64 / edits as f64);
-    Some(rates.clone())
+    table.insert(kind.0.clone(), taught);
+    Some(table.clone())
 }
 
-/// A kept table, if it is one: at most [`MAX_EDIT_LOG_ESTIMATES`] finite rates of at least
-/// zero (a log no larger than its header).
-fn read_rates(bytes: &[u8]) -> Option<HashMap<String, f64>> {
-    let rates: HashMap<String, f64> = serde_json::from_slice(bytes).ok()?;
-    let sane =
-        rates.len() <= MAX_EDIT_LOG_ESTIMATES && rates.values().all(|r| r.is_finite() && *r >= 0.0);
-    sane.then_some(rates)
+/// A kept table, if it is one: at most [`MAX_EDIT_LOG_ESTIMATES`] kinds with finite rates
+/// of at least zero (a log no larger than its header).
+fn read_learned(bytes: &[u8]) -> Option<LearnedTable> {
+    let table: LearnedTable = serde_json::from_slice(bytes).ok()?;
+    let sane = table.len() <= MAX_EDIT_LOG_ESTIMATES
+        && table.values().all(|l| l.bytes_per_edit.is_finite() && l.bytes_per_edit >= 0.0);
+    sane.then_some(table)
 }
 
 /// Writes the table atomically; a failure costs only the next restart's estimates.
-fn keep_rates(file: &Path, rates: &HashMap<String, f64>) {
+fn keep_learned(file: &Path, table: &LearnedTable) {
     let written = meshflow_meshio::write_private_file(file, |out| {
-        out.write_all(&serde_json::to_vec(rates).expect("a table of numbers serialises"))
+        out.write_all(&serde_json::to_vec(table).expect("a table of numbers serialises"))
     });
     if let Err(e) = written {
         tracing::warn!("keeping edit-log rates in {}: {e}", file.display());
@@ -265,27 +353,52 @@ fn keep_rates(file: &Path, rates: &HashMap<String, f64>) {
 mod tests {
     use super::*;
 
+    fn kind(name: &str) -> StepKind {
+        StepKind(name.to_owned())
+    }
+
     #[test]
-    fn rates_kept_in_the_data_folder_estimate_after_a_restart_and_bad_files_are_ignored() {
+    fn what_logs_taught_is_kept_in_the_data_folder_and_bad_files_are_ignored() {
         let dir = tempfile::tempdir().unwrap();
         let file = dir.path().join("edit-log-rates.json");
         // Uniform smoothing of 200k vertices: a 1 KB log, 0.005 bytes per moved vertex.
-        let learned = learn(&mut HashMap::new(), "p/laplacian/u", 200_000, 1_000).unwrap();
-        keep_rates(&file, &learned);
+        let smoothing = kind("p/laplacian/u");
+        let xyz = vec![0.0; 3 * 200_000];
+        let taught = Learned::from(&[Op::SetPositions { xyz }], 200_000, 1_000);
+        let learned = learn(&mut HashMap::new(), &smoothing, 200_000, taught).unwrap();
+        keep_learned(&file, &learned);
         let restarted = EditLogs::kept_in(file.clone());
-        assert_eq!(restarted.estimate("p/laplacian/u", 200_000), 1_000);
+        assert_eq!(restarted.estimate(&smoothing, 200_000), 1_000);
         assert_eq!(
-            restarted.estimate("p/other/x", 1_000),
+            restarted.estimate(&kind("p/other/x"), 1_000),
             MIN_EDIT_LOG_BYTES + (1_000.0 * DEFAULT_EDIT_LOG_BYTES_PER_EDIT) as u64
         );
-        for hostile in [&b"not json"[..], b"{\"k\": -1.0}", b"{\"k\": \"x\"}", b"[1, 2]"] {
+        // A smoothing step again, after the restart: its means are gathered while it runs;
+        // not so for a step of another kind, or for a mesh too large to hold them beside it.
+        let runtime = tokio::runtime::Builder::new_current_thread().build().unwrap();
+        let _entered = runtime.enter();
+        let mesh = Arc::new(MeshData::new(vec![0.0; 9], vec![0, 1, 2]));
+        let hash = mesh.content_hash();
+        assert!(restarted.prepare_for(&smoothing, &mesh, hash).is_some());
+        assert!(restarted.prepare_for(&kind("p/other/x"), &mesh, hash).is_none());
+        let large =
+            Arc::new(MeshData::new(vec![0.0; 3 * (MAX_PREPARED_MEANS_VERTICES + 1)], vec![]));
+        assert!(restarted.prepare_for(&smoothing, &large, hash).is_none());
+        for hostile in [
+            &b"not json"[..],
+            b"{\"k\": {\"bytes_per_edit\": -1.0}}",
+            b"{\"k\": {\"bytes_per_edit\": \"x\"}}",
+            b"{\"k\": 0.5}",
+            b"[1, 2]",
+        ] {
             std::fs::write(&file, hostile).unwrap();
-            assert!(EditLogs::kept_in(file.clone()).rates().is_empty(), "{hostile:?}");
+            assert!(EditLogs::kept_in(file.clone()).learned().is_empty(), "{hostile:?}");
         }
-        let too_many: HashMap<String, f64> =
-            (0..=MAX_EDIT_LOG_ESTIMATES).map(|i| (i.to_string(), 1.0)).collect();
+        let too_many: LearnedTable = (0..=MAX_EDIT_LOG_ESTIMATES)
+            .map(|i| (i.to_string(), Learned { bytes_per_edit: 1.0, sets_positions: false }))
+            .collect();
         std::fs::write(&file, serde_json::to_vec(&too_many).unwrap()).unwrap();
-        assert!(EditLogs::kept_in(file).rates().is_empty());
+        assert!(EditLogs::kept_in(file).learned().is_empty());
     }
 
     #[tokio::test]
@@ -317,21 +430,22 @@ mod tests {
         let logs = EditLogs::default();
         let unknown =
             |edits| MIN_EDIT_LOG_BYTES + (edits as f64 * DEFAULT_EDIT_LOG_BYTES_PER_EDIT) as u64;
-        assert_eq!(logs.estimate("a", 1000), unknown(1000));
-        assert_eq!(logs.estimate("a", 0), MIN_EDIT_LOG_BYTES);
+        let (a, holes) = (kind("a"), kind("holes"));
+        assert_eq!(logs.estimate(&a, 1000), unknown(1000));
+        assert_eq!(logs.estimate(&a, 0), MIN_EDIT_LOG_BYTES);
         // 150 bytes beyond the header for 1000 edits.
-        logs.learn("a", 1000, 250);
-        assert_eq!(logs.estimate("a", 4000), 700);
-        assert_eq!(logs.estimate("b", 1000), unknown(1000));
+        logs.learn(&a, 1000, 250);
+        assert_eq!(logs.estimate(&a, 4000), 700);
+        assert_eq!(logs.estimate(&kind("b"), 1000), unknown(1000));
         // The hole filler on a mesh without holes: its header alone teaches nothing about
         // the 58,000 edits of the next scan's holes.
-        logs.learn("holes", 0, 143);
-        assert_eq!(logs.estimate("holes", 57_898), unknown(57_898));
-        logs.learn("holes", 57_898, 270_916);
-        assert!(logs.estimate("holes", 57_898).abs_diff(270_916) <= 1);
+        logs.learn(&holes, 0, 143);
+        assert_eq!(logs.estimate(&holes, 57_898), unknown(57_898));
+        logs.learn(&holes, 57_898, 270_916);
+        assert!(logs.estimate(&holes, 57_898).abs_diff(270_916) <= 1);
         for i in 0..MAX_EDIT_LOG_ESTIMATES + 1 {
-            logs.learn(&i.to_string(), 1, 1);
+            logs.learn(&kind(&i.to_string()), 1, 1);
         }
-        assert!(logs.rates().len() <= MAX_EDIT_LOG_ESTIMATES);
+        assert!(logs.learned().len() <= MAX_EDIT_LOG_ESTIMATES);
     }
 }

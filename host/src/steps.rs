@@ -21,7 +21,7 @@ use meshflow_runtime::{Invocation, Plugin, RunError, ServiceInfo, ServiceKind};
 
 use crate::blobs::{BlobError, Stored};
 use crate::downloads::PeersError;
-use crate::edit_logs::StepLog;
+use crate::edit_logs::{self, Beside, PreparedMeans, StepKind, StepLog};
 use crate::meshes::{self, CurrentMesh, MeshError};
 use crate::plugins::PluginSetError;
 use crate::replay::{self, NameError, PluginSource, ReplayFailure};
@@ -120,6 +120,16 @@ pub async fn update(
         Transfer::Correction => &[Transfer::Correction],
         Transfer::Full => &[],
     };
+    // A log that sets every position is predicted from this mesh's neighbour means:
+    // gathered while it downloads.
+    let mut prepared = match (update.use_, &update.correction) {
+        (Transfer::Correction, Some(log)) if log.sets_positions => {
+            let current = &session.current;
+            ContentHash::from_hex(&current.hash)
+                .and_then(|hash| edit_logs::prepare_means(&current.mesh, hash, Beside::Download))
+        }
+        _ => None,
+    };
     for &via in order {
         let blob = match via {
             Transfer::Replay => update.replay.as_ref(),
@@ -131,7 +141,8 @@ pub async fn update(
         };
         let (base, grid, cancel) = (&session.current, session.grid, &session.cancel);
         let target = (blob, via, update.full.hash.as_str());
-        let attempt = apply_step(host, &scope, base, grid, target, cancel).await;
+        let means = prepared.take().filter(|_| via == Transfer::Correction);
+        let attempt = apply_step(host, &scope, (base, means), grid, target, cancel).await;
         downloaded += attempt.bytes;
         download_ms += attempt.download_ms;
         plugin_wait_ms = plugin_wait_ms.or(attempt.plugin_wait_ms);
@@ -206,12 +217,13 @@ struct Attempt<'a> {
     result: Result<(CurrentMesh, String, Stored<'a>), TransferFailure>,
 }
 
-/// Downloads a correction or replay correction and applies it to `base`; the result must
-/// be `expected`. The blob is kept, so a restart can apply it again.
+/// Downloads a correction or replay correction and applies it to `base` (an edit log with
+/// `base`'s neighbour means, if they are being gathered); the result must be `expected`.
+/// The blob is kept, so a restart can apply it again.
 async fn apply_step<'a>(
     host: &'a Host,
     scope: &FetchScope,
-    base: &CurrentMesh,
+    (base, means): (&CurrentMesh, Option<PreparedMeans>),
     grid: Option<Grid>,
     (blob, via, expected): (&BlobRef, Transfer, &str),
     cancel: &tokio_util::sync::CancellationToken,
@@ -252,7 +264,7 @@ async fn apply_step<'a>(
             (next, meshes::replay_name(&bytes))
         }
         _ => (
-            apply_correction(base, bytes.clone(), expected, &blob.url).await,
+            apply_correction((base, means), bytes.clone(), expected, &blob.url).await,
             meshes::correction_name(&bytes),
         ),
     };
@@ -271,7 +283,7 @@ async fn apply_step<'a>(
 /// Replays an edit log on a thread of its own. The session's hash is known: the base is
 /// not hashed again.
 async fn apply_correction(
-    base: &CurrentMesh,
+    (base, means): (&CurrentMesh, Option<PreparedMeans>),
     bytes: Arc<Vec<u8>>,
     expected: &str,
     url: &str,
@@ -281,8 +293,9 @@ async fn apply_correction(
     };
     let (base_hash, result_hash) = (hash(&base.hash)?, hash(expected)?);
     let (mesh, url) = (base.mesh.clone(), url.to_owned());
+    let means = edit_logs::prepared(means).await;
     let next = tokio::task::spawn_blocking(move || {
-        correction::apply_known(mesh, base_hash, &bytes, result_hash)
+        correction::apply_known(mesh, base_hash, &bytes, result_hash, means.as_ref())
             .map_err(|source| TransferFailure::Correction { url, source })
     })
     .await??;
@@ -322,8 +335,15 @@ pub async fn run(host: &Host, id: &str, request: RunRequest) -> Result<RunResult
     // replay, the edit log's estimate and the run itself all take these.
     let invocation = Invocation::resolve(plugin, info, &given)?;
     let resolved_params = replay::params_json(invocation.params());
+    let params = serde_json::Value::Object(resolved_params.clone()).to_string();
+    let kind = StepKind::of(&invocation.plugin().digest, &request.service, &params);
     let session = host.sessions.begin(id)?;
     let input = session.current.clone();
+    // Gathered beside the run, for the edit log, if this kind of step sets every position.
+    let prepared = match (invocation.info().kind, ContentHash::from_hex(&input.hash)) {
+        (ServiceKind::Filter, Some(hash)) => host.edit_logs.prepare_for(&kind, &input.mesh, hash),
+        _ => None,
+    };
     let _running = host.start_run();
     let runtime = host.runtime.clone();
     let mesh = input.mesh.clone();
@@ -363,7 +383,6 @@ pub async fn run(host: &Host, id: &str, request: RunRequest) -> Result<RunResult
     let hashing = result.clone();
     let result_hash = tokio::task::spawn_blocking(move || hashing.content_hash()).await?;
     let next = CurrentMesh { mesh: result.clone(), hash: result_hash.to_hex() };
-    let params = serde_json::Value::Object(resolved_params.clone()).to_string();
     let service_name = &invocation.info().name;
     let named = replay::name_resolved(
         &plugin,
@@ -377,16 +396,9 @@ pub async fn run(host: &Host, id: &str, request: RunRequest) -> Result<RunResult
     .map_err(StepError::Name)?;
     let (replay_name, replay_bytes) = (meshes::replay_name(&named), named.len() as u64);
     // Before the replay is stored: no eviction hold may be kept while waiting for a slot.
-    let step_log = StepLog {
-        plugin: plugin.clone(),
-        service: service.clone(),
-        params,
-        base: input.mesh,
-        base_hash,
-        log,
-        result,
-        result_hash,
-    };
+    let sets_positions = edit_logs::sets_positions(&log);
+    let step_log =
+        StepLog { kind, base: input.mesh, base_hash, log, result, result_hash, prepared };
     let (correction_name, correction_bytes) =
         host.edit_logs.encode_later(&host.blobs, step_log).await;
     let stored = host.blobs.put(&replay_name, Arc::new(named)).await?;
@@ -404,8 +416,12 @@ pub async fn run(host: &Host, id: &str, request: RunRequest) -> Result<RunResult
         queue_ms,
         report: output.report,
         resolved_params,
-        correction: BlobRef { url: host.blob_url(&correction_name), bytes: correction_bytes },
-        replay: BlobRef { url: host.blob_url(&replay_name), bytes: replay_bytes },
+        correction: BlobRef {
+            url: host.blob_url(&correction_name),
+            bytes: correction_bytes,
+            sets_positions,
+        },
+        replay: BlobRef::new(host.blob_url(&replay_name), replay_bytes),
         full: FullRef { url: host.blob_url(&full_name), hash: next.hash.clone() },
     };
     session.commit_offering(next, correction_name, Some(replay_name))?;

@@ -245,8 +245,8 @@ mod tests {
             queue_ms: 0.0,
             report: String::new(),
             resolved_params: Default::default(),
-            correction: BlobRef { url: format!("{HOST}/blobs/{}.mfc", hash('c')), bytes: 120 },
-            replay: BlobRef { url: format!("{HOST}/blobs/{}.mfr", hash('f')), bytes: 190 },
+            correction: BlobRef::new(format!("{HOST}/blobs/{}.mfc", hash('c')), 120),
+            replay: BlobRef::new(format!("{HOST}/blobs/{}.mfr", hash('f')), 190),
             full: FullRef { url: format!("{HOST}/blobs/{}.mfm", hash('b')), hash: hash('b') },
         }
     }

@@ -258,13 +258,77 @@ fn encoding_against_known_hashes_gives_the_same_bytes() {
     let shared = std::sync::Arc::new(base.clone());
     let (base_hash, result_hash) = (base.content_hash(), result.content_hash());
     let bytes =
-        correction::encode_known(shared.clone(), base_hash, &log, &result, result_hash).unwrap();
+        correction::encode_known(shared.clone(), base_hash, &log, &result, result_hash, None)
+            .unwrap();
     assert_eq!(bytes, correction::encode(&base, &log, &result).unwrap());
     assert_eq!(correction::apply(shared, &bytes).unwrap().content_hash(), result_hash);
     // A wrong hash is written as given, so every applier refuses the correction.
-    let forged =
-        correction::encode_known(base.clone().into(), result_hash, &log, &result, result_hash);
+    let forged = correction::encode_known(
+        base.clone().into(),
+        result_hash,
+        &log,
+        &result,
+        result_hash,
+        None,
+    );
     assert!(correction::apply(base.clone(), &forged.unwrap()).is_err());
-    let forged = correction::encode_known(base.clone().into(), base_hash, &log, &result, base_hash);
+    let forged =
+        correction::encode_known(base.clone().into(), base_hash, &log, &result, base_hash, None);
     assert!(correction::apply(base, &forged.unwrap()).is_err());
+}
+
+/// Neighbour means gathered before the log exists (a host does it beside the plugin's run
+/// and beside the log's download) give the same bytes and the same result; means of
+/// another mesh, or a move of every vertex that is not the log's first op, are not used.
+#[test]
+fn neighbour_means_gathered_before_give_the_same_bytes_and_result() {
+    let mut rng = Rng(12);
+    let base = grid(120, 90, 3, &mut rng);
+    let other = grid(120, 90, 3, &mut rng);
+    let (base_hash, other_hash) = (base.content_hash(), other.content_hash());
+    let prepared = correction::NeighbourMeans::of(&base, base_hash);
+    let on_one_thread = correction::NeighbourMeans::beside(&base, base_hash);
+    // Means of another mesh under this mesh's name: used, they would decode wrong.
+    let misnamed = correction::NeighbourMeans::of(&other, base_hash);
+    let of_other = correction::NeighbourMeans::of(&other, other_hash);
+    // A smoothing step, alone or after one vertex moved (the means then differ from the
+    // base's around it).
+    let smoothed = |moved_first: bool| {
+        let mut store = MeshStore::new(base.clone());
+        if moved_first {
+            store.apply(Op::MoveVertices { ids: vec![500], xyz: vec![0.5, 0.5, 2.0] }).unwrap();
+        }
+        store.apply(Op::SetPositions { xyz: smooth(&base, 1.0) }).unwrap();
+        store.finish()
+    };
+    for moved_first in [false, true] {
+        let (result, log) = smoothed(moved_first);
+        let result_hash = result.content_hash();
+        let plain = correction::encode(&base, &log, &result).unwrap();
+        for means in [&prepared, &on_one_thread, &of_other] {
+            let shared = std::sync::Arc::new(base.clone());
+            let encoded = correction::encode_known(
+                shared,
+                base_hash,
+                &log,
+                &result,
+                result_hash,
+                Some(means),
+            );
+            assert_eq!(encoded.unwrap(), plain, "moved first: {moved_first}");
+            let applied =
+                correction::apply_known(base.clone(), base_hash, &plain, result_hash, Some(means));
+            assert_eq!(applied.unwrap(), result, "moved first: {moved_first}");
+        }
+        if !moved_first {
+            let applied = correction::apply_known(
+                base.clone(),
+                base_hash,
+                &plain,
+                result_hash,
+                Some(&misnamed),
+            );
+            assert!(applied.is_err(), "misnamed means decode another result");
+        }
+    }
 }

@@ -11,7 +11,8 @@ use super::codec::{END, Models, Sections, motion};
 use super::coding::residual::{ResidualCoder, Residuals};
 use super::coding::stream::{CorruptStream, SymbolReader};
 use super::header::{Correction, KINDS, KindCount, kind_index};
-use super::predict::{self, NewVertexNeighbours, Smoothing};
+use super::means::Means;
+use super::predict::{self, Neighbours, NewVertexNeighbours};
 use super::removals::Removals;
 
 /// Decoded element counts may exceed the file size by at most this factor: the adaptive
@@ -23,12 +24,14 @@ const ELEMENT_SLACK: u64 = 1 << 16;
 /// to stay in cache, large enough that handing over costs nothing.
 const CHUNK: u32 = 8192;
 
-/// Replays the sections of a correction whose header was read, starting from `base`.
-/// Returns the compacted result and the log the replay recorded.
+/// Replays the sections of a correction whose header was read, starting from `base`
+/// (whose neighbour means may have been gathered already). Returns the compacted result
+/// and the log the replay recorded.
 pub(super) fn replay(
     header: &Correction,
     sections: [&[u8]; 4],
     base: Arc<MeshData>,
+    prepared: Option<&Means>,
 ) -> Result<(MeshData, Vec<Op>), CorrectionError> {
     let budget = ELEMENTS_PER_BYTE * header.total_bytes() as u64 + ELEMENT_SLACK;
     let declared: u64 = OpKind::ALL
@@ -54,6 +57,7 @@ pub(super) fn replay(
         },
         remaining: header.kinds,
         announced: None,
+        prepared,
     };
     let total_ops = header.op_count();
     let mut index = 0usize;
@@ -66,7 +70,7 @@ pub(super) fn replay(
     Ok(decoder.store.finish())
 }
 
-struct Decoder {
+struct Decoder<'p> {
     store: MeshStore,
     models: Models,
     input: Sections<SymbolReader>,
@@ -74,9 +78,11 @@ struct Decoder {
     remaining: [KindCount; KINDS],
     /// The kind of the next op, when it was read early (after an add-vertices).
     announced: Option<usize>,
+    /// The base's neighbour means, gathered before: they hold for the first op only.
+    prepared: Option<&'p Means>,
 }
 
-impl Decoder {
+impl Decoder<'_> {
     /// Decodes and applies the op at `index` (and the next one, for a coded pair); returns
     /// how many ops it consumed.
     fn op(&mut self, index: usize) -> Result<usize, CorrectionError> {
@@ -85,12 +91,12 @@ impl Decoder {
         if kind == OpKind::AddVertices {
             return self.add_vertices(index);
         }
-        let op = self.decode(kind).map_err(corrupt)?;
+        let op = self.decode(index, kind).map_err(corrupt)?;
         self.apply(index, op)?;
         Ok(1)
     }
 
-    fn decode(&mut self, kind: OpKind) -> Result<Op, CorruptStream> {
+    fn decode(&mut self, index: usize, kind: OpKind) -> Result<Op, CorruptStream> {
         if is_single(kind) {
             self.take(kind, 1)?;
         }
@@ -107,7 +113,7 @@ impl Decoder {
                 }
                 Op::MoveVertices { ids, xyz }
             }
-            OpKind::SetPositions => Op::SetPositions { xyz: self.set_positions()? },
+            OpKind::SetPositions => Op::SetPositions { xyz: self.set_positions(index)? },
             OpKind::RemoveVertices => Op::RemoveVertices { ids: self.removal_ids(kind)? },
             OpKind::RemoveTriangles => Op::RemoveTriangles { ids: self.removal_ids(kind)? },
             OpKind::FlipTriangles => Op::FlipTriangles { ids: self.removal_ids(kind)? },
@@ -264,12 +270,14 @@ impl Decoder {
     }
 
     /// The mirror of the encoder's `set_positions`. The predictions (neighbour means, most of
-    /// the work) are made on two more threads, alternate chunks each. The symbols do not
-    /// depend on them, so the decoding runs ahead (while the triangles are indexed, at
-    /// first) and restores each chunk of vertices when its predictions have arrived.
-    fn set_positions(&mut self) -> Result<Vec<f32>, CorruptStream> {
+    /// the work, unless they were gathered before) are made on two more threads, alternate
+    /// chunks each. The symbols do not depend on them, so the decoding runs ahead (while the
+    /// triangles are indexed, at first) and restores each chunk of vertices when its
+    /// predictions have arrived.
+    fn set_positions(&mut self, index: usize) -> Result<Vec<f32>, CorruptStream> {
         self.take(OpKind::SetPositions, u64::from(self.store.vertex_slots()))?;
         let (store, grid) = (&self.store, self.models.grid);
+        let prepared = self.prepared.filter(|_| index == 0);
         let (m, input) = (&mut self.models, &mut self.input);
         let lambda = input.geometry.f32_bits()?;
         let (current, slots) = (store.positions(), store.vertex_slots());
@@ -278,7 +286,15 @@ impl Decoder {
             let predictions = [even.1, odd.1];
             let (send_even, send_odd) = (even.0, odd.0);
             s.spawn(move || {
-                let smoothing = Smoothing::new(store, grid);
+                let neighbours = match prepared {
+                    Some(_) => None,
+                    None => Some(Neighbours::new(slots, store.triangles())),
+                };
+                let mean = |v: u32, around: &mut Vec<u32>| match (prepared, &neighbours) {
+                    (Some(means), _) => means.get(v),
+                    (None, Some(neighbours)) => neighbours.mean(current, v, around),
+                    (None, None) => unreachable!("gathered when not prepared"),
+                };
                 let chunks = |parity: usize, send: mpsc::SyncSender<Vec<[f32; 3]>>| {
                     let mut around = Vec::new();
                     let firsts = (0..slots).step_by(CHUNK as usize).skip(parity).step_by(2);
@@ -288,7 +304,7 @@ impl Decoder {
                             if !store.is_vertex_live(v) {
                                 return p;
                             }
-                            smoothing.predict(p, smoothing.mean(current, v, &mut around), lambda)
+                            predict::smoothed(p, mean(v, &mut around), lambda, grid)
                         });
                         if send.send(chunk.collect()).is_err() {
                             return; // the decoding stopped at corrupt data

@@ -11,7 +11,8 @@ use super::CorrectionError;
 use super::codec::{END, Models, Sections, kind_symbol, motion};
 use super::coding::stream::SymbolWriter;
 use super::header::{self, Correction, KINDS, KindCount, kind_index};
-use super::predict::{self, NewVertexNeighbours, Smoothing};
+use super::means::{Means, NeighbourMeans};
+use super::predict::{self, NewVertexNeighbours};
 use super::removals::Removals;
 use crate::quantize::Grid;
 
@@ -23,24 +24,27 @@ pub fn encode(base: &MeshData, log: &[Op], result: &MeshData) -> Result<Vec<u8>,
     // own copy of the base.
     let (hashes, sections) = std::thread::scope(|s| {
         let hashes = s.spawn(|| (base.content_hash(), result.content_hash()));
-        let sections = encode_sections(Arc::new(base.clone()), log, result);
+        let sections = encode_sections(Arc::new(base.clone()), log, result, None);
         (hashes.join().expect("hashing does not panic"), sections)
     });
     write(hashes, sections?, log, [counts(base), counts(result)])
 }
 
 /// [`encode`] as a host calls it: the base is shared (the replay copies only what the log
-/// edits) and both hashes are already known, so neither mesh is hashed again.
+/// edits) and both hashes are already known, so neither mesh is hashed again; the base's
+/// neighbour means may have been gathered already (the same bytes either way).
 pub fn encode_known(
     base: Arc<MeshData>,
     base_hash: ContentHash,
     log: &[Op],
     result: &MeshData,
     result_hash: ContentHash,
+    prepared: Option<&NeighbourMeans>,
 ) -> Result<Vec<u8>, CorrectionError> {
     // Counted before the replay takes the base: a base no one else holds is edited in place.
     let base_counts = counts(&base);
-    let sections = encode_sections(base, log, result)?;
+    let prepared = prepared.and_then(|p| p.of_mesh(base_hash, base.vertex_count() as u32));
+    let sections = encode_sections(base, log, result, prepared)?;
     write((base_hash, result_hash), sections, log, [base_counts, counts(result)])
 }
 
@@ -76,11 +80,13 @@ fn counts(mesh: &MeshData) -> [u64; 2] {
 }
 
 /// Codes the log's ops into the four sections, replaying them; checks the replay ends at
-/// `result` (byte for byte, which is what equal hashes mean).
+/// `result` (byte for byte, which is what equal hashes mean). `prepared` are the base's
+/// neighbour means, if gathered.
 fn encode_sections(
     base: Arc<MeshData>,
     log: &[Op],
     result: &MeshData,
+    prepared: Option<&Means>,
 ) -> Result<(Option<Grid>, [Vec<u8>; 4]), CorrectionError> {
     // Detected, not declared: any mesh whose coordinates all sit on a coarse grid gains.
     let grid = Grid::detect([&base.positions[..], &result.positions[..]]);
@@ -94,6 +100,7 @@ fn encode_sections(
             geometry: SymbolWriter::new(),
         },
         kind_announced: false,
+        prepared,
     };
     let mut i = 0;
     while i < log.len() {
@@ -108,15 +115,17 @@ fn encode_sections(
     Ok((grid, [ops.finish(), ids.finish(), connectivity.finish(), geometry.finish()]))
 }
 
-struct Encoder {
+struct Encoder<'p> {
     store: MeshStore,
     models: Models,
     out: Sections<SymbolWriter>,
     /// The current op's kind was already written (right after the previous op's count).
     kind_announced: bool,
+    /// The base's neighbour means, gathered before: they hold for the first op only.
+    prepared: Option<&'p Means>,
 }
 
-impl Encoder {
+impl Encoder<'_> {
     /// Codes and applies `op` (and `next` with it, where they are coded as a pair); returns
     /// how many ops it consumed.
     fn op(&mut self, index: usize, op: &Op, next: Option<&Op>) -> Result<usize, CorrectionError> {
@@ -134,7 +143,7 @@ impl Encoder {
                     m.moves.write(&mut out.geometry, [p[0], p[1], p[2]], from);
                 }
             }
-            Op::SetPositions { xyz } => self.set_positions(xyz),
+            Op::SetPositions { xyz } => self.set_positions(index, xyz),
             Op::RemoveVertices { ids }
             | Op::RemoveTriangles { ids }
             | Op::FlipTriangles { ids } => {
@@ -245,23 +254,30 @@ impl Encoder {
 
     /// Every live vertex: still, exactly predicted, or its residual from the prediction,
     /// one step of uniform Laplacian smoothing with the factor that fits this op best.
-    fn set_positions(&mut self, xyz: &[f32]) {
+    fn set_positions(&mut self, index: usize, xyz: &[f32]) {
         let store = &self.store;
         let current = store.positions();
         if xyz.len() != current.len() {
             return; // the store refuses it in `apply`
         }
-        let smoothing = Smoothing::new(store, self.models.grid);
-        // Fitting λ and coding need each mean up to four times: gathered once.
-        let means = Means::of(&smoothing, current, store.vertex_slots());
-        let moved = Moved { store, current, new: xyz, smoothing: &smoothing, means: &means };
+        let grid = self.models.grid;
+        // Fitting λ and coding need each mean up to four times: gathered once (or before).
+        let gathered;
+        let means = match self.prepared.filter(|_| index == 0) {
+            Some(prepared) => prepared,
+            None => {
+                gathered = Means::of(current, store.triangles(), store.vertex_slots());
+                &gathered
+            }
+        };
+        let moved = Moved { store, current, new: xyz, grid, means };
         let lambda = moved.best_lambda();
         let (m, out) = (&mut self.models, &mut self.out);
         out.geometry.f32_bits(lambda);
         let mut context = motion::STILL;
         for v in (0..store.vertex_slots()).filter(|&v| store.is_vertex_live(v)) {
             let (p, q) = (at(current, v), at(xyz, v));
-            let predicted = smoothing.predict(p, means.get(v), lambda);
+            let predicted = predict::smoothed(p, means.get(v), lambda, grid);
             // "Predicted" first: on a grid, many small moves snap back to the old position,
             // and one symbol for all of them keeps the runs long.
             let model = &mut m.motion[context];
@@ -302,48 +318,11 @@ fn same_bits(a: [f32; 3], b: [f32; 3]) -> bool {
 }
 
 /// The live vertices a `set-positions` moves, with what predicts them.
-/// Per vertex slot, [`Smoothing::mean`]: 25 bytes a vertex where `Option<[f64; 3]>` took
-/// 32 (the encoder's largest array while it codes a move of every vertex).
-struct Means {
-    means: Vec<[f64; 3]>,
-    has: Vec<bool>,
-}
-
-impl Means {
-    /// Each vertex's mean depends on nothing but the mesh: the second half of the slots is
-    /// gathered on a thread of its own (as the decoder predicts on two), the same values.
-    /// Receivers wait for this encode: it is most of the encoder's time on a move of every
-    /// vertex (a uniform smoothing step of a 1M-vertex scan).
-    fn of(smoothing: &Smoothing, positions: &[f32], vertex_slots: u32) -> Self {
-        let mut means = vec![[0.0; 3]; vertex_slots as usize];
-        let mut has = vec![false; vertex_slots as usize];
-        let half = vertex_slots / 2;
-        let gather = |first: u32, means: &mut [[f64; 3]], has: &mut [bool]| {
-            let mut around = Vec::new();
-            for ((v, mean), has) in (first..).zip(means.iter_mut()).zip(has.iter_mut()) {
-                let found = smoothing.mean(positions, v, &mut around);
-                (*mean, *has) = (found.unwrap_or_default(), found.is_some());
-            }
-        };
-        let (first_means, second_means) = means.split_at_mut(half as usize);
-        let (first_has, second_has) = has.split_at_mut(half as usize);
-        std::thread::scope(|s| {
-            s.spawn(|| gather(half, second_means, second_has));
-            gather(0, first_means, first_has);
-        });
-        Self { means, has }
-    }
-
-    fn get(&self, v: u32) -> Option<[f64; 3]> {
-        self.has[v as usize].then(|| self.means[v as usize])
-    }
-}
-
 struct Moved<'a> {
     store: &'a MeshStore,
     current: &'a [f32],
     new: &'a [f32],
-    smoothing: &'a Smoothing<'a>,
+    grid: Option<Grid>,
     means: &'a Means,
 }
 
@@ -377,7 +356,7 @@ impl Moved<'_> {
         }
         let hits = |lambda: f32| {
             let exact = |&(p, q, mean): &([f32; 3], [f32; 3], [f64; 3])| {
-                same_bits(q, self.smoothing.predict(p, Some(mean), lambda))
+                same_bits(q, predict::smoothed(p, Some(mean), lambda, self.grid))
             };
             self.each().filter(exact).count()
         };

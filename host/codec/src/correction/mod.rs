@@ -42,12 +42,14 @@ mod encode;
 mod error;
 mod header;
 mod lists;
+mod means;
 mod predict;
 mod removals;
 
 pub use encode::{encode, encode_known};
 pub use error::CorrectionError;
 pub use header::{Correction, KindCount, SECTIONS, VERSION};
+pub use means::NeighbourMeans;
 
 use std::sync::Arc;
 
@@ -85,7 +87,7 @@ pub fn replay(
     // ops replay; on a mismatch the replay is discarded.
     let (found, replayed) = std::thread::scope(|s| {
         let hash = s.spawn(|| base.content_hash());
-        let replayed = replay_checked(&header, sections, Arc::clone(&base));
+        let replayed = replay_checked(&header, sections, Arc::clone(&base), None);
         (hash.join().expect("hashing does not panic"), replayed)
     });
     if found != header.base {
@@ -96,12 +98,14 @@ pub fn replay(
 
 /// Like [`apply`], for a caller that knows `base`'s hash and the result it was promised (a
 /// host updating a session): a correction for another base or result is refused before any
-/// replay, and `base` is not hashed again.
+/// replay, and `base` is not hashed again. `prepared` are `base`'s neighbour means if they
+/// were gathered (while the correction downloaded): the same result either way.
 pub fn apply_known(
     base: impl Into<Arc<MeshData>>,
     base_hash: ContentHash,
     bytes: &[u8],
     result: ContentHash,
+    prepared: Option<&NeighbourMeans>,
 ) -> Result<MeshData, CorrectionError> {
     let (header, sections) = header::read(bytes)?;
     if header.base != base_hash {
@@ -110,7 +114,9 @@ pub fn apply_known(
     if header.result != result {
         return Err(CorrectionError::ResultMismatch { expected: result, found: header.result });
     }
-    replay_checked(&header, sections, base.into()).map(|(mesh, _)| mesh)
+    let base = base.into();
+    let prepared = prepared.and_then(|p| p.of_mesh(base_hash, base.vertex_count() as u32));
+    replay_checked(&header, sections, base, prepared).map(|(mesh, _)| mesh)
 }
 
 /// Replays the ops on `base` and checks the result's hash against the header.
@@ -118,8 +124,9 @@ fn replay_checked(
     header: &Correction,
     sections: [&[u8]; 4],
     base: Arc<MeshData>,
+    prepared: Option<&means::Means>,
 ) -> Result<(MeshData, Vec<Op>), CorrectionError> {
-    let (mesh, log) = decode::replay(header, sections, base)?;
+    let (mesh, log) = decode::replay(header, sections, base, prepared)?;
     let found = mesh.content_hash();
     if found != header.result {
         return Err(CorrectionError::ResultMismatch { expected: header.result, found });

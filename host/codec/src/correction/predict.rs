@@ -42,26 +42,19 @@ pub(crate) fn mean(points: impl Iterator<Item = [f32; 3]>) -> Option<[f32; 3]> {
     (n > 0).then(|| sum.map(|s| (s / f64::from(n)) as f32))
 }
 
-/// One step of uniform Laplacian smoothing as both sides predict `set-positions`: a live
-/// vertex with neighbours goes to `λ·mean + (1−λ)·p` per axis in f64 (for λ = 1 exactly the
-/// neighbour mean, the bits `laplacian-smoothing` produces), snapped to the grid if any;
-/// other vertices are predicted to stay.
-///
-/// A vertex's neighbours are gathered from its triangles when asked for, not stored: lists
-/// for every vertex would be several times the size of the mesh, and allocating them (page
-/// faults included) cost more than the gathering.
-pub(crate) struct Smoothing<'a> {
+/// Each vertex's distinct neighbours, gathered from its triangles when asked for, not
+/// stored: lists for every vertex would be several times the size of the mesh, and
+/// allocating them (page faults included) cost more than the gathering.
+pub(crate) struct Neighbours<'a> {
     triangles: &'a [u32],
     around: VertexTriangles,
-    grid: Option<Grid>,
 }
 
-impl<'a> Smoothing<'a> {
-    pub(crate) fn new(store: &'a MeshStore, grid: Option<Grid>) -> Self {
-        // Removed triangles hold [`REMOVED`](meshflow_mesh::store::REMOVED), an id past every slot:
-        // they are left out.
-        let around = VertexTriangles::new(store.vertex_slots() as usize, store.triangles());
-        Self { triangles: store.triangles(), around, grid }
+impl<'a> Neighbours<'a> {
+    /// Over triangle slots: removed triangles hold
+    /// [`REMOVED`](meshflow_mesh::store::REMOVED), an id past every slot, and are left out.
+    pub(crate) fn new(vertex_slots: u32, triangles: &'a [u32]) -> Self {
+        Self { triangles, around: VertexTriangles::new(vertex_slots as usize, triangles) }
     }
 
     /// The f64 mean of `v`'s distinct neighbours in `positions`, summed in ascending id
@@ -95,17 +88,24 @@ impl<'a> Smoothing<'a> {
         let n = around.len() as f64;
         Some(sum.map(|s| s / n))
     }
+}
 
-    /// The predicted new position of `v`, at `p` now, with neighbour mean `mean`.
-    pub(crate) fn predict(&self, p: [f32; 3], mean: Option<[f64; 3]>, lambda: f32) -> [f32; 3] {
-        let Some(mean) = mean else { return p };
-        let l = f64::from(lambda);
-        let q: [f32; 3] =
-            std::array::from_fn(|k| (mean[k] * l + f64::from(p[k]) * (1.0 - l)) as f32);
-        match &self.grid {
-            None => q,
-            Some(grid) => std::array::from_fn(|k| grid.snap(k, q[k])),
-        }
+/// One step of uniform Laplacian smoothing as both sides predict `set-positions`: a live
+/// vertex at `p` with neighbour mean `mean` goes to `λ·mean + (1−λ)·p` per axis in f64 (for
+/// λ = 1 exactly the neighbour mean, the bits `laplacian-smoothing` produces), snapped to
+/// the grid if any; a vertex without neighbours is predicted to stay.
+pub(crate) fn smoothed(
+    p: [f32; 3],
+    mean: Option<[f64; 3]>,
+    lambda: f32,
+    grid: Option<Grid>,
+) -> [f32; 3] {
+    let Some(mean) = mean else { return p };
+    let l = f64::from(lambda);
+    let q: [f32; 3] = std::array::from_fn(|k| (mean[k] * l + f64::from(p[k]) * (1.0 - l)) as f32);
+    match &grid {
+        None => q,
+        Some(grid) => std::array::from_fn(|k| grid.snap(k, q[k])),
     }
 }
 
