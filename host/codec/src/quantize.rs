@@ -135,25 +135,38 @@ impl Grid {
     /// float residuals): a binary grid, else a decimal one (one digit count for all axes);
     /// `None` for ordinary float data or a `-0.0`.
     pub fn detect<'a>(position_sets: impl IntoIterator<Item = &'a [f32]> + Clone) -> Option<Self> {
-        // Per axis: the lowest set bit's exponent over all values, the largest ulp exponent.
-        let mut lowest = [i32::MAX; 3];
-        let mut resolution = [MIN_EXPONENT; 3];
+        // Per axis the largest magnitude, whose ulp is the axis' resolution (an ulp grows
+        // with the magnitude), in a pass without branches; a -0.0 or a value that is not
+        // finite rules out every grid.
+        let mut largest = [0u32; 3];
+        let mut negative_zero = false;
         for positions in position_sets.clone() {
             for p in positions.chunks_exact(3) {
                 for k in 0..3 {
                     let bits = p[k].to_bits();
-                    if bits & 0x7fff_ffff == 0 {
-                        if bits != 0 {
-                            return None; // -0.0 is on no grid
-                        }
-                        continue;
+                    negative_zero |= bits == 0x8000_0000;
+                    largest[k] = largest[k].max(bits & 0x7fff_ffff);
+                }
+            }
+        }
+        if negative_zero || largest.iter().any(|&m| m >= f32::INFINITY.to_bits()) {
+            return None;
+        }
+        let resolution = largest.map(|m| lowest_bit_and_ulp(m).1);
+        // Per axis the lowest set bit's exponent over all values (zeros lie on every grid),
+        // until one is at or below its axis' resolution: then no binary grid is coarser,
+        // which float data shows at its first values.
+        let mut lowest = [i32::MAX; 3];
+        'values: for positions in position_sets.clone() {
+            for p in positions.chunks_exact(3) {
+                for k in 0..3 {
+                    let bits = p[k].to_bits();
+                    if bits != 0 {
+                        lowest[k] = lowest[k].min(lowest_bit_and_ulp(bits).0);
                     }
-                    if !p[k].is_finite() {
-                        return None;
-                    }
-                    let (low, ulp) = lowest_bit_and_ulp(bits);
-                    lowest[k] = lowest[k].min(low);
-                    resolution[k] = resolution[k].max(ulp);
+                }
+                if (0..3).any(|k| lowest[k] <= resolution[k]) {
+                    break 'values;
                 }
             }
         }
@@ -356,6 +369,29 @@ mod tests {
             assert!(found.step(k) >= grid.step(k));
         }
         assert_eq!(Grid::detect([&[1.0f32, -0.0, 2.0][..]]), None);
+    }
+
+    #[test]
+    fn detection_weighs_every_value_whatever_comes_first() {
+        // Halves early, a quarter last: the grid is the quarters'.
+        let quarters = [0.5f32, 1.5, 2.0, 3.5, 4.0, 5.5, 1.25, 2.5, 3.0];
+        let found = Grid::detect([&quarters[..]]).expect("on a grid");
+        assert_eq!(found.spacing(), Spacing::Binary([-2, -1, -1]));
+        // A large value last coarsens the resolution every value is judged by: a grid of
+        // 2^-20 is coarser than f32 around 1, not around 20 (where f32 steps are 2^-19).
+        let mut large_last = vec![0.5f32, 0.25, 0.125, 0.75, 0.375, 0.625];
+        large_last.extend([1.0 + 2f32.powi(-20), 1.0, 1.0]);
+        let found = Grid::detect([&large_last[..]]).map(|g| g.spacing());
+        assert_eq!(found, Some(Spacing::Binary([-20, -3, -3])));
+        let mut then_larger = large_last.clone();
+        then_larger.extend([20.0, 20.0, 20.0]);
+        assert_eq!(Grid::detect([&then_larger[..]]), None);
+        // Float data in the second set only, or a value that is not finite anywhere.
+        let grid_values = [1.0f32, 2.0, 3.0];
+        assert!(Grid::detect([&grid_values[..]]).is_some());
+        let float_data: Vec<f32> = (1..4).map(|i| (i as f32 * 0.7).sin() * 3.0).collect();
+        assert_eq!(Grid::detect([&grid_values[..], &float_data[..]]), None);
+        assert_eq!(Grid::detect([&grid_values[..], &[1.0f32, f32::NAN, 3.0][..]]), None);
     }
 
     #[test]
