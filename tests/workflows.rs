@@ -820,3 +820,38 @@ async fn colours_and_quality_survive_the_repair_by_corrections_replays_and_full_
     let carried = record["steps"].as_array().unwrap().last().unwrap()["attributes"].to_string();
     assert!(carried.contains("vertex color") && carried.contains("vertex quality"), "{carried}");
 }
+
+/// The first task starts on its host as soon as that host holds the input: a host whose
+/// load ends 1.5 s later (behind a proxy that says its session is ready only then) does not
+/// hold it back, and still takes the first step's result and runs the second to the local
+/// result.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_first_task_starts_while_a_slower_host_still_loads_the_input() {
+    use common::proxy::{Lies, start_proxy};
+    let workflow = json!({"steps": [
+        {"run": "laplacian-smoothing", "params": {"iterations": 2}},
+        {"run": "remove-degenerate-triangles"}
+    ], "transfer": "correction"});
+    let input = Input::scan(20_000, 5);
+    let expected = locally(&workflow, &input);
+    let data = tempfile::tempdir().unwrap();
+    let cleanup = common::start_hosts(&[&["cleanup"]], data.path(), &[]).await;
+    let slow = Lies { slow_ready: Some(std::time::Duration::from_millis(1500)), ..Lies::default() };
+    let (slow_url, _proxy) = start_proxy(&cleanup[0].url, slow).await;
+    let cluster = Cluster::start_with(&[&["smoothing"]], std::slice::from_ref(&slow_url)).await;
+    let id = cluster.submit(&workflow, &cluster.upload(&input).await).await;
+    let record = cluster.finished(&id).await;
+    assert_eq!(record["status"], "completed", "{}", record["error"]);
+    assert_eq!(executed(&record), expected.steps);
+    assert_eq!(text(&record["result"]["hash"]), expected.hash());
+    let broadcast_ms = record["broadcast"]["ms"].as_f64().unwrap();
+    assert!(broadcast_ms >= 1_500.0, "{broadcast_ms} ms");
+    let steps = steps(&record);
+    assert_eq!(text(&steps[0]["host"]), cluster.hosts[0].url);
+    assert_eq!(text(&steps[1]["host"]), slow_url);
+    let smoothing_started = steps[0]["started_ms"].as_f64().unwrap();
+    assert!(
+        smoothing_started + 1_000.0 < broadcast_ms,
+        "the smoothing started at {smoothing_started} ms, the broadcast ended at {broadcast_ms} ms"
+    );
+}

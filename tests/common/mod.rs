@@ -5,6 +5,7 @@
 
 pub mod local;
 pub mod process;
+pub mod proxy;
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;

@@ -28,8 +28,8 @@ pub(super) struct InputHolders(tokio::sync::watch::Sender<Holders>);
 
 #[derive(Default)]
 pub(super) struct Holders {
-    /// With the input's vertex count as each loaded it.
-    hosts: BTreeMap<String, Option<u64>>,
+    /// With the input's vertex count as each loaded it, and its session there.
+    hosts: BTreeMap<String, Held>,
     /// Every host of the plan holds it already (a resumed run's restored input): its
     /// vertex count as recorded.
     all: Option<Option<u64>>,
@@ -37,8 +37,11 @@ pub(super) struct Holders {
 }
 
 /// A host holds the run's input, of this many vertices (when it said).
+#[derive(Clone)]
 pub(super) struct Held {
     pub vertices: Option<u64>,
+    /// The session holding it there; not known of a restored input.
+    pub session: Option<String>,
 }
 
 impl InputHolders {
@@ -46,9 +49,10 @@ impl InputHolders {
         Self(tokio::sync::watch::Sender::new(Holders::default()))
     }
 
-    fn hold(&self, host: &str, vertices: Option<u64>) {
+    fn hold(&self, host: &str, session: &str, vertices: Option<u64>) {
+        let held = Held { vertices, session: Some(session.to_owned()) };
         self.0.send_modify(|h| {
-            h.hosts.insert(host.to_owned(), vertices);
+            h.hosts.insert(host.to_owned(), held);
         });
     }
 
@@ -70,9 +74,12 @@ impl InputHolders {
     ) -> impl std::future::Future<Output = Option<Held>> + Send + 'static {
         let (mut holders, host) = (self.0.subscribe(), host.to_owned());
         async move {
-            let held = |h: &Holders| h.all.or_else(|| h.hosts.get(&host).copied());
+            let held = |h: &Holders| {
+                let restored = h.all.map(|vertices| Held { vertices, session: None });
+                restored.or_else(|| h.hosts.get(&host).cloned())
+            };
             match holders.wait_for(|h| h.over || held(h).is_some()).await {
-                Ok(holders) => held(&holders).map(|vertices| Held { vertices }),
+                Ok(holders) => held(&holders),
                 Err(_) => None,
             }
         }
@@ -105,8 +112,8 @@ pub(super) async fn broadcast(
         let grid = quantize.map(GridSpec::Bits);
         let attempts = hosts.iter().map(|host| async move {
             let outcome = load_input(run, host.clone(), input, None, grid).await;
-            if let Ok((_, status)) = &outcome {
-                holders.hold(&host.url, status.vertices.map(|v| v as u64));
+            if let Ok((session, status)) = &outcome {
+                holders.hold(&host.url, session, status.vertices.map(|v| v as u64));
             }
             outcome
         });

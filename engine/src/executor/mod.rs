@@ -19,6 +19,7 @@ mod control;
 mod copies;
 mod cost;
 mod current;
+mod early;
 mod error;
 mod failure;
 mod finish;
@@ -94,6 +95,7 @@ async fn run_workflow(
     // holds the input, while the others still load it and the first tasks run.
     let holders = broadcast::InputHolders::new();
     let prefetches = prefetch::Prefetches::start(run, &registry, &plan, workflow, &holders);
+    let early = done.is_empty().then(|| early::EarlyStart::start(run, workflow, &plan, &holders));
     let loaded = match done.is_empty() {
         true => broadcast::broadcast(run, &registry, &mut plan, workflow.quantize, &holders).await,
         false => {
@@ -105,6 +107,7 @@ async fn run_workflow(
     let loaded = loaded?;
     let mut executor = Executor::new(run.clone(), registry, plan, workflow, loaded, done);
     executor.prefetches = prefetches;
+    executor.early = early.flatten();
     executor.execute(workflow).await
 }
 
@@ -140,6 +143,8 @@ struct Executor {
     spot_checks: Vec<tokio::task::JoinHandle<Option<String>>>,
     /// Plugins the plan's hosts are making ready for the replays to come.
     prefetches: prefetch::Prefetches,
+    /// The first task, started on its host before the broadcast ended.
+    early: Option<early::EarlyStart>,
 }
 
 impl Executor {
@@ -168,6 +173,7 @@ impl Executor {
             step_inputs: Vec::new(),
             spot_checks: Vec::new(),
             prefetches: Default::default(),
+            early: None,
         }
     }
 }

@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 use meshflow_api::host::{RunRequest, RunResult};
 use meshflow_api::params::ValueType;
 
+use super::early::EarlyStart;
 use super::error::ExecError;
 use super::failure::{Failure, StepFailed};
 use super::step_record::{Answer, Ran};
@@ -112,19 +113,25 @@ impl Executor {
         let session = self.bring_up_to_date(host).await?;
         let wait_ms = waiting.elapsed().as_secs_f64() * 1e3;
         let overhead_ms = (self.last_reply.elapsed().as_secs_f64() * 1e3 - wait_ms).max(0.0);
-        let request = RunRequest {
-            service: task.service.clone(),
-            params: task.params.clone(),
-            // The workflow's pin, or the plugin a task moved to the data runs.
-            plugin: moved
-                .map(|m| m.plugin.as_str())
-                .or(self.plan.pin(&task.path))
-                .map(str::to_owned),
-        };
-        let started_ms = self.run.elapsed_ms();
-        let (result, busy) = {
-            let _in_flight = host.assign();
-            busy::run_when_free(&host.client, &session, &request).await
+        let early = (task, host, session.as_str());
+        let early = EarlyStart::take(&mut self.early, early, &mut self.replicas).await;
+        let (started_ms, request, (result, busy)) = match early {
+            Some(early) => (early.started_ms, early.request, early.outcome),
+            None => {
+                let request = RunRequest {
+                    service: task.service.clone(),
+                    params: task.params.clone(),
+                    // The workflow's pin, or the plugin a task moved to the data runs.
+                    plugin: moved
+                        .map(|m| m.plugin.as_str())
+                        .or(self.plan.pin(&task.path))
+                        .map(str::to_owned),
+                };
+                let started_ms = self.run.elapsed_ms();
+                let _in_flight = host.assign();
+                let outcome = busy::run_when_free(&host.client, &session, &request).await;
+                (started_ms, request, outcome)
+            }
         };
         let result = result?;
         self.last_reply = Instant::now();
