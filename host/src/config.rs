@@ -58,6 +58,10 @@ pub const ENCODE_BEFORE_ANSWER_EDITS: usize = 20_000;
 /// edit log that needs them (25 bytes a vertex: 100 MB here), beside the plugin's run or
 /// the log's download; a larger mesh's encode and apply gather them when they need them.
 pub const MAX_PREPARED_MEANS_VERTICES: usize = 4_000_000;
+/// A producer gathers them beside the run only for a kind of step whose last log took less
+/// than this many bytes per edit: uniform smoothing's 0.005, not cotangent smoothing's 4.6
+/// (a log of that rate is replayed or sent whole rather than waited for).
+pub const PREPARE_BELOW_BYTES_PER_EDIT: f64 = 1.0;
 /// Plugins whose bytes per edit are remembered for the estimate.
 pub const MAX_EDIT_LOG_ESTIMATES: usize = 1024;
 /// Attempts to register with the engine, and the pause between them.

@@ -31,7 +31,7 @@ use super::blobs::BlobStore;
 use super::config::{
     DEFAULT_EDIT_LOG_BYTES_PER_EDIT, EDIT_LOG_WAIT, ENCODE_BEFORE_ANSWER_EDITS,
     MAX_EDIT_LOG_ESTIMATES, MAX_ENCODING_EDIT_LOGS, MAX_PREPARED_MEANS_VERTICES,
-    MIN_EDIT_LOG_BYTES,
+    MIN_EDIT_LOG_BYTES, PREPARE_BELOW_BYTES_PER_EDIT,
 };
 use super::meshes;
 use meshflow_codec::correction::{self, NeighbourMeans};
@@ -200,14 +200,20 @@ impl EditLogs {
     }
 
     /// Starts gathering `base`'s neighbour means for a step of `kind` about to run, if the
-    /// last such step here set every position.
+    /// last such step here set every position in a log small enough for receivers to take
+    /// it (and so to wait for its encode): a larger one is replayed or sent whole, and its
+    /// encode, after the answer, keeps no one waiting, whereas gathering beside the run
+    /// slows the run on a busy machine.
     pub fn prepare_for(
         &self,
         kind: &StepKind,
         base: &Arc<MeshData>,
         hash: ContentHash,
     ) -> Option<PreparedMeans> {
-        let expected = self.learned().get(&kind.0).is_some_and(|l| l.sets_positions);
+        let expected = self
+            .learned()
+            .get(&kind.0)
+            .is_some_and(|l| l.sets_positions && l.bytes_per_edit < PREPARE_BELOW_BYTES_PER_EDIT);
         expected.then(|| prepare_means(base, hash, Beside::Run)).flatten()
     }
 
@@ -381,6 +387,11 @@ mod tests {
         let hash = mesh.content_hash();
         assert!(restarted.prepare_for(&smoothing, &mesh, hash).is_some());
         assert!(restarted.prepare_for(&kind("p/other/x"), &mesh, hash).is_none());
+        // Cotangent smoothing: every position set, 4.6 bytes a vertex; receivers replay it.
+        let cotangent = kind("p/laplacian/c");
+        let taught = Learned::from(&[Op::SetPositions { xyz: vec![] }], 200_000, 920_000);
+        learn(&mut restarted.learned(), &cotangent, 200_000, taught);
+        assert!(restarted.prepare_for(&cotangent, &mesh, hash).is_none());
         let large =
             Arc::new(MeshData::new(vec![0.0; 3 * (MAX_PREPARED_MEANS_VERTICES + 1)], vec![]));
         assert!(restarted.prepare_for(&smoothing, &large, hash).is_none());
