@@ -32,6 +32,8 @@ pub(super) struct EarlyStart {
 pub(super) struct Started {
     pub session: String,
     pub started_ms: f64,
+    /// When the answer came (the run's clock), which may be before anyone took it.
+    pub answered_ms: f64,
     pub request: RunRequest,
     /// The answer, and how long the host stayed busy before it took the task.
     pub outcome: (Result<RunResult, ClientError>, Duration),
@@ -60,7 +62,8 @@ impl EarlyStart {
             let started_ms = run.elapsed_ms();
             let _in_flight = runner.assign();
             let outcome = busy::run_when_free(&runner.client, &session, &request).await;
-            Some(Started { session, started_ms, request, outcome })
+            let answered_ms = run.elapsed_ms();
+            Some(Started { session, started_ms, answered_ms, request, outcome })
         });
         Some(Self { path: task.path.clone(), host, started })
     }

@@ -115,8 +115,10 @@ impl Executor {
         let overhead_ms = (self.last_reply.elapsed().as_secs_f64() * 1e3 - wait_ms).max(0.0);
         let early = (task, host, session.as_str());
         let early = EarlyStart::take(&mut self.early, early, &mut self.replicas).await;
-        let (started_ms, request, (result, busy)) = match early {
-            Some(early) => (early.started_ms, early.request, early.outcome),
+        let (started_ms, answered_ms, request, (result, busy)) = match early {
+            Some(early) => {
+                (early.started_ms, Some(early.answered_ms), early.request, early.outcome)
+            }
             None => {
                 let request = RunRequest {
                     service: task.service.clone(),
@@ -130,7 +132,7 @@ impl Executor {
                 let started_ms = self.run.elapsed_ms();
                 let _in_flight = host.assign();
                 let outcome = busy::run_when_free(&host.client, &session, &request).await;
-                (started_ms, request, outcome)
+                (started_ms, None, request, outcome)
             }
         };
         let result = result?;
@@ -157,7 +159,7 @@ impl Executor {
             host: &host.url,
             input_hash: self.current.hash.clone(),
             started_ms,
-            finished_ms: self.run.elapsed_ms(),
+            finished_ms: answered_ms.unwrap_or_else(|| self.run.elapsed_ms()),
             busy_ms: busy.as_secs_f64() * 1e3,
             wait_ms,
             overhead_ms,
