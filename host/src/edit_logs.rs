@@ -234,8 +234,9 @@ impl EditLogs {
             let StepLog { kind, base, base_hash, log, result, result_hash, prepared: means } = step;
             let means = prepared(means).await;
             let encoded = tokio::task::spawn_blocking(move || {
-                let (known, means) = ((base_hash, result_hash), means.as_ref());
-                let bytes = correction::encode_known(base, known.0, &log, &result, known.1, means);
+                let means = means.as_ref();
+                let bytes =
+                    correction::encode_known(base, base_hash, &log, &result, result_hash, means);
                 if let Ok(bytes) = &bytes {
                     let taught = Learned::from(&log, edits, bytes.len());
                     if let Some(kept) = learn(&mut lock_learned(&learned), &kind, edits, taught)

@@ -14,6 +14,7 @@ use tokio::task::JoinHandle;
 use super::broadcast::InputHolders;
 use super::busy;
 use super::replica::Replica;
+use super::task::run_request;
 use crate::plan::Plan;
 use crate::registry::HostEntry;
 use crate::run::Run;
@@ -50,11 +51,7 @@ impl EarlyStart {
     ) -> Option<Self> {
         let task = *workflow.tasks().first()?;
         let host = plan.host(&task.path).clone();
-        let request = RunRequest {
-            service: task.service.clone(),
-            params: task.params.clone(),
-            plugin: plan.pin(&task.path).map(str::to_owned),
-        };
+        let request = run_request(task, plan.pin(&task.path));
         let held = holders.held_by(&host.url);
         let (run, runner) = (run.clone(), host.clone());
         let started = tokio::spawn(async move {

@@ -120,15 +120,9 @@ impl Executor {
                 (early.started_ms, Some(early.answered_ms), early.request, early.outcome)
             }
             None => {
-                let request = RunRequest {
-                    service: task.service.clone(),
-                    params: task.params.clone(),
-                    // The workflow's pin, or the plugin a task moved to the data runs.
-                    plugin: moved
-                        .map(|m| m.plugin.as_str())
-                        .or(self.plan.pin(&task.path))
-                        .map(str::to_owned),
-                };
+                // The workflow's pin, or the plugin a task moved to the data runs.
+                let plugin = moved.map(|m| m.plugin.as_str()).or(self.plan.pin(&task.path));
+                let request = run_request(task, plugin);
                 let started_ms = self.run.elapsed_ms();
                 let _in_flight = host.assign();
                 let outcome = busy::run_when_free(&host.client, &session, &request).await;
@@ -170,6 +164,15 @@ impl Executor {
         self.registry.metrics.step(kind, took);
         let index = self.run.push_step(ran.record(&answer));
         Ok((index, result))
+    }
+}
+
+/// What a host is asked to run for `task`, from `plugin` if one is named.
+pub(super) fn run_request(task: &Task, plugin: Option<&str>) -> RunRequest {
+    RunRequest {
+        service: task.service.clone(),
+        params: task.params.clone(),
+        plugin: plugin.map(str::to_owned),
     }
 }
 

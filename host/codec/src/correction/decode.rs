@@ -11,7 +11,7 @@ use super::codec::{END, Models, Sections, motion};
 use super::coding::residual::{ResidualCoder, Residuals};
 use super::coding::stream::{CorruptStream, SymbolReader};
 use super::header::{Correction, KINDS, KindCount, kind_index};
-use super::means::Means;
+use super::means::{MeanSource, Means};
 use super::predict::{self, Neighbours, NewVertexNeighbours};
 use super::removals::Removals;
 
@@ -286,14 +286,9 @@ impl Decoder<'_> {
             let predictions = [even.1, odd.1];
             let (send_even, send_odd) = (even.0, odd.0);
             s.spawn(move || {
-                let neighbours = match prepared {
-                    Some(_) => None,
-                    None => Some(Neighbours::new(slots, store.triangles())),
-                };
-                let mean = |v: u32, around: &mut Vec<u32>| match (prepared, &neighbours) {
-                    (Some(means), _) => means.get(v),
-                    (None, Some(neighbours)) => neighbours.mean(current, v, around),
-                    (None, None) => unreachable!("gathered when not prepared"),
+                let means = match prepared {
+                    Some(means) => MeanSource::Prepared(means),
+                    None => MeanSource::Gathered(Neighbours::new(slots, store.triangles())),
                 };
                 let chunks = |parity: usize, send: mpsc::SyncSender<Vec<[f32; 3]>>| {
                     let mut around = Vec::new();
@@ -304,7 +299,7 @@ impl Decoder<'_> {
                             if !store.is_vertex_live(v) {
                                 return p;
                             }
-                            predict::smoothed(p, mean(v, &mut around), lambda, grid)
+                            predict::smoothed(p, means.mean(current, v, &mut around), lambda, grid)
                         });
                         if send.send(chunk.collect()).is_err() {
                             return; // the decoding stopped at corrupt data

@@ -55,6 +55,28 @@ impl Means {
     }
 }
 
+/// Where a vertex's mean comes from while a `set-positions` is decoded: the means gathered
+/// before, or its neighbours, gathered as it is reached.
+pub(crate) enum MeanSource<'a> {
+    Prepared(&'a Means),
+    Gathered(Neighbours<'a>),
+}
+
+impl MeanSource<'_> {
+    /// `v`'s neighbour mean in `positions` (which the prepared means were gathered from).
+    pub(crate) fn mean(
+        &self,
+        positions: &[f32],
+        v: u32,
+        around: &mut Vec<u32>,
+    ) -> Option<[f64; 3]> {
+        match self {
+            Self::Prepared(means) => means.get(v),
+            Self::Gathered(neighbours) => neighbours.mean(positions, v, around),
+        }
+    }
+}
+
 /// A mesh's neighbour means, gathered ahead of the edit log that needs them and named by
 /// the mesh's hash. [`encode_known`](super::encode_known) and
 /// [`apply_known`](super::apply_known) take them for a log whose first op sets every
