@@ -58,6 +58,8 @@ pub const ENCODE_BEFORE_ANSWER_EDITS: usize = 20_000;
 /// edit log that needs them (25 bytes a vertex: 100 MB here), beside the plugin's run or
 /// the log's download; a larger mesh's encode and apply gather them when they need them.
 pub const MAX_PREPARED_MEANS_VERTICES: usize = 4_000_000;
+/// Gathered means a host holds at once (so at most 200 MB beside its runs and downloads).
+pub const MAX_PREPARED_MEANS: usize = 2;
 /// A producer gathers them beside the run only for a kind of step whose last log took less
 /// than this many bytes per edit: uniform smoothing's 0.005, not cotangent smoothing's 4.6
 /// (a log of that rate is replayed or sent whole rather than waited for).

@@ -14,7 +14,7 @@
 //!
 //! A log that sets every position (a smoothing step's) is predicted from the neighbour
 //! means of the mesh before it, most of its encode and of its apply. They depend on that
-//! mesh alone, so they are gathered before the log exists ([`prepare_means`]): here while
+//! mesh alone, so they are gathered before the log exists ([`EditLogs::prepare`]): here while
 //! the plugin runs, when the same kind of step set every position last time (kept with its
 //! rate), and on a receiver while the log downloads (the answer says what the log does).
 
@@ -24,14 +24,14 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
-use tokio::sync::{Semaphore, watch};
+use tokio::sync::{OwnedSemaphorePermit, Semaphore, watch};
 use tokio::task::JoinHandle;
 
 use super::blobs::BlobStore;
 use super::config::{
     DEFAULT_EDIT_LOG_BYTES_PER_EDIT, EDIT_LOG_WAIT, ENCODE_BEFORE_ANSWER_EDITS,
-    MAX_EDIT_LOG_ESTIMATES, MAX_ENCODING_EDIT_LOGS, MAX_PREPARED_MEANS_VERTICES,
-    MIN_EDIT_LOG_BYTES, PREPARE_BELOW_BYTES_PER_EDIT,
+    MAX_EDIT_LOG_ESTIMATES, MAX_ENCODING_EDIT_LOGS, MAX_PREPARED_MEANS,
+    MAX_PREPARED_MEANS_VERTICES, MIN_EDIT_LOG_BYTES, PREPARE_BELOW_BYTES_PER_EDIT,
 };
 use super::meshes;
 use meshflow_codec::correction::{self, NeighbourMeans};
@@ -50,7 +50,13 @@ impl StepKind {
 }
 
 /// A mesh's neighbour means being gathered on a blocking thread.
-pub type PreparedMeans = JoinHandle<NeighbourMeans>;
+pub type PreparedMeans = JoinHandle<Prepared>;
+
+/// A mesh's neighbour means, holding one of [`MAX_PREPARED_MEANS`] places until dropped.
+pub struct Prepared {
+    pub means: NeighbourMeans,
+    _place: OwnedSemaphorePermit,
+}
 
 /// When means are gathered: beside a plugin's run (on one thread, not to slow it), or
 /// while a log downloads (on two: nothing else is done meanwhile).
@@ -60,26 +66,9 @@ pub enum Beside {
     Download,
 }
 
-/// Starts gathering `mesh`'s neighbour means, unless it has more than
-/// [`MAX_PREPARED_MEANS_VERTICES`] vertices (25 bytes a vertex, held beside the plugin's
-/// run: a large mesh's encode gathers them itself, later).
-pub fn prepare_means(
-    mesh: &Arc<MeshData>,
-    hash: ContentHash,
-    beside: Beside,
-) -> Option<PreparedMeans> {
-    (mesh.vertex_count() <= MAX_PREPARED_MEANS_VERTICES).then(|| {
-        let mesh = mesh.clone();
-        tokio::task::spawn_blocking(move || match beside {
-            Beside::Run => NeighbourMeans::beside(&mesh, hash),
-            Beside::Download => NeighbourMeans::of(&mesh, hash),
-        })
-    })
-}
-
 /// What the gathering gave, if it is still wanted: a failed gathering only costs the time
 /// to gather again.
-pub async fn prepared(means: Option<PreparedMeans>) -> Option<NeighbourMeans> {
+pub async fn prepared(means: Option<PreparedMeans>) -> Option<Prepared> {
     means?.await.ok()
 }
 
@@ -121,6 +110,9 @@ pub struct EditLogs {
     /// Each encoding holds a base and a result mesh: a step waits for a slot before its
     /// answer rather than letting them pile up.
     slots: Arc<Semaphore>,
+    /// Means gathered ahead and not yet used; none are gathered ahead beyond these (the
+    /// encode or apply gathers its own as it goes).
+    gatherings: Arc<Semaphore>,
 }
 
 impl Default for EditLogs {
@@ -130,6 +122,7 @@ impl Default for EditLogs {
             learned: Arc::default(),
             rates_file: None,
             slots: Arc::new(Semaphore::new(MAX_ENCODING_EDIT_LOGS)),
+            gatherings: Arc::new(Semaphore::new(MAX_PREPARED_MEANS)),
         }
     }
 }
@@ -214,7 +207,31 @@ impl EditLogs {
             .learned()
             .get(&kind.0)
             .is_some_and(|l| l.sets_positions && l.bytes_per_edit < PREPARE_BELOW_BYTES_PER_EDIT);
-        expected.then(|| prepare_means(base, hash, Beside::Run)).flatten()
+        expected.then(|| self.prepare(base, hash, Beside::Run)).flatten()
+    }
+
+    /// Starts gathering `mesh`'s neighbour means, unless it has more than
+    /// [`MAX_PREPARED_MEANS_VERTICES`] vertices (25 bytes a vertex, held beside a run or a
+    /// download) or [`MAX_PREPARED_MEANS`] are held already: memory stays bounded, and a
+    /// log's encode or apply gathers what it needs as it goes, as without.
+    pub fn prepare(
+        &self,
+        mesh: &Arc<MeshData>,
+        hash: ContentHash,
+        beside: Beside,
+    ) -> Option<PreparedMeans> {
+        if mesh.vertex_count() > MAX_PREPARED_MEANS_VERTICES {
+            return None;
+        }
+        let place = self.gatherings.clone().try_acquire_owned().ok()?;
+        let mesh = mesh.clone();
+        Some(tokio::task::spawn_blocking(move || {
+            let means = match beside {
+                Beside::Run => NeighbourMeans::beside(&mesh, hash),
+                Beside::Download => NeighbourMeans::of(&mesh, hash),
+            };
+            Prepared { means, _place: place }
+        }))
     }
 
     /// Starts encoding `step`'s edit log in the background, once a slot is free, and then
@@ -234,7 +251,7 @@ impl EditLogs {
             let StepLog { kind, base, base_hash, log, result, result_hash, prepared: means } = step;
             let means = prepared(means).await;
             let encoded = tokio::task::spawn_blocking(move || {
-                let means = means.as_ref();
+                let means = means.as_ref().map(|p| &p.means);
                 let bytes =
                     correction::encode_known(base, base_hash, &log, &result, result_hash, means);
                 if let Ok(bytes) = &bytes {
@@ -384,9 +401,10 @@ mod tests {
         // not so for a step of another kind, or for a mesh too large to hold them beside it.
         let runtime = tokio::runtime::Builder::new_current_thread().build().unwrap();
         let _entered = runtime.enter();
+        let gathered = |means| runtime.block_on(prepared(means)).expect("gathered");
         let mesh = Arc::new(MeshData::new(vec![0.0; 9], vec![0, 1, 2]));
         let hash = mesh.content_hash();
-        assert!(restarted.prepare_for(&smoothing, &mesh, hash).is_some());
+        drop(gathered(restarted.prepare_for(&smoothing, &mesh, hash)));
         assert!(restarted.prepare_for(&kind("p/other/x"), &mesh, hash).is_none());
         // Cotangent smoothing: every position set, 4.6 bytes a vertex; receivers replay it.
         let cotangent = kind("p/laplacian/c");
@@ -396,6 +414,13 @@ mod tests {
         let large =
             Arc::new(MeshData::new(vec![0.0; 3 * (MAX_PREPARED_MEANS_VERTICES + 1)], vec![]));
         assert!(restarted.prepare_for(&smoothing, &large, hash).is_none());
+        // At most MAX_PREPARED_MEANS held at once; a place comes back once its means go.
+        let mut held: Vec<Prepared> = (0..MAX_PREPARED_MEANS)
+            .map(|_| gathered(restarted.prepare(&mesh, hash, Beside::Download)))
+            .collect();
+        assert!(restarted.prepare(&mesh, hash, Beside::Download).is_none());
+        held.pop();
+        assert!(restarted.prepare(&mesh, hash, Beside::Download).is_some());
         for hostile in [
             &b"not json"[..],
             b"{\"k\": {\"bytes_per_edit\": -1.0}}",

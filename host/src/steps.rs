@@ -126,7 +126,7 @@ pub async fn update(
         (Transfer::Correction, Some(log)) if log.sets_positions => {
             let current = &session.current;
             ContentHash::from_hex(&current.hash)
-                .and_then(|hash| edit_logs::prepare_means(&current.mesh, hash, Beside::Download))
+                .and_then(|hash| host.edit_logs.prepare(&current.mesh, hash, Beside::Download))
         }
         _ => None,
     };
@@ -295,7 +295,8 @@ async fn apply_correction(
     let (mesh, url) = (base.mesh.clone(), url.to_owned());
     let means = edit_logs::prepared(means).await;
     let next = tokio::task::spawn_blocking(move || {
-        correction::apply_known(mesh, base_hash, &bytes, result_hash, means.as_ref())
+        let means = means.as_ref().map(|p| &p.means);
+        correction::apply_known(mesh, base_hash, &bytes, result_hash, means)
             .map_err(|source| TransferFailure::Correction { url, source })
     })
     .await??;
