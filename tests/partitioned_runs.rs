@@ -1,5 +1,5 @@
 //! Meshes larger than one sandbox (issue 33): services that declare themselves local
-//! (Laplacian and Taubin smoothing, add-noise) run on partitions of a large mesh, and give the
+//! (Laplacian and Taubin smoothing, add-noise, degenerate-triangle repair) run on partitions of a large mesh, and give the
 //! whole-mesh result bit for bit — by the step's edit log and by a replay on another run —
 //! and under a memory cap the whole run exceeds they still finish.
 
@@ -17,7 +17,7 @@ fn apply(scan: &str, out: &str, service: &str, extra: &[&str]) -> Json {
 }
 
 #[test]
-fn smoothing_a_2m_vertex_scan_on_partitions_gives_the_whole_mesh_hash() {
+fn local_services_on_partitions_of_a_2m_vertex_scan_give_the_whole_mesh_hash() {
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| dir.path().join(name).display().to_string();
     let scan = path("scan.ply");
@@ -29,6 +29,8 @@ fn smoothing_a_2m_vertex_scan_on_partitions_gives_the_whole_mesh_hash() {
         ("laplacian-smoothing", vec!["--param", "iterations=3"]),
         ("taubin-smoothing", vec!["--param", "iterations=2"]),
         ("add-noise", vec!["--param", "amount=0.2", "--param", "seed=9"]),
+        // Edits connectivity: made again on the region around what the partitions changed.
+        ("remove-degenerate-triangles", vec!["--param", "epsilon=0.001"]),
     ] {
         let whole = apply(
             &scan,

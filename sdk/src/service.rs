@@ -48,13 +48,16 @@ impl Service {
         Self { info, runner: Runner::Check(run), reach: None }
     }
 
-    /// Declares a filter local: it only moves vertices (no other edit), and a vertex's new
-    /// position depends only on the triangles around the vertices up to `reach(params) - 1`
-    /// edges from it (and their vertices), read in ascending id order. A host may then run
-    /// it on partitions of a mesh too large for one sandbox, each grown by that many rings,
-    /// and keep each partition's result for its own vertices: the result must equal the
-    /// whole-mesh run's bit for bit (hosts compare hashes, so a wrong claim shows). Laplacian
-    /// smoothing with `k` iterations reaches `k` rings.
+    /// Declares a filter local: its result near a vertex depends only on the triangles
+    /// around the vertices up to `reach(params) - 1` edges from it (and their vertices), read
+    /// in ascending id order. For a filter that only moves vertices, a vertex's new position;
+    /// for one that edits connectivity, every edit and whether it is made, around the
+    /// vertices it changes (it may not add a vertex no triangle uses, nor make
+    /// `set-positions`, transform, clear, component or attribute edits; see the WIT's
+    /// `locality` interface). A host may then run it on partitions of a mesh too large for
+    /// one sandbox, each grown by that many rings: the result must equal the whole-mesh
+    /// run's bit for bit (hosts compare hashes, so a wrong claim shows). Laplacian
+    /// smoothing with `k` iterations reaches `k` rings; degenerate-triangle repair two.
     ///
     /// ```
     /// use meshflow_plugin_sdk::{Mesh, ParamSpec, Params, Result, Service};

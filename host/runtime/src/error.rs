@@ -64,12 +64,13 @@ pub enum RunError {
     },
     #[error("{service}: could not start: {message}")]
     Instantiate { service: String, message: String },
-    /// A service that declared itself local made an edit other than moving vertices on a
-    /// partition: its result cannot be merged (the plugin's declaration is wrong).
+    /// A service that declared itself local made an edit on a partition that has no place
+    /// in the whole mesh (over every element, a component or an attribute, or adding a
+    /// vertex attached to nothing): its result cannot be merged (the declaration is wrong).
     #[error(
-        "{service}: declared itself local (vertex moves only) but made a `{edit}` edit on a \
-         partition; run it on a mesh of at most the partition size, or ask its author to fix \
-         its `locality.reach`"
+        "{service}: declared itself local but made a `{edit}` edit on a partition, which has \
+         no place in the whole mesh; run it on a mesh of at most the partition size, or ask \
+         its author to fix its `locality.reach`"
     )]
     NotLocal { service: String, edit: &'static str },
     /// A service that declared itself local gave a partition's core another result when

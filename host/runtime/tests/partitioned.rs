@@ -8,6 +8,7 @@ use meshflow_builtin_plugins::fixture;
 use meshflow_generate::{ScanSpec, scan, shuffled};
 use meshflow_mesh::MeshData;
 use meshflow_mesh::attributes::{Attribute, Attributes};
+use meshflow_mesh::store::MeshStore;
 use meshflow_runtime::{Limits, RunError, RunOutput, Runtime, Value};
 
 /// A scan with holes, debris and defects, its ids shuffled, with a colour per vertex.
@@ -22,8 +23,18 @@ fn scan_mesh() -> MeshData {
 }
 
 fn run(limits: Limits, service: &str, mesh: &MeshData, params: &[(&str, Value)]) -> RunOutput {
+    run_of("smoothing", limits, service, mesh, params)
+}
+
+fn run_of(
+    plugin: &str,
+    limits: Limits,
+    service: &str,
+    mesh: &MeshData,
+    params: &[(&str, Value)],
+) -> RunOutput {
     let runtime = Runtime::new(limits, None).expect("a runtime");
-    let plugin = common::builtin(&runtime, "smoothing");
+    let plugin = common::builtin(&runtime, plugin);
     let params: Vec<(String, Value)> =
         params.iter().map(|(name, value)| (name.to_string(), value.clone())).collect();
     runtime
@@ -65,6 +76,61 @@ fn smoothing_on_partitions_reaches_the_whole_mesh_hash() {
         assert_eq!(parts_mesh.content_hash(), whole_mesh.content_hash(), "{service} {params:?}");
         assert_eq!(parts.log, whole.log, "{service}: one set-positions, as the whole run's");
         assert!(parts.report.contains("partitions"), "{}", parts.report);
+    }
+}
+
+/// The scan with defects spread over it, every few hundred triangles: caps (a corner moved
+/// onto the middle of its opposite edge), needles (a corner moved onto another), duplicated
+/// triangles and triangles that repeat a vertex, some of them next to each other so that
+/// repairs cascade.
+fn defective_scan() -> MeshData {
+    let mut mesh = scan_mesh();
+    let (positions, triangles) = (&mut mesh.positions, &mut mesh.triangles);
+    let mut appended = Vec::new();
+    for (n, t) in (0..triangles.len() / 3).step_by(397).enumerate() {
+        let c = [0, 1, 2].map(|k| triangles[3 * t + k] as usize);
+        let point = |p: &[f32], v: usize| [p[3 * v], p[3 * v + 1], p[3 * v + 2]];
+        let (a, b) = (point(positions, c[1]), point(positions, c[2]));
+        let target = match n % 4 {
+            0 | 3 => [0, 1, 2].map(|k| (a[k] + b[k]) / 2.0),
+            1 => a,
+            _ => [0; 3].map(|_| 0.0),
+        };
+        match n % 4 {
+            0 | 1 | 3 => positions[3 * c[0]..3 * c[0] + 3].copy_from_slice(&target),
+            _ => appended.extend([c[0], c[1], c[2], c[0], c[0], c[1]].map(|v| v as u32)),
+        }
+    }
+    triangles.extend(appended);
+    mesh
+}
+
+#[test]
+fn degenerate_repair_on_partitions_reaches_the_whole_mesh_hash() {
+    let mesh = defective_scan();
+    let service = "remove-degenerate-triangles";
+    for params in [vec![], vec![("epsilon", Value::Real(1e-3))]] {
+        let whole = run_of("cleanup", Limits::default(), service, &mesh, &params);
+        assert_eq!(whole.partitions, None);
+        for needs in ["split", "collapsed", "duplicate"] {
+            assert!(whole.report.contains(needs), "{}", whole.report);
+        }
+        for part_size in [8_000, 30_000] {
+            let parts = run_of("cleanup", partitioned(part_size), service, &mesh, &params);
+            let cut = parts.partitions.expect("it ran on partitions");
+            assert!(cut.count >= 4, "{cut:?}");
+            assert!(parts.report.contains("region"), "{}", parts.report);
+            let whole_mesh = whole.mesh.as_ref().unwrap();
+            let parts_mesh = parts.mesh.unwrap();
+            assert_ne!(whole_mesh.triangle_count(), mesh.triangle_count(), "it repaired");
+            assert_eq!(parts_mesh.content_hash(), whole_mesh.content_hash(), "{params:?}");
+            // The step's log, made on the region and placed, rebuilds it.
+            let mut replayed = MeshStore::new(mesh.clone());
+            for op in parts.log {
+                replayed.apply(op).expect("the placed log applies to the mesh");
+            }
+            assert_eq!(replayed.finish().0.content_hash(), whole_mesh.content_hash());
+        }
     }
 }
 

@@ -113,6 +113,15 @@ fn orient_consistently(mesh: &Mesh, _: &Params) -> Result<String> {
     Ok(report)
 }
 
+/// Each repair reads the triangles around the vertices it changes (their neighbours, the
+/// link condition, whether they are on the boundary) and the positions of those triangles'
+/// corners: one ring; one more for margin. Which triangles are repaired, in which order, and
+/// how many repairs the budget allows depend only on the triangles that are degenerate,
+/// duplicate or repeat a vertex, all of which the repair changes.
+fn degenerate_reach(_: &Params) -> Result<u32> {
+    Ok(2)
+}
+
 fn services() -> Vec<Service> {
     vec![
         Service::filter(
@@ -136,7 +145,8 @@ fn services() -> Vec<Service> {
         .param(ParamSpec::real("epsilon", 0.0).range(0.0, 0.01).doc(
             "0: only exactly flat triangles; otherwise also those whose height is at most \
              this fraction of their longest edge.",
-        )),
+        ))
+        .local(degenerate_reach),
         Service::filter(
             "repair-non-manifold",
             "Makes the mesh manifold: removes triangles that repeat a vertex and duplicated \

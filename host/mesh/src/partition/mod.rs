@@ -10,7 +10,11 @@
 //! code that visits neighbours or triangles in ascending id order (sums in a fixed order)
 //! visits them in the same order on the partition, the condition for bit-identical results.
 
+mod placement;
+
 use meshflow_topology::geometry::{BoundingBox, bounding_box};
+
+pub use placement::{Placement, Unplaceable};
 
 use crate::MeshData;
 
@@ -49,6 +53,8 @@ pub struct Partition {
     pub mesh: MeshData,
     /// The mesh's id of each of the partition's vertices (ascending).
     pub vertices: Vec<u32>,
+    /// The mesh's id of each of the partition's triangles (ascending).
+    pub triangles: Vec<u32>,
     /// Which of the partition's vertices are its core (partition ids, ascending).
     pub core: Vec<u32>,
 }
@@ -116,6 +122,18 @@ impl<'a> Partitioning<'a> {
             .expect("no bound on its triangles")
     }
 
+    /// The partition whose core is `vertices` (any of the mesh's vertex ids, ascending),
+    /// grown by `rings` as [`partition`](Self::partition) grows a core; `None` once it holds
+    /// more than `max_triangles`. Where a service's edits are replayed together.
+    pub fn region(
+        &self,
+        vertices: Vec<u32>,
+        rings: u32,
+        max_triangles: usize,
+    ) -> Option<Partition> {
+        self.grown(vertices, rings, max_triangles)
+    }
+
     /// The partition with `core` (any vertex ids) grown by `rings`. Membership is kept as
     /// bits over the whole mesh and local ids are ranks among them: no search or sort per
     /// element (the searches took 2.6 s for a 10M-triangle partition of a 20M scan).
@@ -170,6 +188,7 @@ impl<'a> Partitioning<'a> {
         Some(Partition {
             mesh: MeshData { positions, triangles: corners, attributes },
             vertices: vertex_ids,
+            triangles: triangle_ids,
             core: core_local,
         })
     }

@@ -1,15 +1,22 @@
 //! Runs on partitions (issue 33): a filter that declares itself local (`locality.reach`)
 //! runs on a mesh larger than [`Limits::partition_triangles`] one partition at a time, each
-//! in a sandbox of its own (as many at once as there are run slots), and the partitions'
-//! results for their core vertices are merged into one recorded step: one `set-positions`
-//! on the whole mesh, so one edit log, one replay and one result hash, equal to the
-//! whole-mesh run's when the declaration holds. The declaration is audited on every such
-//! run: a patch of the first partition's core (its first [`AUDIT_VERTICES`] vertices in
-//! Morton order) runs a second time with one ring more, and must come out the same bit for
-//! bit, or the step fails (a service that reads more of the mesh than
-//! it declared, or depends on the mesh's size, would make the result depend on the cut).
+//! in a sandbox of its own (as many at once as there are run slots), and is recorded as one
+//! step: one edit log, one replay and one result hash, equal to the whole-mesh run's when
+//! the declaration holds.
+//!
+//! - A service that only moves vertices (smoothing) keeps each partition's result for its
+//!   core vertices: one `set-positions` on the whole mesh. The declaration is audited on
+//!   every such run: a patch of the first partition's core (its first [`AUDIT_VERTICES`]
+//!   vertices in Morton order) runs a second time with one ring more, and must come out the
+//!   same bit for bit, or the step fails (a service that reads more of the mesh than it
+//!   declared, or depends on the mesh's size, would make the result depend on the cut).
+//! - A service that edits connectivity (degenerate repair) is run again on one region
+//!   around every vertex the partitions changed ([`region`]): the numbering of what it adds
+//!   follows the order of all its edits, which only one run over all of them has.
 //!
 //! [`Limits::partition_triangles`]: crate::Limits::partition_triangles
+
+mod region;
 
 use std::sync::Arc;
 use std::sync::Mutex;
@@ -24,7 +31,7 @@ use super::state::RunState;
 use super::work_queue::{End, WorkQueue};
 use super::{MAX_PARTITION_GROWTH, RunError, RunOutput, Runtime, captured, permits};
 use meshflow_mesh::MeshData;
-use meshflow_mesh::partition::{Partition, Partitioning};
+use meshflow_mesh::partition::{Partition, Partitioning, Placement, Whole};
 use meshflow_mesh::store::{MeshStore, Op, OpKind};
 use meshflow_params::ServiceInfo;
 
@@ -104,6 +111,8 @@ impl Runtime {
         };
         let merged = Mutex::new(Merged {
             positions: mesh.positions.clone(),
+            changed: Vec::new(),
+            edits_connectivity: false,
             reports: vec![String::new(); cut.len()],
             stdout: String::new(),
             stderr: String::new(),
@@ -117,6 +126,7 @@ impl Runtime {
             plugin,
             service,
             params,
+            mesh,
             cut: &cut,
             rings,
             core_triangles,
@@ -130,37 +140,54 @@ impl Runtime {
         // The first slot was taken within the queue's bound; helpers wait for one only
         // while work is left (other runs may hold every slot for long).
         self.with_helpers(&slot, workers, &work.queue, |slot, _| work.run(slot));
-        drop(slot);
-        let merged = merged.into_inner().unwrap_or_else(|e| e.into_inner());
-        if let Some(error) = merged.error {
+        // The workers are done: nothing else takes the lock.
+        let mut merged = merged.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(error) = merged.error.take() {
             return Err(error);
         }
-        let same = |(at, p): &(usize, [f32; 3])| {
-            (0..3).all(|k| merged.positions[at + k].to_bits() == p[k].to_bits())
+        let (edited, log, report, region) = if merged.edits_connectivity {
+            let changed = merged.all_changed(mesh);
+            let region = work.run_region(&slot, changed)?;
+            drop(slot);
+            merged.add_output(&region.state);
+            let (edited, log) = region.edited.finish();
+            let note = format!(
+                "; its edits made again on one region of {} triangles around the {} vertices \
+                 they change",
+                region.triangles, region.changed
+            );
+            (edited, log, region.report, note)
+        } else {
+            drop(slot);
+            let same = |(at, p): &(usize, [f32; 3])| {
+                (0..3).all(|k| merged.positions[at + k].to_bits() == p[k].to_bits())
+            };
+            if !merged.audit.iter().all(same) {
+                return Err(RunError::ReachExceeded { service: service.to_owned(), rings });
+            }
+            let mut store = MeshStore::new(Arc::clone(mesh));
+            let moved = Op::SetPositions { xyz: std::mem::take(&mut merged.positions) };
+            store.apply(moved).map_err(|e| RunError::Failed {
+                service: service.to_owned(),
+                message: e.to_string(),
+            })?;
+            let (edited, log) = store.finish();
+            (edited, log, std::mem::take(&mut merged.reports[0]), String::new())
         };
-        if !merged.audit.iter().all(same) {
-            return Err(RunError::ReachExceeded { service: service.to_owned(), rings });
-        }
-        let mut store = MeshStore::new(Arc::clone(mesh));
-        store.apply(Op::SetPositions { xyz: merged.positions }).map_err(|e| RunError::Failed {
-            service: service.to_owned(),
-            message: e.to_string(),
-        })?;
-        let (edited, log) = store.finish();
         let partitions =
             Partitions { count: cut.len(), rings, core_triangles, largest: merged.largest };
         let report = format!(
-            "{} (on {} partitions of at most {} core triangles and {} rings of overlap, the \
-             largest {} triangles)",
-            merged.reports[0], partitions.count, core_triangles, rings, partitions.largest
+            "{report} (on {} partitions of at most {} core triangles and {} rings of overlap, \
+             the largest {} triangles{region})",
+            partitions.count, core_triangles, rings, partitions.largest
         );
         Ok(Some(RunOutput {
             mesh: Some(edited),
             log,
             value: None,
             report,
-            stdout: merged.stdout,
-            stderr: merged.stderr,
+            stdout: std::mem::take(&mut merged.stdout),
+            stderr: std::mem::take(&mut merged.stderr),
             duration: started.elapsed(),
             queued,
             guest_peak_bytes: merged.guest_peak_bytes,
@@ -173,6 +200,10 @@ impl Runtime {
 struct Merged {
     /// The mesh's positions, each core's overwritten by its partition's result.
     positions: Vec<f32>,
+    /// Whether a partition's edits changed connectivity: the step is then made on a region.
+    edits_connectivity: bool,
+    /// The mesh's vertices such partitions changed (each partition's ascending).
+    changed: Vec<u32>,
     reports: Vec<String>,
     stdout: String,
     stderr: String,
@@ -185,9 +216,37 @@ struct Merged {
     audit: Vec<(usize, [f32; 3])>,
 }
 
+impl Merged {
+    /// Every vertex a partition changed, ascending: those a partition that edited
+    /// connectivity changed, and those moved.
+    fn all_changed(&mut self, mesh: &MeshData) -> Vec<u32> {
+        let mut changed = std::mem::take(&mut self.changed);
+        let (now, before) = (self.positions.chunks_exact(3), mesh.positions.chunks_exact(3));
+        let moved =
+            now.zip(before).map(|(a, b)| a.iter().zip(b).any(|(a, b)| a.to_bits() != b.to_bits()));
+        changed.extend((0u32..).zip(moved).filter(|&(_, moved)| moved).map(|(v, _)| v));
+        changed.sort_unstable();
+        changed.dedup();
+        changed
+    }
+
+    /// A run's output, up to the capture's bound, and its peak.
+    fn add_output(&mut self, state: &RunState) {
+        self.guest_peak_bytes = self.guest_peak_bytes.max(state.memory.peak_bytes);
+        for (into, pipe) in [(&mut self.stdout, &state.stdout), (&mut self.stderr, &state.stderr)] {
+            let text = captured(pipe);
+            if !text.is_empty() && into.len() < super::OUTPUT_CAPTURE_BYTES {
+                into.push_str(&text);
+            }
+        }
+    }
+}
+
 /// The partitions, handed out one at a time to the workers.
 struct Work<'a> {
     runtime: &'a Runtime,
+    /// The whole mesh.
+    mesh: &'a Arc<MeshData>,
     plugin: &'a Plugin,
     service: &'a str,
     params: &'a [Param],
@@ -217,6 +276,14 @@ impl Work<'_> {
         }
     }
 
+    /// The most triangles a partition or region may hold. Partition 1 decided that the
+    /// reach keeps partitions within MAX_PARTITION_GROWTH times their cores; a denser part
+    /// of the mesh may take twice that, no more, so the host's memory stays bounded whatever
+    /// a plugin declares.
+    fn most_triangles(&self) -> usize {
+        2 * MAX_PARTITION_GROWTH * self.core_triangles
+    }
+
     /// Runs partition `index`, or for `index == len()` the audit: a patch of partition 0's
     /// core again with one ring more, which must come out the same.
     fn run_one(&self, slot: &permits::Permit<'_>, index: usize) -> Result<(), RunError> {
@@ -226,10 +293,7 @@ impl Work<'_> {
             false => format!("{} (partition {} of {count})", self.service, index + 1),
             true => format!("{} (a patch of partition 1 with one ring more)", self.service),
         };
-        // Partition 1 decided that the reach keeps partitions within MAX_PARTITION_GROWTH
-        // times their cores; a denser part of the mesh may take twice that, no more, so the
-        // host's memory stays bounded whatever a plugin declares.
-        let bound = 2 * MAX_PARTITION_GROWTH * self.core_triangles;
+        let bound = self.most_triangles();
         let part = match index {
             0 => self.first.lock().unwrap_or_else(|e| e.into_inner()).take(),
             _ if audit => Some(self.cut.sample(0, AUDIT_VERTICES, self.rings + 1)),
@@ -243,37 +307,22 @@ impl Work<'_> {
             );
             return Err(RunError::Failed { service: label, message });
         };
-        let left = self.ends.saturating_duration_since(Instant::now());
-        if left.is_zero() {
-            return Err(RunError::Deadline {
-                service: label,
-                deadline: self.runtime.limits.deadline,
-            });
-        }
-        let Partition { mesh, vertices, core } = part;
-        let triangles = mesh.triangle_count();
-        // The partition's ids go to its store (the plugin may read them) and are read back
-        // there to place its core: not copied.
-        let whole = self.cut.whole(vertices);
-        let (outcome, state) = self.runtime.call(
-            slot,
-            &self.plugin.pre,
-            &label,
-            Arc::new(mesh),
-            false,
-            left,
-            |store, p, _, mesh| {
-                store.data_mut().mesh.set_whole(whole);
-                p.meshflow_geometry_service().call_run(store, self.service, mesh, self.params)
-            },
-        )?;
-        let report =
-            outcome.map_err(|message| RunError::Failed { service: label.clone(), message })?.report;
-        if let Some(op) = state.mesh.log().iter().find(|op| !moves_only(op.kind())) {
-            return Err(RunError::NotLocal { service: label, edit: op.kind().name() });
-        }
-        let positions = state.mesh.positions();
+        let Partition { mesh, vertices, triangles, core } = part;
+        let triangle_count = mesh.triangle_count();
+        let (report, state) = self.run_on(slot, &label, mesh, self.cut.whole(vertices))?;
+        // The partition's ids went to its store (the plugin may read them) and are read
+        // back there to place its core: not copied.
         let vertices = &state.mesh.whole().expect("its whole was set before the run").ids;
+        let edits_connectivity = state.mesh.log().iter().any(|op| !moves_only(op.kind()));
+        let changed = match edits_connectivity {
+            // The region's run stands in for the audit.
+            true if audit => return Ok(()),
+            true => Placement::new(vertices, &triangles, self.mesh)
+                .changed_vertices(&state.mesh)
+                .map_err(|e| RunError::NotLocal { service: label, edit: e.edit })?,
+            false => Vec::new(),
+        };
+        let positions = state.mesh.positions();
         let cores = core.iter().map(|&c| (3 * c as usize, 3 * vertices[c as usize] as usize));
         let mut guard = self.merged.lock().unwrap_or_else(|e| e.into_inner());
         let merged = &mut *guard;
@@ -286,18 +335,45 @@ impl Work<'_> {
         for (local, global) in cores {
             merged.positions[global..global + 3].copy_from_slice(&positions[local..local + 3]);
         }
+        merged.edits_connectivity |= edits_connectivity;
+        merged.changed.extend(changed);
         merged.reports[index] = report;
-        merged.largest = merged.largest.max(triangles);
-        merged.guest_peak_bytes = merged.guest_peak_bytes.max(state.memory.peak_bytes);
-        for (into, pipe) in
-            [(&mut merged.stdout, &state.stdout), (&mut merged.stderr, &state.stderr)]
-        {
-            let text = captured(pipe);
-            if !text.is_empty() && into.len() < super::OUTPUT_CAPTURE_BYTES {
-                into.push_str(&text);
-            }
-        }
+        merged.largest = merged.largest.max(triangle_count);
+        merged.add_output(&state);
         Ok(())
+    }
+
+    /// Runs the service on `mesh`, a partition of `whole`, within what is left of the
+    /// step's deadline: its report and the run's state (its store holds the edits).
+    fn run_on(
+        &self,
+        slot: &permits::Permit<'_>,
+        label: &str,
+        mesh: MeshData,
+        whole: Whole,
+    ) -> Result<(String, RunState), RunError> {
+        let left = self.ends.saturating_duration_since(Instant::now());
+        if left.is_zero() {
+            return Err(RunError::Deadline {
+                service: label.to_owned(),
+                deadline: self.runtime.limits.deadline,
+            });
+        }
+        let (outcome, state) = self.runtime.call(
+            slot,
+            &self.plugin.pre,
+            label,
+            Arc::new(mesh),
+            false,
+            left,
+            |store, p, _, mesh| {
+                store.data_mut().mesh.set_whole(whole);
+                p.meshflow_geometry_service().call_run(store, self.service, mesh, self.params)
+            },
+        )?;
+        let outcome =
+            outcome.map_err(|message| RunError::Failed { service: label.to_owned(), message })?;
+        Ok((outcome.report, state))
     }
 }
 
