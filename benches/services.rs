@@ -36,7 +36,7 @@ use meshflow_mesh::MeshData;
 use meshflow_mesh::store::{MeshStore, Op};
 use meshflow_meshio as io;
 use meshflow_plugin_checks::{MeshArrays, counts, measures, normals, topology};
-use meshflow_plugin_cleanup::components::{Keep, small_components};
+use meshflow_plugin_cleanup::components::{Keep, to_remove};
 use meshflow_plugin_cleanup::degenerate::repair_degenerate;
 use meshflow_plugin_cleanup::nonmanifold::repair_non_manifold;
 use meshflow_plugin_cleanup::orient::orient_consistently;
@@ -44,6 +44,7 @@ use meshflow_plugin_holes::fill::{Settings, fill_holes};
 use meshflow_plugin_remeshing::decimate::{self, decimate};
 use meshflow_plugin_remeshing::isotropic::{self, remesh};
 use meshflow_plugin_remeshing::loop_subdivision::loop_subdivision;
+use meshflow_plugin_sdk::Component;
 use meshflow_plugin_sdk::geometry::{bounding_box, distance, point};
 use meshflow_plugin_sdk::topology::Connectivity;
 use meshflow_plugin_smoothing::laplacian::{Pinning, Weights, smooth};
@@ -82,9 +83,16 @@ const FILTERS: [Filter; 6] = [
     Filter {
         plugin: "cleanup",
         service: "remove-smallest-components",
+        // What the plugin asks of the host: the components, then one removal each.
         native: |m| {
-            let removal = small_components(m.vertex_count(), &m.triangles, Keep::Largest);
-            Outcome { triangles: m.triangle_count() - removal.triangles.len(), positions: None }
+            let mut store = MeshStore::new(m.clone());
+            let found: Vec<Component> = (store.components().iter())
+                .map(|c| Component { first_triangle: c.first_triangle, triangles: c.triangles })
+                .collect();
+            for triangle in to_remove(&found, Keep::Largest) {
+                store.apply(Op::RemoveComponent { triangle }).expect("a listed component");
+            }
+            Outcome { triangles: store.triangle_count() as usize, positions: None }
         },
         meshlab_issue: Some(Duration::from_millis(1940)),
         meshlab: MESHLAB_REMOVE_COMPONENTS,

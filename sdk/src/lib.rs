@@ -56,6 +56,7 @@ pub use meshflow_topology::geometry;
 pub use attributes::{
     AttributeDomain, AttributeInfo, AttributeValues, NumberType, blend_new_vertex_attributes,
 };
+pub use bindings::meshflow::geometry::mesh::Component;
 pub use bindings::meshflow::geometry::types::{Value, ValueType};
 pub use error::{Error, Result};
 pub use mesh::{Mesh, MeshKey, REMOVED};

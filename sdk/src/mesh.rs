@@ -161,6 +161,15 @@ impl<'a> Mesh<'a> {
         dispatch!(self, edges())
     }
 
+    /// The edge-connected components of the live triangles (joined by an undirected edge
+    /// they share, manifold or not, whatever their orientations), ascending by first
+    /// triangle, derived by the host: a service that only chooses whole pieces (and removes
+    /// them with [`remove_component`](Self::remove_component)) need not read the mesh, and so
+    /// takes meshes of any size.
+    pub fn components(&self) -> Vec<crate::Component> {
+        dispatch!(self, components())
+    }
+
     // ---- per-element reads: one host call each ------------------------------------------
 
     pub fn position(&self, vertex: u32) -> Result<[f32; 3]> {

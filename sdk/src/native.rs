@@ -182,6 +182,13 @@ impl NativeMesh {
     pub fn edges(&self) -> Vec<u32> {
         self.connectivity().edges().to_vec()
     }
+    pub fn components(&self) -> Vec<crate::Component> {
+        let found = self.read(|m| m.components());
+        found
+            .into_iter()
+            .map(|c| crate::Component { first_triangle: c.first_triangle, triangles: c.triangles })
+            .collect()
+    }
     pub fn position(&self, v: u32) -> Edit<(f32, f32, f32)> {
         self.read(|m| m.position(v)).map_err(to_wit)
     }

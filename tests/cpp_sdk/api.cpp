@@ -38,6 +38,12 @@ Result<std::string> edits(const Mesh& mesh, const Params& params) {
     MESHFLOW_TRY(mesh.flip_triangles(std::vector<uint32_t>{far}));
     const float shift[12] = {1, 0, 0, 5, 0, 1, 0, 0, 0, 0, 1, 0};
     MESHFLOW_TRY(mesh.transform_component(lone, shift));
+    // The square is a piece of its own, listed by its first triangle.
+    bool listed = false;
+    for (const meshflow::Component& c : mesh.components()) {
+        listed = listed || (c.first_triangle == lone && c.triangles == 2);
+    }
+    if (!listed) return meshflow::fail("components() does not list the square at {}", lone);
     MESHFLOW_TRY(mesh.remove_component(lone));
     if (mesh.is_triangle_live(far)) return meshflow::fail("remove_component left {}", far);
 

@@ -33,7 +33,7 @@ use std::sync::Arc;
 
 use crate::MeshData;
 use crate::attributes::{COLOR, Domain, NORMAL, NumberType, TEXCOORD, Values};
-use crate::store::{Affine, EditError, EditErrorKind, MeshStore, Op, OpKind};
+use crate::store::{Affine, Component, EditError, EditErrorKind, MeshStore, Op, OpKind};
 
 /// One attribute as the WIT's `attribute-info` lists it.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -106,6 +106,9 @@ pub trait MeshCalls {
     }
     fn removed_vertices(&self) -> Vec<u32> {
         self.store().removed_vertices()
+    }
+    fn components(&self) -> Vec<Component> {
+        self.store().components()
     }
     fn whole_ids(&self) -> Option<Vec<u32>> {
         self.store().whole().map(|whole| whole.ids.clone())

@@ -12,7 +12,9 @@ wasmtime::component::bindgen!({
 });
 
 pub use exports::meshflow::geometry::service::{Param, ServiceInfo};
-pub use meshflow::geometry::mesh::{AttributeDomain, AttributeInfo, AttributeValues, NumberType};
+pub use meshflow::geometry::mesh::{
+    AttributeDomain, AttributeInfo, AttributeValues, Component, NumberType,
+};
 pub use meshflow::geometry::types::{
     EditError, EditErrorKind, ParamInfo, ServiceKind, Value, ValueType,
 };
@@ -61,6 +63,12 @@ impl From<calls::AttributeInfo> for AttributeInfo {
             components: info.components,
             number_type: info.number_type.into(),
         }
+    }
+}
+
+impl From<meshflow_mesh::store::Component> for Component {
+    fn from(c: meshflow_mesh::store::Component) -> Self {
+        Component { first_triangle: c.first_triangle, triangles: c.triangles }
     }
 }
 

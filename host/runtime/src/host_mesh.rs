@@ -7,7 +7,9 @@
 use wasmtime::component::Resource;
 
 use super::bindings::meshflow::geometry::mesh::{Host, HostMesh};
-use super::bindings::{AttributeDomain, AttributeInfo, AttributeValues, EditError, EditErrorKind};
+use super::bindings::{
+    AttributeDomain, AttributeInfo, AttributeValues, Component, EditError, EditErrorKind,
+};
 use super::state::{MeshHandle, RunState};
 use meshflow_mesh::calls::{Called, MeshCalls};
 use meshflow_mesh::store::{MeshStore, OpKind};
@@ -94,6 +96,10 @@ impl HostMesh for RunState {
 
     fn removed_vertices(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<Vec<u32>> {
         Ok(MeshCalls::removed_vertices(self))
+    }
+
+    fn components(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<Vec<Component>> {
+        Ok(MeshCalls::components(self).into_iter().map(Component::from).collect())
     }
 
     fn whole_ids(&mut self, _: Resource<MeshHandle>) -> wasmtime::Result<Option<Vec<u32>>> {

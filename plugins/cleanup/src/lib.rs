@@ -21,21 +21,18 @@ fn remove_smallest_components(mesh: &Mesh, params: &Params) -> Result<String> {
         0 => Keep::Largest,
         min => Keep::AtLeast(min as u32),
     };
-    let removal = components::small_components(mesh.vertex_slots(), &mesh.triangles(), keep);
-    // Two bulk edits; removing the vertices alone would not do, as a removed triangle may
-    // have all its corners shared with kept pieces (touching them at vertices only).
-    if !removal.triangles.is_empty() {
-        mesh.remove_triangles(&removal.triangles)?;
-    }
-    if !removal.vertices.is_empty() {
-        mesh.remove_vertices(&removal.vertices)?;
+    let found = mesh.components();
+    let removed = components::to_remove(&found, keep);
+    let (vertices, triangles) = (mesh.vertex_count(), mesh.triangle_count());
+    for &first in &removed {
+        mesh.remove_component(first)?;
     }
     Ok(format!(
         "removed {} of {} component(s): {} triangle(s), {} vertex(es)",
-        removal.components,
-        removal.components_before,
-        removal.triangles.len(),
-        removal.vertices.len()
+        removed.len(),
+        found.len(),
+        triangles - mesh.triangle_count(),
+        vertices - mesh.vertex_count()
     ))
 }
 

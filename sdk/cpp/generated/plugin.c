@@ -41,6 +41,9 @@ extern void __wasm_import_meshflow_geometry_mesh_method_mesh_half_edge_kinds(int
 __attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.edges")))
 extern void __wasm_import_meshflow_geometry_mesh_method_mesh_edges(int32_t, uint8_t *);
 
+__attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.components")))
+extern void __wasm_import_meshflow_geometry_mesh_method_mesh_components(int32_t, uint8_t *);
+
 __attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.position")))
 extern void __wasm_import_meshflow_geometry_mesh_method_mesh_position(int32_t, int32_t, uint8_t *);
 
@@ -460,6 +463,16 @@ void plugin_option_list_f32_free(plugin_option_list_f32_t *ptr) {
   }
 }
 
+void meshflow_geometry_mesh_list_component_free(meshflow_geometry_mesh_list_component_t *ptr) {
+  size_t list_len = ptr->len;
+  if (list_len > 0) {
+    meshflow_geometry_mesh_component_t *list_ptr = ptr->ptr;
+    for (size_t i = 0; i < list_len; i++) {
+    }
+    free(list_ptr);
+  }
+}
+
 void meshflow_geometry_mesh_result_tuple3_f32_f32_f32_edit_error_free(meshflow_geometry_mesh_result_tuple3_f32_f32_f32_edit_error_t *ptr) {
   if (!ptr->is_err) {
   } else {
@@ -704,6 +717,14 @@ void meshflow_geometry_mesh_method_mesh_edges(meshflow_geometry_mesh_borrow_mesh
   uint8_t *ptr = (uint8_t *) &ret_area;
   __wasm_import_meshflow_geometry_mesh_method_mesh_edges((self).__handle, ptr);
   *ret = (plugin_list_u32_t) { (uint32_t*)(*((uint8_t **) (ptr + 0))), (*((size_t*) (ptr + sizeof(void*)))) };
+}
+
+void meshflow_geometry_mesh_method_mesh_components(meshflow_geometry_mesh_borrow_mesh_t self, meshflow_geometry_mesh_list_component_t *ret) {
+  __attribute__((__aligned__(sizeof(void*))))
+  uint8_t ret_area[(2*sizeof(void*))];
+  uint8_t *ptr = (uint8_t *) &ret_area;
+  __wasm_import_meshflow_geometry_mesh_method_mesh_components((self).__handle, ptr);
+  *ret = (meshflow_geometry_mesh_list_component_t) { (meshflow_geometry_mesh_component_t*)(*((uint8_t **) (ptr + 0))), (*((size_t*) (ptr + sizeof(void*)))) };
 }
 
 bool meshflow_geometry_mesh_method_mesh_position(meshflow_geometry_mesh_borrow_mesh_t self, uint32_t vertex, plugin_tuple3_f32_f32_f32_t *ret, meshflow_geometry_mesh_edit_error_t *err) {

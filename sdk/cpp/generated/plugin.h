@@ -165,6 +165,14 @@ typedef struct meshflow_geometry_mesh_attribute_info_t {
   meshflow_geometry_mesh_number_type_t   number_type;
 } meshflow_geometry_mesh_attribute_info_t;
 
+// An edge-connected component of the live triangles, as `components` lists it.
+typedef struct meshflow_geometry_mesh_component_t {
+  // Its smallest triangle id: what `remove-component` and `transform-component` take.
+  uint32_t   first_triangle;
+  // Its live triangles.
+  uint32_t   triangles;
+} meshflow_geometry_mesh_component_t;
+
 typedef struct {
   uint8_t *ptr;
   size_t len;
@@ -226,6 +234,11 @@ typedef struct {
   bool is_some;
   plugin_list_f32_t val;
 } plugin_option_list_f32_t;
+
+typedef struct {
+  meshflow_geometry_mesh_component_t *ptr;
+  size_t len;
+} meshflow_geometry_mesh_list_component_t;
 
 typedef struct {
   float f0;
@@ -366,6 +379,13 @@ extern void meshflow_geometry_mesh_method_mesh_half_edge_kinds(meshflow_geometry
 // Every edge once, in ascending order of its (smaller, larger) vertex ids, as its
 // smallest half-edge id; as many values as the mesh has edges.
 extern void meshflow_geometry_mesh_method_mesh_edges(meshflow_geometry_mesh_borrow_mesh_t self, plugin_list_u32_t *ret);
+// The edge-connected components of the live triangles (two triangles are joined
+// by an undirected edge `{a, b}`, `a != b`, they share, manifold or not, whatever
+// their orientations; a triangle without such an edge is a component of its own),
+// ascending by first triangle. Derived by the host: a service that only chooses
+// whole components (which pieces to keep) need not read the mesh, so it takes any
+// mesh the host holds, however large for a sandbox.
+extern void meshflow_geometry_mesh_method_mesh_components(meshflow_geometry_mesh_borrow_mesh_t self, meshflow_geometry_mesh_list_component_t *ret);
 // ---- per-element reads (slow: one host call each) ----------------------------
 extern bool meshflow_geometry_mesh_method_mesh_position(meshflow_geometry_mesh_borrow_mesh_t self, uint32_t vertex, plugin_tuple3_f32_f32_f32_t *ret, meshflow_geometry_mesh_edit_error_t *err);
 extern bool meshflow_geometry_mesh_method_mesh_triangle(meshflow_geometry_mesh_borrow_mesh_t self, uint32_t triangle, plugin_tuple3_u32_u32_u32_t *ret, meshflow_geometry_mesh_edit_error_t *err);
@@ -511,6 +531,8 @@ extern meshflow_geometry_mesh_borrow_mesh_t meshflow_geometry_mesh_borrow_mesh(m
 void plugin_option_list_u32_free(plugin_option_list_u32_t *ptr);
 
 void plugin_option_list_f32_free(plugin_option_list_f32_t *ptr);
+
+void meshflow_geometry_mesh_list_component_free(meshflow_geometry_mesh_list_component_t *ptr);
 
 void meshflow_geometry_mesh_result_tuple3_f32_f32_f32_edit_error_free(meshflow_geometry_mesh_result_tuple3_f32_f32_f32_edit_error_t *ptr);
 

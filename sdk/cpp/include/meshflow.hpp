@@ -339,6 +339,10 @@ struct AttributeInfo {
 using AttributeValues = std::variant<std::vector<uint8_t>, std::vector<int32_t>,
                                      std::vector<uint32_t>, std::vector<float>, std::vector<double>>;
 
+// An edge-connected component of the live triangles, as Mesh::components lists it:
+// `first_triangle` (its smallest triangle id, what remove_component takes) and `triangles`.
+using Component = meshflow_geometry_mesh_component_t;
+
 // The half-edge from corner `k` (0, 1, 2) of triangle `t` to corner `(k + 1) % 3`: the edge
 // ids that split_edge, swap_edge, collapse_edge and extend_edge take.
 constexpr uint32_t half_edge(uint32_t t, uint32_t k) { return 3 * t + k; }
@@ -397,6 +401,13 @@ public:
     Array<uint32_t> edges() const {
         plugin_list_u32_t list;
         meshflow_geometry_mesh_method_mesh_edges(raw_, &list);
+        return {list.ptr, list.len};
+    }
+    // The edge-connected components of the live triangles, ascending by first triangle,
+    // derived by the host: a service that only chooses whole pieces need not read the mesh.
+    Array<Component> components() const {
+        meshflow_geometry_mesh_list_component_t list;
+        meshflow_geometry_mesh_method_mesh_components(raw_, &list);
         return {list.ptr, list.len};
     }
 

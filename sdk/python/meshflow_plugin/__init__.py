@@ -367,6 +367,12 @@ class Mesh:
 
     def removed_vertices(self) -> array: return array("I", self.raw.removed_vertices())
 
+    def components(self) -> list:
+        """The edge-connected components of the live triangles as ``(first_triangle,
+        triangles)``, ascending by first triangle, derived by the host: a filter that only
+        chooses whole pieces (removed with :meth:`remove_component`) need not read the mesh."""
+        return [(c.first_triangle, c.triangles) for c in self.raw.components()]
+
     # the whole mesh, for a filter run on partitions (see `filter(…, reach=)`)
     def whole_ids(self) -> array:
         """Per vertex slot, its id in the whole mesh (on the whole mesh, the slot's own): a

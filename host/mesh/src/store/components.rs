@@ -1,8 +1,38 @@
 //! Component- and mesh-level edits: remove or transform a component, transform, clear.
 
+use meshflow_topology::TriangleComponents;
+
 use super::{Affine, EditError, MeshStore, check_finite};
 
+/// An edge-connected component of the live triangles (WIT `component`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Component {
+    /// Its smallest triangle id.
+    pub first_triangle: u32,
+    /// Its live triangles.
+    pub triangles: u32,
+}
+
 impl MeshStore {
+    /// The edge-connected components of the live triangles, ascending by first triangle:
+    /// the components [`remove_component`](Self::remove_component) removes, as the SDK's
+    /// `TriangleComponents` finds them. O(V + T log d), on the host: a plugin that only
+    /// chooses components need not read the mesh.
+    pub fn components(&self) -> Vec<Component> {
+        let found = TriangleComponents::new(self.vertex_slots() as usize, self.triangles());
+        let sizes = found.sizes();
+        let mut components = Vec::with_capacity(sizes.len());
+        // Labels follow the smallest triangle id: label `l` first appears at its first.
+        for (t, &label) in (0u32..).zip(found.labels()) {
+            if label as usize == components.len() {
+                components.push(Component { first_triangle: t, triangles: sizes[label as usize] });
+            }
+        }
+        // A removed slot has no corner in range: a component of its own, not a live one.
+        components.retain(|c| self.is_triangle_live(c.first_triangle));
+        components
+    }
+
     /// The live triangles edge-connected to `seed` (sharing two distinct corners), ascending.
     fn component_of(&mut self, seed: u32) -> Vec<u32> {
         self.incidence();

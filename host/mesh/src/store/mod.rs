@@ -34,6 +34,7 @@ mod op;
 mod triangles;
 mod vertices;
 
+pub use components::Component;
 pub use error::{EditError, EditErrorKind};
 pub use op::{Affine, Op, OpKind};
 

@@ -260,6 +260,24 @@ fn remove_component_takes_its_unused_vertices_only() {
 }
 
 #[test]
+fn components_list_live_pieces_by_first_triangle_and_remove_component_takes_them() {
+    let mut s = store();
+    let component = |first_triangle, triangles| Component { first_triangle, triangles };
+    assert_eq!(s.components(), [component(0, 3), component(3, 1)]);
+    // A triangle touching the pieces at vertices only (3, 4 and 5) is a piece of its own.
+    let t = s.apply(Op::AddTriangles { abc: vec![4, 5, 3] }).unwrap().unwrap();
+    assert_eq!(s.components(), [component(0, 3), component(3, 1), component(t, 1)]);
+    s.apply(Op::RemoveTriangles { ids: vec![0] }).unwrap();
+    // Triangle 0 gone, triangles 1 and 2 share no edge any more.
+    assert_eq!(
+        s.components(),
+        [component(1, 1), component(2, 1), component(3, 1), component(t, 1)]
+    );
+    s.apply(Op::RemoveComponent { triangle: 3 }).unwrap();
+    assert_eq!(s.components(), [component(1, 1), component(2, 1), component(t, 1)]);
+}
+
+#[test]
 fn transform_component_moves_only_that_component() {
     let mut s = store();
     let shift = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 3.0];

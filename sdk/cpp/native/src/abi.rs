@@ -144,6 +144,14 @@ pub struct Tuple3U32 {
     pub f2: u32,
 }
 
+/// `meshflow_geometry_mesh_component_t`.
+#[repr(C)]
+#[derive(Clone, Copy)]
+pub struct Component {
+    pub first_triangle: u32,
+    pub triangles: u32,
+}
+
 /// `meshflow_geometry_mesh_attribute_info_t`.
 #[repr(C)]
 pub struct AttributeInfo {

@@ -11,9 +11,9 @@ use meshflow_mesh::calls::{Called, MeshCalls, Recorder};
 use meshflow_mesh::store::EditErrorKind;
 
 use crate::abi::{
-    AttributeInfo, AttributeValues, EditError, Handle, List, NUMBER_F32, NUMBER_F64, NUMBER_S32,
-    NUMBER_U8, NUMBER_U32, Str, Tuple3F32, Tuple3U32, c_copy, c_list, c_string, read_str, shielded,
-    slice, trap,
+    AttributeInfo, AttributeValues, Component, EditError, Handle, List, NUMBER_F32, NUMBER_F64,
+    NUMBER_S32, NUMBER_U8, NUMBER_U32, Str, Tuple3F32, Tuple3U32, c_copy, c_list, c_string,
+    read_str, shielded, slice, trap,
 };
 
 /// The meshes of the runs in progress, by handle. A run registers its recorder for the
@@ -290,6 +290,25 @@ pub unsafe extern "C" fn meshflow_geometry_mesh_method_mesh_edges(
     let list = shielded(call, || c_copy(connectivity(call, mesh).edges()));
     // SAFETY: the caller's promise.
     unsafe { put(call, ret, list) }
+}
+
+/// # Safety
+/// `ret` is writable.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn meshflow_geometry_mesh_method_mesh_components(
+    mesh: Handle,
+    ret: *mut List<Component>,
+) {
+    let list = read("components", mesh, |m| {
+        let found = m.components();
+        let found: Vec<Component> = found
+            .iter()
+            .map(|c| Component { first_triangle: c.first_triangle, triangles: c.triangles })
+            .collect();
+        c_copy(&found)
+    });
+    // SAFETY: the caller's promise.
+    unsafe { put("components", ret, list) }
 }
 
 /// # Safety

@@ -2,7 +2,7 @@
 //! a C++ plugin's services to run them in process, as the Rust SDK's `native` feature does.
 //!
 //! It implements, for the host's CPU, every function the generated bindings
-//! (`sdk/cpp/generated/plugin.h`) declare except those a plugin exports: the 41 calls of
+//! (`sdk/cpp/generated/plugin.h`) declare except those a plugin exports: the 42 calls of
 //! the WIT `mesh` resource, each a call of the host's own checked adapter
 //! ([`meshflow_mesh::calls::MeshCalls`] over a [`meshflow_mesh::calls::Recorder`]), so every
 //! edit is checked and recorded exactly as a host does it; and the bindings' free and
