@@ -4,9 +4,9 @@
 //! caller. Every pointer is a valid value of its type, or null (then nothing happens).
 
 use crate::abi::{
-    AttributeInfo, AttributeValues, CResult, CResultVoid, CValue, EditError, List, OptionF64,
-    OptionList, OptionValue, OptionValueType, Outcome, Param, ParamInfo, ServiceInfo, Str,
-    TAG_TEXT, Tuple3F32, Tuple3U32, c_free, free_string, trap,
+    AttributeInfo, AttributeValues, CResult, CResultVoid, CValue, Component, EditError, List,
+    OptionF64, OptionList, OptionValue, OptionValueType, Outcome, Param, ParamInfo, ServiceInfo,
+    Str, TAG_TEXT, Tuple3F32, Tuple3U32, c_free, free_string, trap,
 };
 
 /// The elements of a list, to free each, then the list's memory.
@@ -280,6 +280,14 @@ pub unsafe extern "C" fn plugin_option_list_u32_free(ptr: *mut OptionList<u32>) 
 pub unsafe extern "C" fn plugin_option_list_f32_free(ptr: *mut OptionList<f32>) {
     // SAFETY: the caller's promise.
     unsafe { free_option_list(ptr, plugin_list_f32_free) }
+}
+
+/// # Safety
+/// `ptr` is null or a valid list.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn meshflow_geometry_mesh_list_component_free(ptr: *mut List<Component>) {
+    // SAFETY: the caller's promise; components are numbers and own nothing.
+    unsafe { free_list(ptr, |_| ()) }
 }
 
 /// # Safety
