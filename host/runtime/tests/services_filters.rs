@@ -8,7 +8,7 @@ use common::run;
 use meshflow_generate::{ScanSpec, scan};
 use meshflow_mesh::MeshData;
 use meshflow_mesh::store::Op;
-use meshflow_runtime::Value;
+use meshflow_runtime::{Limits, Runtime, Value};
 use meshflow_topology::adjacency::VertexNeighbours;
 use meshflow_topology::boundary::{boundary_loops, boundary_vertices};
 use meshflow_topology::components::TriangleComponents;
@@ -55,6 +55,31 @@ fn removing_the_smallest_components_leaves_exactly_one() {
         before.count() - 1,
         before.count()
     )));
+}
+
+#[test]
+fn removing_small_components_takes_a_mesh_larger_than_its_sandbox() {
+    // 12.5M triangles, whose corners alone (150 MB) are more than the 130 MiB the guest may
+    // hold, and a lone triangle: the plugin reads the host's list of components, not the
+    // mesh, and asks the host to remove the piece.
+    let squares = 2500;
+    let (mut positions, mut triangles) = square_grid(squares);
+    let (grid_vertices, grid_triangles) = (positions.len() / 3, triangles.len() / 3);
+    let n = grid_vertices as u32;
+    positions.extend([10.0, 0.0, 5.0, 11.0, 0.0, 5.0, 10.0, 1.0, 5.0]);
+    triangles.extend([n, n + 1, n + 2]);
+    let mesh = MeshData::new(positions, triangles);
+    let cap = 130 << 20;
+    assert!(mesh.triangles.len() * 4 > cap);
+    let runtime = Runtime::new(Limits { memory_bytes: cap, ..Limits::default() }, None).unwrap();
+    let plugin = common::builtin(&runtime, "cleanup");
+    let out = runtime
+        .run(&plugin, "remove-smallest-components", mesh, &[])
+        .unwrap_or_else(|e| panic!("under {cap} bytes: {e}"));
+    assert_eq!(out.log, [Op::RemoveComponent { triangle: grid_triangles as u32 }]);
+    let result = out.mesh.unwrap();
+    assert_eq!((result.vertex_count(), result.triangle_count()), (grid_vertices, grid_triangles));
+    assert!(out.guest_peak_bytes <= cap, "{}", out.guest_peak_bytes);
 }
 
 #[test]
