@@ -60,11 +60,15 @@ pub use bindings::meshflow::geometry::mesh::Component;
 pub use bindings::meshflow::geometry::types::{Value, ValueType};
 pub use error::{Error, Result};
 pub use mesh::{Mesh, MeshKey, REMOVED};
-pub use service::{CheckFn, FilterFn, ParamSpec, Params, ReachFn, Service, describe, reach, run};
+pub use service::{
+    BlocksFn, CheckFn, FilterFn, ParamSpec, Params, ReachFn, Service, block_triangles, describe,
+    reach, run,
+};
 
 /// Exports the services returned by a `fn() -> Vec<Service>` as this component's
-/// `meshflow:geometry/service` interface, and their reach (see [`Service::local`]) as its
-/// `meshflow:geometry/locality` interface. Only on wasm targets: a native build of the same
+/// `meshflow:geometry/service` interface, their reach (see [`Service::local`]) as its
+/// `meshflow:geometry/locality` interface, and their block size (see [`Service::blocks`]) as
+/// its `meshflow:geometry/blocks` interface. Only on wasm targets: a native build of the same
 /// crate (for tests and benches) links with others without clashing export names.
 #[macro_export]
 macro_rules! export_plugin {
@@ -98,6 +102,16 @@ macro_rules! export_plugin {
                 params: Vec<$crate::bindings::meshflow::geometry::types::Param>,
             ) -> Option<u32> {
                 $crate::reach(&$services(), &name, params)
+            }
+        }
+
+        #[cfg(target_arch = "wasm32")]
+        impl $crate::bindings::exports::meshflow::geometry::blocks::Guest for MeshflowPlugin {
+            fn block_triangles(
+                name: String,
+                params: Vec<$crate::bindings::meshflow::geometry::types::Param>,
+            ) -> Option<u32> {
+                $crate::block_triangles(&$services(), &name, params)
             }
         }
 

@@ -12,6 +12,9 @@ pub type CheckFn = fn(&Mesh, &Params) -> Result<Value>;
 /// How many rings of the mesh around a vertex decide its new position, for given
 /// parameters (see [`Service::local`]).
 pub type ReachFn = fn(&Params) -> Result<u32>;
+/// Above how many triangles a filter runs block by block, for given parameters; `None`:
+/// whole with these parameters (see [`Service::blocks`]).
+pub type BlocksFn = fn(&Params) -> Result<Option<u32>>;
 
 enum Runner {
     Filter(FilterFn),
@@ -35,17 +38,18 @@ pub struct Service {
     info: ServiceInfo,
     runner: Runner,
     reach: Option<ReachFn>,
+    blocks: Option<BlocksFn>,
 }
 
 impl Service {
     pub fn filter(name: &str, doc: &str, run: FilterFn) -> Self {
         let info = info(name, doc, ServiceKind::Filter, None);
-        Self { info, runner: Runner::Filter(run), reach: None }
+        Self { info, runner: Runner::Filter(run), reach: None, blocks: None }
     }
 
     pub fn check(name: &str, doc: &str, result: ValueType, run: CheckFn) -> Self {
         let info = info(name, doc, ServiceKind::Check, Some(result));
-        Self { info, runner: Runner::Check(run), reach: None }
+        Self { info, runner: Runner::Check(run), reach: None, blocks: None }
     }
 
     /// Declares a filter local: its result near a vertex depends only on the triangles
@@ -81,6 +85,18 @@ impl Service {
     /// Whether [`Service::local`] declared it.
     pub fn is_local(&self) -> bool {
         self.reach.is_some()
+    }
+
+    /// Declares that on a mesh of more than `blocks(params)` triangles (when it gives
+    /// `Some`) the filter's result is, by definition, its result on each block of about that
+    /// many triangles run as a mesh of its own, the vertices blocks share kept where they
+    /// are (the WIT's `blocks` interface). Every host cuts the same blocks, so results agree
+    /// across hosts, but not with a whole-mesh run: quadric decimation keeps the blocks'
+    /// borders at full resolution. A filter that may move or remove its input's boundary
+    /// vertices with these parameters must return `None`.
+    pub fn blocks(mut self, blocks: BlocksFn) -> Self {
+        self.blocks = Some(blocks);
+        self
     }
 
     pub fn param(mut self, param: ParamSpec) -> Self {
@@ -233,6 +249,15 @@ pub fn run(
         format!("unknown service `{name}`; this plugin has: {}", known.join(", "))
     })?;
     service.run(&mesh, &Params::new(params)).map_err(|e| e.0)
+}
+
+/// What the export macro calls: above how many triangles the named service runs block by
+/// block with these parameters (`None` for one not declared [`Service::blocks`], one unknown,
+/// or parameters it refuses).
+pub fn block_triangles(services: &[Service], name: &str, params: Vec<Param>) -> Option<u32> {
+    let service = services.iter().find(|s| s.info.name == name)?;
+    let blocks = service.blocks?;
+    blocks(&Params::new(params)).ok().flatten()
 }
 
 /// What the export macro calls: how far the named service reaches with these parameters

@@ -91,6 +91,13 @@ pub struct Runtime {
     footprints: footprint::Footprints,
 }
 
+/// What the instance asked to run a filter whole did: ran it, or was told by the service
+/// that on a mesh this large it runs block by block, in blocks of this many triangles.
+enum WholeCall {
+    Ran(Result<bindings::meshflow::geometry::types::Outcome, String>),
+    InBlocks(usize),
+}
+
 impl Runtime {
     /// A runtime with the given limits; compiled components are cached in `cache_dir`
     /// when one is given.
@@ -132,26 +139,33 @@ impl Runtime {
         let pre = bindings::PluginPre::new(instance_pre)
             .map_err(|e| PluginError::World(format!("{e:#}")))?;
         let reach = partitioned::reach_export(&component);
+        let blocks = partitioned::blocks_export(&component);
         // A load waits for a slot however long the queue: uploads are few and need a token.
         let (slot, _) = self.permits.acquire(None).expect("an unbounded queue has room");
         let deadline = self.limits.deadline;
-        let (services, reach_typed) = self
+        let (services, reach_typed, blocks_typed) = self
             .call(&slot, &pre, "describe", Arc::default(), true, deadline, |store, p, i, _| {
                 let services = p.meshflow_geometry_service().call_describe(&mut *store)?;
                 let reach_typed = reach
                     .as_ref()
                     .map(|index| partitioned::reach_func(store, i, index).map(|_| ()));
-                Ok((services, reach_typed))
+                let blocks_typed = blocks
+                    .as_ref()
+                    .map(|index| partitioned::blocks_func(store, i, index).map(|_| ()));
+                Ok((services, reach_typed, blocks_typed))
             })
-            .map(|((services, reach), _)| {
-                (services.into_iter().map(ServiceInfo::from).collect::<Vec<_>>(), reach)
+            .map(|((services, reach, blocks), _)| {
+                (services.into_iter().map(ServiceInfo::from).collect::<Vec<_>>(), reach, blocks)
             })
             .map_err(|e| PluginError::Describe(Box::new(e)))?;
         if let Some(Err(e)) = reach_typed {
             return Err(PluginError::World(format!("its `locality` export: {e:#}")));
         }
+        if let Some(Err(e)) = blocks_typed {
+            return Err(PluginError::World(format!("its `blocks` export: {e:#}")));
+        }
         plugin::validate_description(&services)?;
-        Ok(Plugin { digest, services, pre, reach })
+        Ok(Plugin { digest, services, pre, reach, blocks })
     }
 
     /// Runs `service` of `plugin` on `mesh`. Parameters are checked against the service's
@@ -228,6 +242,9 @@ impl Runtime {
         let kept = (may_cut && !cut_first).then(|| Arc::clone(&mesh));
         let (slot, queued) = self.acquire_slot(service)?;
         let started = Instant::now();
+        // A filter that runs block by block says so, with these parameters, in the instance
+        // that would run it whole.
+        let blocks = if is_check { None } else { plugin.blocks.as_ref() };
         let whole = self.call(
             &slot,
             &plugin.pre,
@@ -235,12 +252,27 @@ impl Runtime {
             mesh,
             is_check,
             self.limits.deadline,
-            |store, p, _, mesh| {
-                p.meshflow_geometry_service().call_run(store, service, mesh, &params)
+            |store, p, instance, mesh| {
+                if let Some(index) = blocks {
+                    let declared = partitioned::blocks_func(store, instance, index)?
+                        .call(&mut *store, (service.to_owned(), params.clone()))?
+                        .0;
+                    if let Some(size) = declared.filter(|&size| triangles > size as usize) {
+                        return Ok(WholeCall::InBlocks(size as usize));
+                    }
+                }
+                let ran = p.meshflow_geometry_service().call_run(store, service, mesh, &params)?;
+                Ok(WholeCall::Ran(ran))
             },
         );
         let (outcome, state) = match (whole, kept) {
-            (Ok(ran), _) => ran,
+            (Ok((WholeCall::Ran(outcome), state)), _) => (outcome, state),
+            (Ok((WholeCall::InBlocks(size), state)), _) => {
+                // Nothing was edited: the store still shares the input.
+                let input = state.mesh.shared_slots();
+                drop((state, slot));
+                return self.run_in_blocks(plugin, service, &input, &params, size);
+            }
             (Err(error @ RunError::Memory { .. }), Some(input)) => {
                 drop(slot);
                 self.footprints.stopped(&plugin.digest, service, triangles);

@@ -17,6 +17,9 @@ pub struct Plugin {
     /// Its `locality.reach`, when it exports one (the `local-plugin` world): which services
     /// may run on partitions of a mesh.
     pub(crate) reach: Option<ComponentExportIndex>,
+    /// Its `blocks.block-triangles`, when it exports one (the `block-plugin` world): which
+    /// services run block by block on a large mesh.
+    pub(crate) blocks: Option<ComponentExportIndex>,
 }
 
 impl std::fmt::Debug for Plugin {

@@ -4,10 +4,13 @@
 
 mod common;
 
+use std::collections::HashSet;
+
 use meshflow_builtin_plugins::fixture;
 use meshflow_generate::{ScanSpec, scan, shuffled};
 use meshflow_mesh::MeshData;
 use meshflow_mesh::attributes::{Attribute, Attributes};
+use meshflow_mesh::partition::Partitioning;
 use meshflow_mesh::store::MeshStore;
 use meshflow_runtime::{Limits, RunError, RunOutput, Runtime, Value};
 
@@ -132,6 +135,59 @@ fn degenerate_repair_on_partitions_reaches_the_whole_mesh_hash() {
             assert_eq!(replayed.finish().0.content_hash(), whole_mesh.content_hash());
         }
     }
+}
+
+#[test]
+fn decimation_in_blocks_keeps_their_shared_vertices_and_gives_one_hash_on_every_host() {
+    let mesh = scan_mesh();
+    let service = "quadric-decimation";
+    let ratio = ("target-ratio", Value::Real(0.3));
+    let params = [ratio.clone(), ("block-triangles", Value::Integer(20_000))];
+    let blocked = run_of("remeshing", Limits::default(), service, &mesh, &params);
+    let blocks = blocked.partitions.expect("it ran in blocks");
+    assert!(blocks.count >= 5 && blocks.rings == 0, "{blocks:?}");
+    assert!(blocked.report.contains("blocks"), "{}", blocked.report);
+    let result = blocked.mesh.as_ref().unwrap();
+    let kept = result.triangle_count() as f64 / mesh.triangle_count() as f64;
+    assert!((0.29..0.45).contains(&kept), "{kept}: {}", blocked.report);
+
+    // Another host, with other limits (one run slot, partitions forced small), cuts the
+    // same blocks: the same result.
+    let other =
+        Limits { max_partition_triangles: Some(3_000), concurrent_runs: 1, ..Limits::default() };
+    let again = run_of("remeshing", other, service, &mesh, &params);
+    assert_eq!(again.mesh.unwrap().content_hash(), result.content_hash());
+    // The step's log rebuilds it.
+    let mut replayed = MeshStore::new(mesh.clone());
+    for op in blocked.log.clone() {
+        replayed.apply(op).expect("the placed log applies to the mesh");
+    }
+    assert_eq!(replayed.finish().0.content_hash(), result.content_hash());
+
+    // Every vertex two blocks share is still there, where it was.
+    let cut = Partitioning::new(&mesh, 20_000);
+    let cut_blocks = cut.blocks();
+    assert!(cut_blocks.shared_count() > 100);
+    let at = |p: &[f32]| [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()];
+    let left: HashSet<[u32; 3]> = result.positions.chunks_exact(3).map(at).collect();
+    for index in 0..cut_blocks.len() {
+        let block = cut_blocks.block(index);
+        for &v in &block.shared {
+            let p = &block.mesh.positions[3 * v as usize..][..3];
+            assert!(left.contains(&at(p)), "shared vertex {} gone", block.vertices[v as usize]);
+        }
+    }
+
+    // Whole (block-triangles 0), the result is another: the blocks' borders kept theirs.
+    let whole = run_of(
+        "remeshing",
+        Limits::default(),
+        service,
+        &mesh,
+        &[ratio, ("block-triangles", Value::Integer(0))],
+    );
+    assert_eq!(whole.partitions, None);
+    assert_ne!(whole.mesh.unwrap().content_hash(), result.content_hash());
 }
 
 #[test]

@@ -348,7 +348,7 @@ impl State {
             // The shape penalty needs the fan anyway.
             self.evaluate(a, b).map(|c| c.cost)
         } else {
-            self.placement(a, b).map(|(_, error)| error)
+            self.placement(a, b).map(|(_, error, _)| error)
         }
     }
 
@@ -372,8 +372,8 @@ impl State {
     }
 
     /// Where edge `a`–`b` would merge to and its quadric error there, if no end is locked
-    /// and a preserved boundary allows it.
-    fn placement(&self, a: u32, b: u32) -> Option<(Vec3, f64)> {
+    /// and a preserved boundary allows it; and the end a preserved boundary pins.
+    fn placement(&self, a: u32, b: u32) -> Option<(Vec3, f64, Option<u32>)> {
         if self.locked[a as usize] || self.locked[b as usize] {
             return None;
         }
@@ -392,12 +392,12 @@ impl State {
             None => self.best_point(&quadric, pa, pb),
         };
         let at = at.map(|x| x as f32 as f64);
-        Some((at, quadric.error(at).max(0.0)))
+        Some((at, quadric.error(at).max(0.0), keep))
     }
 
     /// Whether and how edge `a`–`b` may collapse, with its cost.
     fn evaluate(&self, a: u32, b: u32) -> Option<Collapse> {
-        let (at, error) = self.placement(a, b)?;
+        let (at, error, keep) = self.placement(a, b)?;
         let on_edge = self.mesh.collapse_keeps_topology(a, b)?;
         // Two boundary vertices joined across the inside: collapsing would pinch the surface.
         let edge_on_boundary = on_edge.count() == 1;
@@ -407,11 +407,15 @@ impl State {
         let worst_shape = self.check_fan(a, b, at)?;
         let penalty = 1.0 + self.settings.quality_weight * (1.0 - worst_shape);
         let cost = error * penalty;
+        // A pinned boundary vertex must survive as itself (the half-edge's start), not only
+        // at its place: run in blocks, its id is what the neighbouring block shares.
+        let runs = |c: [u32; 3], k: usize| match keep {
+            Some(kept) => c[k] == kept && c[(k + 1) % 3] == if kept == a { b } else { a },
+            None => c[k] == a && c[(k + 1) % 3] == b || c[k] == b && c[(k + 1) % 3] == a,
+        };
         let half_edge = on_edge.iter().find_map(|t| {
             let c = self.mesh.corners(t);
-            (0..3)
-                .find(|&k| c[k] == a && c[(k + 1) % 3] == b || c[k] == b && c[(k + 1) % 3] == a)
-                .map(|k| 3 * t + k as u32)
+            (0..3).find(|&k| runs(c, k)).map(|k| 3 * t + k as u32)
         })?;
         let start = self.mesh.corners(half_edge / 3)[half_edge as usize % 3];
         let removed = if start == a { b } else { a };

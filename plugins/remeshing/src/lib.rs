@@ -25,6 +25,20 @@ use loop_subdivision::loop_subdivision;
 /// The most Loop iterations a run may ask for (each quadruples the triangles).
 pub const MAX_LOOP_ITERATIONS: i64 = 5;
 
+/// The default block size of quadric decimation: a block's guest takes ~262 bytes a
+/// triangle (docs/benchmarks.md), so 6M-triangle blocks fit the default 2 GiB cap.
+const DECIMATION_BLOCK_TRIANGLES: u32 = 6_000_000;
+
+/// Blocks for a ratio target with the boundary kept: each block then keeps its share of
+/// the triangles and the vertices blocks share stay. An absolute target has no share of a
+/// block, and a boundary that may move would move the blocks' shared vertices.
+fn decimation_blocks(params: &Params) -> Result<Option<u32>> {
+    let by_ratio = params.integer("target-triangles")? == 0;
+    let kept = params.boolean("preserve-boundary")?;
+    let size = params.integer("block-triangles")?;
+    Ok((by_ratio && kept && size > 0).then_some(size as u32))
+}
+
 fn quadric_decimation(mesh: &Mesh, params: &Params) -> Result<String> {
     let input = mesh.triangle_count();
     let target = match params.integer("target-triangles")? {
@@ -193,7 +207,17 @@ fn services() -> Vec<Service> {
             ParamSpec::real("quality-weight", 0.0).range(0.0, 1000.0).doc(
                 "0: pure quadric error; more: also avoid collapses that leave thin triangles.",
             ),
-        ),
+        )
+        .param(
+            ParamSpec::integer("block-triangles", DECIMATION_BLOCK_TRIANGLES.into())
+                .range(0.0, u32::MAX as f64)
+                .doc(
+                    "With target-ratio and preserve-boundary, a mesh of more triangles is \
+                     decimated in blocks of about this many, their shared vertices kept (the \
+                     same on every host; not a whole-mesh result); 0: always whole.",
+                ),
+        )
+        .blocks(decimation_blocks),
         Service::filter(
             "isotropic-remeshing",
             "Botsch–Kobbelt isotropic remeshing: splits long edges, collapses short ones, flips \

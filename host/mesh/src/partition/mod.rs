@@ -10,10 +10,12 @@
 //! code that visits neighbours or triangles in ascending id order (sums in a fixed order)
 //! visits them in the same order on the partition, the condition for bit-identical results.
 
+mod blocks;
 mod placement;
 
 use meshflow_topology::geometry::{BoundingBox, bounding_box};
 
+pub use blocks::{Block, Blocks};
 pub use placement::{Placement, Unplaceable};
 
 use crate::MeshData;
@@ -169,8 +171,18 @@ impl<'a> Partitioning<'a> {
             }
             frontier = reached;
         }
-        let (vertices, triangles) = (vertices.ranked(), triangles.ranked());
-        let triangle_ids = triangles.ascending();
+        let vertices = vertices.ranked();
+        let triangle_ids = triangles.ranked().ascending();
+        let (mesh, vertex_ids) = self.extract(&vertices, &triangle_ids);
+        let mut core_local: Vec<u32> = core.iter().map(|&v| vertices.rank(v)).collect();
+        core_local.sort_unstable();
+        Some(Partition { mesh, vertices: vertex_ids, triangles: triangle_ids, core: core_local })
+    }
+
+    /// The mesh of triangles `triangle_ids` (ascending) over `vertices` (a superset of their
+    /// corners), local ids as ranks, the mesh's attributes restricted to them; and the mesh's
+    /// id of each of its vertices.
+    fn extract(&self, vertices: &Ranked, triangle_ids: &[u32]) -> (MeshData, Vec<u32>) {
         let corners = triangle_ids
             .iter()
             .flat_map(|&t| &self.mesh.triangles[3 * t as usize..3 * t as usize + 3])
@@ -182,15 +194,8 @@ impl<'a> Partitioning<'a> {
             .flat_map(|&v| &self.mesh.positions[3 * v as usize..3 * v as usize + 3])
             .copied()
             .collect();
-        let attributes = self.mesh.attributes.gather(&vertex_ids, &triangle_ids);
-        let mut core_local: Vec<u32> = core.iter().map(|&v| vertices.rank(v)).collect();
-        core_local.sort_unstable();
-        Some(Partition {
-            mesh: MeshData { positions, triangles: corners, attributes },
-            vertices: vertex_ids,
-            triangles: triangle_ids,
-            core: core_local,
-        })
+        let attributes = self.mesh.attributes.gather(&vertex_ids, triangle_ids);
+        (MeshData { positions, triangles: corners, attributes }, vertex_ids)
     }
 }
 
@@ -210,6 +215,10 @@ impl Bits {
         let new = *word & bit == 0;
         *word |= bit;
         new
+    }
+
+    fn contains(&self, id: u32) -> bool {
+        self.words[id as usize / 64] & (1u64 << (id % 64)) != 0
     }
 
     /// With the count of ids below each word, to rank in O(1).

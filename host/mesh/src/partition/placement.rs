@@ -26,11 +26,20 @@ pub struct Placement<'a> {
     triangles: &'a [u32],
     /// The mesh, as the partition was cut from it.
     whole: &'a MeshData,
+    /// The ids the partition's first added vertex and triangle take in the mesh.
+    added_from: (u32, u32),
 }
 
 impl<'a> Placement<'a> {
     pub fn new(vertices: &'a [u32], triangles: &'a [u32], whole: &'a MeshData) -> Self {
-        Self { vertices, triangles, whole }
+        let added_from = (whole.vertex_count() as u32, whole.triangle_count() as u32);
+        Self { vertices, triangles, whole, added_from }
+    }
+
+    /// The same, for edits placed after others that added elements: the partition's added
+    /// elements follow the mesh's `vertex_slots` and `triangle_slots` as they are then.
+    pub fn after(self, vertex_slots: u32, triangle_slots: u32) -> Self {
+        Self { added_from: (vertex_slots, triangle_slots), ..self }
     }
 
     /// The mesh's vertices that the partition's edits (the store `edited`) changed: moved or
@@ -107,10 +116,10 @@ impl<'a> Placement<'a> {
 
     /// A partition's element by its id in the mesh; one its edits appended after the
     /// mesh's own (an id past both stays past both, for the store to refuse).
-    fn rename(own: &[u32], whole: usize, id: u32) -> u32 {
+    fn rename(own: &[u32], added_from: u32, id: u32) -> u32 {
         match own.get(id as usize) {
             Some(&named) => named,
-            None => (whole as u32).saturating_add(id - own.len() as u32),
+            None => added_from.saturating_add(id - own.len() as u32),
         }
     }
 
@@ -120,11 +129,11 @@ impl<'a> Placement<'a> {
     }
 
     fn vertex(&self, v: u32) -> u32 {
-        Self::rename(self.vertices, self.whole.vertex_count(), v)
+        Self::rename(self.vertices, self.added_from.0, v)
     }
 
     fn triangle(&self, t: u32) -> u32 {
-        Self::rename(self.triangles, self.whole.triangle_count(), t)
+        Self::rename(self.triangles, self.added_from.1, t)
     }
 
     /// Half-edge `3t + k` is corner `k`'s edge of triangle `t`.

@@ -16,7 +16,10 @@
 //!
 //! [`Limits::partition_triangles`]: crate::Limits::partition_triangles
 
+mod blocks;
 mod region;
+
+pub(crate) use blocks::{blocks_export, blocks_func};
 
 use std::sync::Arc;
 use std::sync::Mutex;
@@ -233,11 +236,16 @@ impl Merged {
     /// A run's output, up to the capture's bound, and its peak.
     fn add_output(&mut self, state: &RunState) {
         self.guest_peak_bytes = self.guest_peak_bytes.max(state.memory.peak_bytes);
-        for (into, pipe) in [(&mut self.stdout, &state.stdout), (&mut self.stderr, &state.stderr)] {
-            let text = captured(pipe);
-            if !text.is_empty() && into.len() < super::OUTPUT_CAPTURE_BYTES {
-                into.push_str(&text);
-            }
+        capture_output(&mut self.stdout, &mut self.stderr, state);
+    }
+}
+
+/// Appends a run's captured output to a step's, up to the capture's bound.
+fn capture_output(stdout: &mut String, stderr: &mut String, state: &RunState) {
+    for (into, pipe) in [(stdout, &state.stdout), (stderr, &state.stderr)] {
+        let text = captured(pipe);
+        if !text.is_empty() && into.len() < super::OUTPUT_CAPTURE_BYTES {
+            into.push_str(&text);
         }
     }
 }
