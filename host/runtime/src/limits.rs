@@ -43,6 +43,9 @@ pub const AUTO_PARTITION_BYTES_PER_TRIANGLE: usize = 128;
 /// partitioning is given up and the service runs on the whole mesh (a reach so long that
 /// every partition would hold most of the mesh).
 pub const MAX_PARTITION_GROWTH: usize = 4;
+/// The smallest block a service may declare (`blocks.block-triangles`): smaller ones would
+/// cost a sandbox for every few triangles, so a declaration below it fails the step.
+pub const MIN_BLOCK_TRIANGLES: usize = 1_000;
 /// (plugin, service) pairs whose guest bytes per triangle a runtime remembers, for what a
 /// refusal at the memory limit says; pairs beyond it are not learned.
 pub const MAX_REMEMBERED_FOOTPRINTS: usize = 1024;

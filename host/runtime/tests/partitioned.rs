@@ -243,6 +243,16 @@ fn a_service_that_claims_locality_wrongly_is_refused_on_partitions() {
     // Its result depends on the partition's size: the audit partition tells.
     let error = runtime.run(&hostile, "local-but-global", mesh.clone(), &[]).expect_err("global");
     assert!(matches!(&error, RunError::ReachExceeded { rings: 1, .. }), "{error}");
+    // Blocks must keep the vertices they share; a block of ten triangles is refused.
+    let error =
+        runtime.run(&hostile, "blocks-but-moves-all", mesh.clone(), &[]).expect_err("moves");
+    let message = error.to_string();
+    assert!(
+        message.contains("shares with another block") && message.contains("block "),
+        "{message}"
+    );
+    let error = runtime.run(&hostile, "blocks-of-ten", mesh.clone(), &[]).expect_err("ten");
+    assert!(error.to_string().contains("at least 1000"), "{error}");
     // On a mesh below the partition size both run whole, as any service.
     let small = MeshData::new(mesh.positions[..300].to_vec(), vec![0, 1, 2]);
     runtime.run(&hostile, "local-but-global", small, &[]).expect("runs whole");

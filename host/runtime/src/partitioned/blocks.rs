@@ -16,6 +16,7 @@ use wasmtime::Store;
 use wasmtime::component::{Component, ComponentExportIndex, Instance, TypedFunc};
 
 use super::{Partitions, Plugin, RunError, RunOutput, RunState, Runtime, capture_output, permits};
+use crate::MIN_BLOCK_TRIANGLES;
 use crate::bindings::Param;
 use crate::work_queue::{End, WorkQueue};
 use meshflow_mesh::MeshData;
@@ -73,6 +74,13 @@ impl Runtime {
         block_triangles: usize,
     ) -> Result<RunOutput, RunError> {
         let started = Instant::now();
+        if block_triangles < MIN_BLOCK_TRIANGLES {
+            let message = format!(
+                "declared blocks of {block_triangles} triangles; a block needs at least \
+                 {MIN_BLOCK_TRIANGLES}"
+            );
+            return Err(RunError::Failed { service: service.to_owned(), message });
+        }
         let cut = Partitioning::new(mesh, block_triangles);
         let blocks = cut.blocks();
         let (slot, queued) = self.acquire_slot(service)?;

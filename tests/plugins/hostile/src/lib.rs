@@ -139,6 +139,21 @@ fn one_ring(_: &Params) -> Result<u32> {
     Ok(1)
 }
 
+/// Declares blocks of 2,000 triangles, then moves every vertex, those the blocks share too.
+fn blocks_but_moves_all(mesh: &Mesh, _: &Params) -> Result<String> {
+    let moved: Vec<f32> = mesh.positions().iter().map(|&c| c + 1.0).collect();
+    mesh.set_positions(&moved)?;
+    Ok("moved every vertex".into())
+}
+
+fn small_blocks(_: &Params) -> Result<Option<u32>> {
+    Ok(Some(2_000))
+}
+
+fn tiny_blocks(_: &Params) -> Result<Option<u32>> {
+    Ok(Some(10))
+}
+
 fn wrong_result_type(_: &Mesh, _: &Params) -> Result<Value> {
     Ok(Value::Text("not an integer".into()))
 }
@@ -192,6 +207,18 @@ fn services() -> Vec<Service> {
             local_but_global,
         )
         .local(one_ring),
+        Service::filter(
+            "blocks-but-moves-all",
+            "Declares blocks, then moves the vertices they share.",
+            blocks_but_moves_all,
+        )
+        .blocks(small_blocks),
+        Service::filter(
+            "blocks-of-ten",
+            "Declares blocks of ten triangles: a million sandboxes for a 10M mesh.",
+            blocks_but_moves_all,
+        )
+        .blocks(tiny_blocks),
         Service::check(
             "trap-in-check",
             "Aborts although it is a check.",
