@@ -94,6 +94,25 @@ impl Service {
     /// across hosts, but not with a whole-mesh run: quadric decimation keeps the blocks'
     /// borders at full resolution. A filter that may move or remove its input's boundary
     /// vertices with these parameters must return `None`.
+    ///
+    /// ```
+    /// use meshflow_plugin_sdk::{Mesh, ParamSpec, Params, Result, Service};
+    ///
+    /// fn simplify(_: &Mesh, _: &Params) -> Result<String> {
+    ///     Ok(String::new())
+    /// }
+    /// /// Blocks of 4M triangles, unless told 0 (always whole).
+    /// fn blocks(params: &Params) -> Result<Option<u32>> {
+    ///     Ok(match params.integer("block-triangles")? {
+    ///         0 => None,
+    ///         n => Some(n as u32),
+    ///     })
+    /// }
+    /// let service = Service::filter("my-simplify", "Simplifies.", simplify)
+    ///     .param(ParamSpec::integer("block-triangles", 4_000_000).range(0.0, 4e9))
+    ///     .blocks(blocks);
+    /// assert_eq!(service.name(), "my-simplify");
+    /// ```
     pub fn blocks(mut self, blocks: BlocksFn) -> Self {
         self.blocks = Some(blocks);
         self
