@@ -114,7 +114,9 @@ impl Runtime {
         let mut store = MeshStore::new(Arc::clone(mesh));
         let mut reports = Vec::new();
         for (index, block) in ran.blocks.into_iter().enumerate() {
-            let block = block.expect("every block ran, or the step failed");
+            let Some(block) = block else {
+                return Err(failed(format!("block {} did not run", index + 1)));
+            };
             let placement = Placement::new(&block.vertices, &block.triangles, mesh)
                 .after(store.vertex_slots(), store.triangle_slots());
             for op in block.log {
