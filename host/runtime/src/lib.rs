@@ -148,10 +148,10 @@ impl Runtime {
                 let services = p.meshflow_geometry_service().call_describe(&mut *store)?;
                 let reach_typed = reach
                     .as_ref()
-                    .map(|index| partitioned::reach_func(store, i, index).map(|_| ()));
+                    .map(|index| partitioned::declaration_func(store, i, index).map(|_| ()));
                 let blocks_typed = blocks
                     .as_ref()
-                    .map(|index| partitioned::blocks_func(store, i, index).map(|_| ()));
+                    .map(|index| partitioned::declaration_func(store, i, index).map(|_| ()));
                 Ok((services, reach_typed, blocks_typed))
             })
             .map(|((services, reach, blocks), _)| {
@@ -254,7 +254,7 @@ impl Runtime {
             self.limits.deadline,
             |store, p, instance, mesh| {
                 if let Some(index) = blocks {
-                    let declared = partitioned::blocks_func(store, instance, index)?
+                    let declared = partitioned::declaration_func(store, instance, index)?
                         .call(&mut *store, (service.to_owned(), params.clone()))?
                         .0;
                     if let Some(size) = declared.filter(|&size| triangles > size as usize) {

@@ -12,10 +12,11 @@
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use wasmtime::Store;
-use wasmtime::component::{Component, ComponentExportIndex, Instance, TypedFunc};
+use wasmtime::component::{Component, ComponentExportIndex};
 
-use super::{Partitions, Plugin, RunError, RunOutput, RunState, Runtime, capture_output, permits};
+use super::{
+    Partitions, Plugin, RunError, RunOutput, Runtime, capture_output, optional_export, permits,
+};
 use crate::MIN_BLOCK_TRIANGLES;
 use crate::bindings::Param;
 use crate::work_queue::{End, WorkQueue};
@@ -26,21 +27,9 @@ use meshflow_mesh::store::{MeshStore, Op};
 /// The optional export a `block-plugin` has.
 const BLOCKS_INTERFACE: &str = "meshflow:geometry/blocks@0.1.0";
 
-type BlockTrianglesFunc = TypedFunc<(String, Vec<Param>), (Option<u32>,)>;
-
 /// `blocks.block-triangles` of a component that exports it.
 pub(crate) fn blocks_export(component: &Component) -> Option<ComponentExportIndex> {
-    let interface = component.get_export_index(None, BLOCKS_INTERFACE)?;
-    component.get_export_index(Some(&interface), "block-triangles")
-}
-
-/// The typed `block-triangles` of an instance: fails when the export has another signature.
-pub(crate) fn blocks_func(
-    store: &mut Store<RunState>,
-    instance: &Instance,
-    index: &ComponentExportIndex,
-) -> wasmtime::Result<BlockTrianglesFunc> {
-    instance.get_typed_func(store, index)
+    optional_export(component, BLOCKS_INTERFACE, "block-triangles")
 }
 
 /// What one block's run left: its edits and where its elements are in the mesh.

@@ -19,7 +19,7 @@
 mod blocks;
 mod region;
 
-pub(crate) use blocks::{blocks_export, blocks_func};
+pub(crate) use blocks::blocks_export;
 
 use std::sync::Arc;
 use std::sync::Mutex;
@@ -45,7 +45,9 @@ const LOCALITY_INTERFACE: &str = "meshflow:geometry/locality@0.1.0";
 /// the audit costs a small share of the step however few partitions there are.
 const AUDIT_VERTICES: usize = 50_000;
 
-type ReachFunc = TypedFunc<(String, Vec<Param>), (Option<u32>,)>;
+/// `locality.reach` and `blocks.block-triangles`: a number a service declares for a
+/// service name and its parameters.
+type DeclarationFunc = TypedFunc<(String, Vec<Param>), (Option<u32>,)>;
 
 /// How a run on partitions cut the mesh.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -62,16 +64,26 @@ pub struct Partitions {
 
 /// `locality.reach` of a component that exports it.
 pub(crate) fn reach_export(component: &Component) -> Option<ComponentExportIndex> {
-    let interface = component.get_export_index(None, LOCALITY_INTERFACE)?;
-    component.get_export_index(Some(&interface), "reach")
+    optional_export(component, LOCALITY_INTERFACE, "reach")
 }
 
-/// The typed `reach` of an instance: fails when the export has another signature.
-pub(crate) fn reach_func(
+/// Function `name` of interface `interface`, when the component exports it.
+fn optional_export(
+    component: &Component,
+    interface: &str,
+    name: &str,
+) -> Option<ComponentExportIndex> {
+    let interface = component.get_export_index(None, interface)?;
+    component.get_export_index(Some(&interface), name)
+}
+
+/// The typed declaration (`reach`, `block-triangles`) of an instance: fails when the
+/// export has another signature.
+pub(crate) fn declaration_func(
     store: &mut Store<RunState>,
     instance: &Instance,
     index: &ComponentExportIndex,
-) -> wasmtime::Result<ReachFunc> {
+) -> wasmtime::Result<DeclarationFunc> {
     instance.get_typed_func(store, index)
 }
 
@@ -99,7 +111,7 @@ impl Runtime {
             true,
             deadline,
             |store, _, instance, _| {
-                let reach = reach_func(store, instance, reach_index)?;
+                let reach = declaration_func(store, instance, reach_index)?;
                 Ok(reach.call(store, (service.to_owned(), params.to_vec()))?.0)
             },
         )?;
