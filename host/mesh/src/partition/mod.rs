@@ -140,6 +140,29 @@ impl<'a> Partitioning<'a> {
         self.grown(vertices, rings, max_triangles)
     }
 
+    /// `vertices` and every corner of their triangles, ascending: what lies within one edge
+    /// of them (a region's check of its own edits). Builds no mesh.
+    pub fn neighbourhood(&self, vertices: &[u32]) -> Vec<u32> {
+        let around = self.around();
+        let mut within = Bits::new(self.mesh.vertex_count());
+        for &v in vertices {
+            within.insert(v);
+            for &t in
+                &around[self.starts[v as usize] as usize..self.starts[v as usize + 1] as usize]
+            {
+                for &w in &self.mesh.triangles[3 * t as usize..3 * t as usize + 3] {
+                    within.insert(w);
+                }
+            }
+        }
+        within.ranked().ascending()
+    }
+
+    /// The triangles around every vertex, filled on first use.
+    fn around(&self) -> &[u32] {
+        self.around.get_or_init(|| fill_around(&self.starts, &self.mesh.triangles))
+    }
+
     /// The partition with `core` (any vertex ids) grown by `rings`. Membership is kept as
     /// bits over the whole mesh and local ids are ranks among them: no search or sort per
     /// element (the searches took 2.6 s for a 10M-triangle partition of a 20M scan).
@@ -410,6 +433,15 @@ mod tests {
         let cores: usize = (0..cut.len()).map(|i| cut.partition(i, 0, 0).unwrap().core.len()).sum();
         assert_eq!(cores, mesh.vertex_count());
         assert!(cut.whole(cut.partition(0, 0, 0).unwrap().vertices).bounds.is_empty());
+    }
+
+    #[test]
+    fn a_neighbourhood_is_the_vertices_and_their_triangles_corners() {
+        let mesh = strip(6);
+        let cut = Partitioning::new(&mesh, 4);
+        let one_ring = cut.region(vec![5], 1, usize::MAX).unwrap().vertices;
+        assert_eq!(cut.neighbourhood(&[5]), one_ring);
+        assert_eq!(cut.neighbourhood(&[]), Vec::<u32>::new());
     }
 
     #[test]

@@ -177,6 +177,12 @@ impl MeshStore {
         &self.log
     }
 
+    /// The log, taken out without a copy, for a caller done with this store (a partition's
+    /// or block's edits, placed in the whole mesh): the store's log is empty afterwards.
+    pub fn take_log(&mut self) -> Vec<Op> {
+        std::mem::take(&mut self.log)
+    }
+
     // ---- edits ---------------------------------------------------------------------------
 
     /// Validates and performs one edit, then records it. Returns the id of the element the

@@ -183,7 +183,7 @@ impl BlockWork<'_> {
         }
         let Block { mesh, vertices, triangles, shared } = self.blocks.block(index);
         let triangle_count = mesh.triangle_count();
-        let (outcome, state) = self.runtime.call(
+        let (outcome, mut state) = self.runtime.call(
             slot,
             &self.plugin.pre,
             &label,
@@ -219,7 +219,7 @@ impl BlockWork<'_> {
         ran.guest_peak_bytes = ran.guest_peak_bytes.max(state.memory.peak_bytes);
         capture_output(&mut ran.stdout, &mut ran.stderr, &state);
         ran.blocks[index] =
-            Some(BlockRun { log: state.mesh.log().to_vec(), vertices, triangles, report });
+            Some(BlockRun { log: state.mesh.take_log(), vertices, triangles, report });
         Ok(())
     }
 }

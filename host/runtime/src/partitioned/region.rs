@@ -56,14 +56,14 @@ impl Work<'_> {
             let triangles = region.triangles;
             let region_triangles = region.mesh.triangle_count();
             let whole = self.cut.whole(region.vertices);
-            let (report, state) = self.run_on(slot, &label, region.mesh, whole)?;
+            let (report, mut state) = self.run_on(slot, &label, region.mesh, whole)?;
+            let log = state.mesh.take_log();
             let vertices = &state.mesh.whole().expect("its whole was set before the run").ids;
             let placement = Placement::new(vertices, &triangles, self.mesh);
             let not_local =
                 |e: Unplaceable| RunError::NotLocal { service: label.clone(), edit: e.edit };
             let made = placement.changed_vertices(&state.mesh).map_err(not_local)?;
-            let within =
-                self.cut.region(changed.clone(), 1, usize::MAX).expect("no bound").vertices;
+            let within = self.cut.neighbourhood(&changed);
             let beyond: Vec<u32> =
                 made.iter().copied().filter(|v| within.binary_search(v).is_err()).collect();
             if !beyond.is_empty() {
@@ -72,7 +72,7 @@ impl Work<'_> {
                 continue;
             }
             let mut edited = MeshStore::new(Arc::clone(self.mesh));
-            for op in state.mesh.log().to_vec() {
+            for op in log {
                 let op = placement.to_whole(op).map_err(not_local)?;
                 edited.apply(op).map_err(|e| RunError::Failed {
                     service: label.clone(),
