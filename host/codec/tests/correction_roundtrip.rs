@@ -77,6 +77,10 @@ fn a_log_that_does_not_give_the_result_is_refused() {
     let log = [Op::RemoveTriangles { ids: vec![0] }];
     let error = correction::encode(&base, &log, &base).unwrap_err();
     assert!(matches!(error, correction::CorrectionError::ResultMismatch { .. }), "{error}");
+    // An empty log says the result is the base: any other result is refused.
+    let other = grid(3, 3, 1, &mut Rng(2));
+    let error = correction::encode(&base, &[], &other).unwrap_err();
+    assert!(matches!(error, correction::CorrectionError::ResultMismatch { .. }), "{error}");
     let bad = [Op::RemoveTriangles { ids: vec![999] }];
     let error = correction::encode(&base, &bad, &base).unwrap_err();
     assert!(matches!(error, correction::CorrectionError::Replay { op: 0, .. }), "{error}");
