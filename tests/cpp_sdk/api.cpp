@@ -1,6 +1,7 @@
 // Exercises every part of meshflow.hpp against a real host (tests/cpp_sdk.rs): each Mesh
 // wrapper (attributes included), MESHFLOW_TRY on values and on Result<>, formatted fail(), direct parameter
-// getters, builders on named objects, and capturing lambdas as services.
+// getters, builders on named objects, capturing lambdas as services, and a filter declared
+// to run in blocks (Service::blocks).
 #include <meshflow.hpp>
 
 #include <algorithm>
@@ -137,6 +138,31 @@ Result<std::string> attributes(const Mesh& mesh, const Params&) {
                        int(!mesh.read_attribute(Domain::Corner, "texcoord")));
 }
 
+// Lifts by `dz` every vertex of a proper triangle that is on no boundary edge, in one
+// move-vertices. Run in blocks, a block's border is a boundary: the vertices blocks share stay.
+Result<std::string> lift_inside(const Mesh& mesh, const Params& params) {
+    float dz = float(params.get_real("dz"));
+    meshflow::Array<float> xyz = mesh.positions();
+    meshflow::Array<uint32_t> abc = mesh.triangles();
+    meshflow::Array<uint8_t> kinds = mesh.half_edge_kinds();
+    // Per vertex: 1 on a proper triangle, 2 on a boundary edge.
+    std::vector<uint8_t> on(mesh.vertex_slots(), 0);
+    for (size_t h = 0; h < kinds.size(); ++h) {
+        if (kinds[h] == 0) continue;
+        uint8_t mark = kinds[h] == 1 ? 2 : 1;
+        for (uint32_t v : {abc[h], abc[h - h % 3 + (h + 1) % 3]}) on[v] = std::max(on[v], mark);
+    }
+    std::vector<uint32_t> ids;
+    std::vector<float> lifted;
+    for (uint32_t v = 0; v < on.size(); ++v) {
+        if (on[v] != 1) continue;
+        ids.push_back(v);
+        lifted.insert(lifted.end(), {xyz[3 * v], xyz[3 * v + 1], xyz[3 * v + 2] + dz});
+    }
+    MESHFLOW_TRY(mesh.move_vertices(ids, lifted));
+    return std::format("lifted {} of {} vertices", ids.size(), on.size());
+}
+
 }  // namespace
 
 std::vector<meshflow::Service> services() {
@@ -148,6 +174,14 @@ std::vector<meshflow::Service> services() {
     rounds.doc("Split and collapse rounds.");
     Service edit = Service::filter("sdk-api-edits", "Every mesh edit, once.", edits);
     edit.param(rounds);
+
+    // The same filter run whole, and declared to run in blocks of `block-triangles` (0: whole).
+    Service lift = Service::filter("sdk-api-lift", "Lifts what is off the boundary.", lift_inside)
+                       .param(Param::real("dz", 0.01).range(-1, 1));
+    Service in_blocks = lift;
+    in_blocks.name = "sdk-api-lift-in-blocks";
+    in_blocks.param(Param::integer("block-triangles", 1000).range(0, 4e9))
+        .blocks([](const Params& p) { return uint32_t(p.get_integer("block-triangles")); });
 
     // A capturing lambda as a check, and a formatted failure.
     std::string unit = "triangles";
@@ -172,6 +206,8 @@ std::vector<meshflow::Service> services() {
                             MESHFLOW_TRY(mesh.clear());
                             return std::format("{} left", mesh.triangle_count());
                         }),
+        lift,
+        in_blocks,
     };
 }
 

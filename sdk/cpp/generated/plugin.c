@@ -140,6 +140,9 @@ extern void __wasm_import_meshflow_geometry_mesh_method_mesh_set_attribute(int32
 __attribute__((__import_module__("meshflow:geometry/mesh@0.1.0"), __import_name__("[method]mesh.remove-attribute")))
 extern void __wasm_import_meshflow_geometry_mesh_method_mesh_remove_attribute(int32_t, int32_t, uint8_t *, size_t, uint8_t *);
 
+// Exported Functions from `meshflow:geometry/blocks@0.1.0`
+
+
 // Exported Functions from `meshflow:geometry/locality@0.1.0`
 
 
@@ -520,6 +523,26 @@ void meshflow_geometry_mesh_result_attribute_values_edit_error_free(meshflow_geo
   }
 }
 
+void exports_meshflow_geometry_blocks_param_free(exports_meshflow_geometry_blocks_param_t *ptr) {
+  meshflow_geometry_types_param_free(ptr);
+}
+
+void exports_meshflow_geometry_blocks_list_param_free(exports_meshflow_geometry_blocks_list_param_t *ptr) {
+  size_t list_len = ptr->len;
+  if (list_len > 0) {
+    exports_meshflow_geometry_blocks_param_t *list_ptr = ptr->ptr;
+    for (size_t i = 0; i < list_len; i++) {
+      exports_meshflow_geometry_blocks_param_free(&list_ptr[i]);
+    }
+    free(list_ptr);
+  }
+}
+
+void plugin_option_u32_free(plugin_option_u32_t *ptr) {
+  if (ptr->is_some) {
+  }
+}
+
 void exports_meshflow_geometry_locality_param_free(exports_meshflow_geometry_locality_param_t *ptr) {
   meshflow_geometry_types_param_free(ptr);
 }
@@ -532,11 +555,6 @@ void exports_meshflow_geometry_locality_list_param_free(exports_meshflow_geometr
       exports_meshflow_geometry_locality_param_free(&list_ptr[i]);
     }
     free(list_ptr);
-  }
-}
-
-void plugin_option_u32_free(plugin_option_u32_t *ptr) {
-  if (ptr->is_some) {
   }
 }
 
@@ -1669,6 +1687,27 @@ bool meshflow_geometry_mesh_method_mesh_remove_attribute(meshflow_geometry_mesh_
     *err = result.val.err;
     return 0;
   }
+}
+
+__attribute__((__export_name__("meshflow:geometry/blocks@0.1.0#block-triangles")))
+uint8_t * __wasm_export_exports_meshflow_geometry_blocks_block_triangles(uint8_t * arg, size_t arg0, uint8_t * arg1, size_t arg2) {
+  plugin_string_t arg3 = (plugin_string_t) { (uint8_t*)(arg), (arg0) };
+  exports_meshflow_geometry_blocks_list_param_t arg4 = (exports_meshflow_geometry_blocks_list_param_t) { (exports_meshflow_geometry_blocks_param_t*)(arg1), (arg2) };
+  uint32_t val;
+  bool ret = exports_meshflow_geometry_blocks_block_triangles(&arg3, &arg4, &val);
+
+  plugin_option_u32_t ret5;
+  ret5.is_some = ret;
+  ret5.val = val;
+  uint8_t *ptr = (uint8_t *) &RET_AREA;
+  if ((ret5).is_some) {
+    const uint32_t *payload6 = &(ret5).val;
+    *((int8_t*)(ptr + 0)) = 1;
+    *((int32_t*)(ptr + 4)) = (int32_t) (*payload6);
+  } else {
+    *((int8_t*)(ptr + 0)) = 0;
+  }
+  return ptr;
 }
 
 __attribute__((__export_name__("meshflow:geometry/locality@0.1.0#reach")))

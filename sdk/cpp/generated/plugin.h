@@ -296,17 +296,24 @@ typedef struct {
   } val;
 } meshflow_geometry_mesh_result_attribute_values_edit_error_t;
 
+typedef meshflow_geometry_types_param_t exports_meshflow_geometry_blocks_param_t;
+
+typedef struct {
+  exports_meshflow_geometry_blocks_param_t *ptr;
+  size_t len;
+} exports_meshflow_geometry_blocks_list_param_t;
+
+typedef struct {
+  bool is_some;
+  uint32_t val;
+} plugin_option_u32_t;
+
 typedef meshflow_geometry_types_param_t exports_meshflow_geometry_locality_param_t;
 
 typedef struct {
   exports_meshflow_geometry_locality_param_t *ptr;
   size_t len;
 } exports_meshflow_geometry_locality_list_param_t;
-
-typedef struct {
-  bool is_some;
-  uint32_t val;
-} plugin_option_u32_t;
 
 typedef meshflow_geometry_types_service_info_t exports_meshflow_geometry_service_service_info_t;
 
@@ -475,6 +482,9 @@ extern bool meshflow_geometry_mesh_method_mesh_set_attribute(meshflow_geometry_m
 // Drops an attribute (`not-applicable` if the mesh has none of that name).
 extern bool meshflow_geometry_mesh_method_mesh_remove_attribute(meshflow_geometry_mesh_borrow_mesh_t self, meshflow_geometry_mesh_attribute_domain_t domain, plugin_string_t *name, meshflow_geometry_mesh_edit_error_t *err);
 
+// Exported Functions from `meshflow:geometry/blocks@0.1.0`
+bool exports_meshflow_geometry_blocks_block_triangles(plugin_string_t *name, exports_meshflow_geometry_blocks_list_param_t *params, uint32_t *ret);
+
 // Exported Functions from `meshflow:geometry/locality@0.1.0`
 bool exports_meshflow_geometry_locality_reach(plugin_string_t *name, exports_meshflow_geometry_locality_list_param_t *params, uint32_t *ret);
 
@@ -546,11 +556,15 @@ void meshflow_geometry_mesh_list_attribute_info_free(meshflow_geometry_mesh_list
 
 void meshflow_geometry_mesh_result_attribute_values_edit_error_free(meshflow_geometry_mesh_result_attribute_values_edit_error_t *ptr);
 
+void exports_meshflow_geometry_blocks_param_free(exports_meshflow_geometry_blocks_param_t *ptr);
+
+void exports_meshflow_geometry_blocks_list_param_free(exports_meshflow_geometry_blocks_list_param_t *ptr);
+
+void plugin_option_u32_free(plugin_option_u32_t *ptr);
+
 void exports_meshflow_geometry_locality_param_free(exports_meshflow_geometry_locality_param_t *ptr);
 
 void exports_meshflow_geometry_locality_list_param_free(exports_meshflow_geometry_locality_list_param_t *ptr);
-
-void plugin_option_u32_free(plugin_option_u32_t *ptr);
 
 void exports_meshflow_geometry_service_service_info_free(exports_meshflow_geometry_service_service_info_t *ptr);
 

@@ -726,6 +726,8 @@ using CheckFn = std::function<Result<Value>(const Mesh&, const Params&)>;
 
 // How many rings of the mesh around a vertex a local filter's result there depends on.
 using ReachFn = std::function<uint32_t(const Params&)>;
+// Above how many triangles a filter runs block by block; nullopt or 0: whole.
+using BlocksFn = std::function<std::optional<uint32_t>(const Params&)>;
 
 // One service of a plugin: its description and the function that runs it.
 struct Service {
@@ -733,13 +735,14 @@ struct Service {
     std::variant<FilterFn, CheckFn> run;
     ValueType result = ValueType::Integer;  // checks only
     std::vector<Param> params;
-    ReachFn reach;  // local filters only
+    ReachFn reach;             // local filters only
+    BlocksFn block_triangles;  // filters run block by block only
 
     static Service filter(std::string name, std::string doc, FilterFn f) {
-        return {std::move(name), std::move(doc), std::move(f), ValueType::Integer, {}, {}};
+        return {std::move(name), std::move(doc), std::move(f), ValueType::Integer, {}, {}, {}};
     }
     static Service check(std::string name, std::string doc, ValueType result, CheckFn f) {
-        return {std::move(name), std::move(doc), std::move(f), result, {}, {}};
+        return {std::move(name), std::move(doc), std::move(f), result, {}, {}, {}};
     }
     // Declares a parameter; chains on a temporary and on a named service.
     Service& param(Param p) & {
@@ -757,6 +760,19 @@ struct Service {
         return *this;
     }
     Service local(ReachFn f) && { return std::move(local(std::move(f))); }
+    // Declares that on a mesh of more than `f(params)` triangles (when it gives a count, not
+    // 0) the filter's result is, by definition, its result on each block of about that many
+    // triangles run as a mesh of its own, the vertices blocks share kept where they are (WIT
+    // `blocks`), as the Rust SDK's `Service::blocks`. Every host cuts the same blocks, so
+    // results agree across hosts, but not with a whole-mesh run. A block's border is its
+    // boundary: a filter that may move or remove boundary vertices with these parameters
+    // must give nullopt. A host refuses blocks of fewer than 1000 triangles, and edits it
+    // cannot rename into the mesh (set_positions, transform, clear, component, attribute).
+    Service& blocks(BlocksFn f) & {
+        block_triangles = std::move(f);
+        return *this;
+    }
+    Service blocks(BlocksFn f) && { return std::move(blocks(std::move(f))); }
 };
 
 namespace detail {
@@ -841,17 +857,47 @@ std::pair<std::string, std::vector<std::pair<std::string, Value>>> take_call(
     return {std::move(wanted), std::move(values)};
 }
 
+// What a filter answers to one of the WIT's optional declarations with these parameters.
+using Declaration = std::optional<uint32_t> (*)(const Service&, const Params&);
+
+// The named filter's answer to a declaration (`locality.reach`, `blocks.block-triangles`),
+// as the bindings' option<u32>: false (none) for a check or an unknown service.
+template <class List>
+bool declared(const std::vector<Service>& services, plugin_string_t* name, List* params,
+              void (*free_params)(List*), Declaration answer, uint32_t* ret) {
+    auto [wanted, values] = take_call(name, params, free_params);
+    for (const Service& s : services) {
+        if (s.name != wanted || s.run.index() != 0) continue;
+        std::optional<uint32_t> given = answer(s, Params(std::move(values)));
+        *ret = given.value_or(0);
+        return given.has_value();
+    }
+    return false;
+}
+
 // reach(): the named filter's reach with these parameters, if it declared one.
 inline bool reach(const std::vector<Service>& services, plugin_string_t* name,
                   exports_meshflow_geometry_locality_list_param_t* params, uint32_t* ret) {
-    auto [wanted, values] =
-        take_call(name, params, &exports_meshflow_geometry_locality_list_param_free);
-    for (const Service& s : services) {
-        if (s.name != wanted || !s.reach || s.run.index() != 0) continue;
-        *ret = s.reach(Params(std::move(values)));
-        return true;
-    }
-    return false;
+    Declaration answer = [](const Service& s, const Params& p) -> std::optional<uint32_t> {
+        if (!s.reach) return std::nullopt;
+        return s.reach(p);
+    };
+    return declared(services, name, params, &exports_meshflow_geometry_locality_list_param_free,
+                    answer, ret);
+}
+
+// block_triangles(): above how many triangles the named filter runs block by block with
+// these parameters, if it declared blocks and gave a count (0 reads as none: whole).
+inline bool block_triangles(const std::vector<Service>& services, plugin_string_t* name,
+                            exports_meshflow_geometry_blocks_list_param_t* params, uint32_t* ret) {
+    Declaration answer = [](const Service& s, const Params& p) -> std::optional<uint32_t> {
+        if (!s.block_triangles) return std::nullopt;
+        std::optional<uint32_t> n = s.block_triangles(p);
+        if (n == 0u) return std::nullopt;
+        return n;
+    };
+    return declared(services, name, params, &exports_meshflow_geometry_blocks_list_param_free,
+                    answer, ret);
 }
 
 // run(): the named service on the mesh. The arguments are freed here and the borrowed mesh
@@ -1055,8 +1101,9 @@ inline Result<Outcome> run(std::string_view service, const MeshData& mesh,
 #endif
 
 // Exports the services returned by `std::vector<meshflow::Service> services()` as this
-// component's meshflow:geometry/service interface, and their reach (`Service::local`) as
-// its meshflow:geometry/locality.
+// component's meshflow:geometry/service interface, their reach (`Service::local`) as its
+// meshflow:geometry/locality, and their block size (`Service::blocks`) as its
+// meshflow:geometry/blocks.
 // It also gives weak definitions of the stack-protector symbols that Debian's wasm32
 // compiler-rt (128-bit division, which std::format uses) refers to and wasi-libc lacks.
 #define MESHFLOW_EXPORT_PLUGIN(services_fn)                                                    \
@@ -1075,6 +1122,11 @@ inline Result<Outcome> run(std::string_view service, const MeshData& mesh,
         plugin_string_t* name, exports_meshflow_geometry_locality_list_param_t* params,        \
         uint32_t* ret) {                                                                       \
         return ::meshflow::detail::reach(services_fn(), name, params, ret);                    \
+    }                                                                                          \
+    extern "C" bool exports_meshflow_geometry_blocks_block_triangles(                          \
+        plugin_string_t* name, exports_meshflow_geometry_blocks_list_param_t* params,          \
+        uint32_t* ret) {                                                                       \
+        return ::meshflow::detail::block_triangles(services_fn(), name, params, ret);          \
     }
 
 // Early return for results, like Rust's `?`: `auto xyz = MESHFLOW_TRY(mesh.position(v));`

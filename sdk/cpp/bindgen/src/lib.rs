@@ -21,9 +21,9 @@ pub fn generate() -> Result<Vec<(String, Vec<u8>)>> {
     let mut resolve = Resolve::default();
     let (package, _) =
         resolve.push_path(&wit).with_context(|| format!("parsing {}", wit.display()))?;
-    // World `local-plugin` (a plugin that may declare its services' reach), its generated
-    // names kept as world `plugin`'s: `plugin.h`, `plugin_string_t`, …
-    let world = resolve.select_world(&[package], Some("local-plugin"))?;
+    // World `block-plugin` (a plugin that may declare its services' reach and block size),
+    // its generated names kept as world `plugin`'s: `plugin.h`, `plugin_string_t`, …
+    let world = resolve.select_world(&[package], Some("block-plugin"))?;
     let mut files = wit_bindgen_core::Files::default();
     let opts = wit_bindgen_c::Opts { rename_world: Some("plugin".into()), ..Default::default() };
     opts.build().generate(&mut resolve, world, &mut files)?;

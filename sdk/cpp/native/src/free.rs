@@ -479,6 +479,22 @@ pub unsafe extern "C" fn exports_meshflow_geometry_locality_list_param_free(ptr:
 }
 
 /// # Safety
+/// `ptr` is null or a valid parameter.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn exports_meshflow_geometry_blocks_param_free(ptr: *mut Param) {
+    // SAFETY: the caller's promise.
+    unsafe { meshflow_geometry_types_param_free(ptr) }
+}
+
+/// # Safety
+/// `ptr` is null or a valid list of parameters.
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn exports_meshflow_geometry_blocks_list_param_free(ptr: *mut List<Param>) {
+    // SAFETY: the caller's promise.
+    unsafe { exports_meshflow_geometry_service_list_param_free(ptr) }
+}
+
+/// # Safety
 /// `ptr` is null or a valid option; a number owns nothing.
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn plugin_option_u32_free(_: *mut std::ffi::c_void) {}
