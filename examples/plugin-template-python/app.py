@@ -4,8 +4,8 @@ Build: `make` (a venv with componentize-py, then `py.wasm`). Run:
 `meshflow apply --plugin py.wasm taubin-smoothing-py bunny.obj -o out.ply`.
 """
 
-# Service and Locality: the exports componentize-py binds.
-from meshflow_plugin import Integer, Locality, Mesh, Real, Service, check, filter  # noqa: F401
+# Service, Locality and Blocks: the exports componentize-py binds.
+from meshflow_plugin import Blocks, Integer, Locality, Mesh, Real, Service, check, filter  # noqa: F401
 
 import taubin
 

@@ -263,6 +263,34 @@ def test_a_filter_declares_its_reach_to_the_locality_export(sdk):
     assert locality.reach("lying-py", []) is None
 
 
+def test_a_filter_declares_its_blocks_to_the_blocks_export(sdk):
+    mp, t, Err = sdk
+
+    @mp.filter("simplify-py", "Simplifies.", params=[mp.Integer("block-triangles", 5000, min=0)],
+               blocks=lambda params: params["block-triangles"] or None)
+    @mp.filter("fixed-blocks-py", "Blocks of 4000 triangles, and a reach.", reach=2, blocks=4000)
+    @mp.filter("whole-py", "Runs whole.")
+    @mp.filter("huge-py", "Says more triangles than a u32 holds.", blocks=lambda params: 2**32)
+    def simplify(mesh, params):
+        return ""
+
+    @mp.check("count-py", "Counts.", result="integer")
+    def count(mesh, params):
+        return 0
+
+    blocks = mp.Blocks()
+    assert blocks.block_triangles("simplify-py", [t.Param("block-triangles", t.Value_Integer(1200))]) == 1200
+    assert blocks.block_triangles("fixed-blocks-py", []) == 4000
+    # Both declarations are answered, each by its own export.
+    assert mp.Locality().reach("fixed-blocks-py", []) == 2
+    assert mp.Locality().reach("simplify-py", []) is None
+    # None or 0 from the filter, no declaration, a check, an unknown service, or no count a
+    # u32 holds: none, the host runs it whole.
+    assert blocks.block_triangles("simplify-py", [t.Param("block-triangles", t.Value_Integer(0))]) is None
+    for name in ("whole-py", "count-py", "nope", "huge-py"):
+        assert blocks.block_triangles(name, []) is None, name
+
+
 class PartitionMesh(RawMesh):
     """A partition of a larger mesh: the host says what it is part of."""
 

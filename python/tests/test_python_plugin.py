@@ -1,15 +1,16 @@
 """The Python plugin template (examples/plugin-template-python): its algorithm in plain
 CPython and, built with componentize-py, as a component — against the built-in
 `taubin-smoothing` on the bunny, and uploaded to one host of `meshflow up` whose step the
-other host replays.
+other host replays. And a filter declared to run in blocks (blocks_plugin/), run by a host.
 
-The component is built once per session by the template's Makefile into target/ (its venv
-too: target/python-venv-plugin), so a fresh clone builds it again and a later session whose
-sources did not change reuses it; the hosts and the CLI share the compiled artefacts
+The components are built once per session by the template's Makefile into target/ (its venv
+too: target/python-venv-plugin), so a fresh clone builds them again and a later session whose
+sources did not change reuses them; the hosts and the CLI share the compiled artefacts
 (MESHFLOW_CACHE_DIR, see conftest.py)."""
 
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -26,18 +27,27 @@ SDK = ROOT / "sdk" / "python"
 PLUGIN_DIR = ROOT / "target" / "tmp" / "python-plugin"
 
 
+def componentize(app_dir, wasm):
+    """`wasm` built from `app_dir`'s app.py by the template's Makefile (make rebuilds it only
+    when that folder, the SDK or the WIT changed)."""
+    PLUGIN_DIR.mkdir(parents=True, exist_ok=True)
+    t0 = time.monotonic()
+    made = subprocess.run(["make", "-C", str(app_dir), "-f", str(TEMPLATE / "Makefile"),
+                           f"VENV={ROOT / 'target' / 'python-venv-plugin'}", f"MESHFLOW_WIT={ROOT / 'wit'}",
+                           f"MESHFLOW_SDK={SDK}", f"OUT={wasm}"], capture_output=True, text=True)
+    assert made.returncode == 0, f"make of {app_dir} failed:\n{made.stdout}\n{made.stderr}"
+    print(f"\n{wasm.name} {wasm.stat().st_size / 1e6:.1f} MB, make {time.monotonic() - t0:.1f} s")
+    return wasm
+
+
 @pytest.fixture(scope="session")
 def python_plugin():
-    """py.wasm built by the template's Makefile (make rebuilds it only when the template,
-    the SDK or the WIT changed)."""
-    PLUGIN_DIR.mkdir(parents=True, exist_ok=True)
-    wasm = PLUGIN_DIR / "py.wasm"
-    t0 = time.monotonic()
-    made = subprocess.run(["make", "-C", str(TEMPLATE), f"VENV={ROOT / 'target' / 'python-venv-plugin'}",
-                           f"OUT={wasm}"], capture_output=True, text=True)
-    assert made.returncode == 0, f"make of the Python template failed:\n{made.stdout}\n{made.stderr}"
-    print(f"\npy.wasm {wasm.stat().st_size / 1e6:.1f} MB, make {time.monotonic() - t0:.1f} s")
-    return wasm
+    return componentize(TEMPLATE, PLUGIN_DIR / "py.wasm")
+
+
+@pytest.fixture(scope="session")
+def blocks_plugin():
+    return componentize(ROOT / "python" / "tests" / "blocks_plugin", PLUGIN_DIR / "blocks.wasm")
 
 
 def apply(binary, service, mesh, out, *args):
@@ -83,7 +93,7 @@ def test_the_python_component_matches_the_builtin(binary, python_plugin, tmp_pat
 
 def test_the_python_component_runs_on_partitions_to_its_whole_mesh_hash(binary, python_plugin,
                                                                          tmp_path):
-    # The template declares reach = 2 · iterations (world local-plugin): cut into cores of
+    # The template declares reach = 2 · iterations (world block-plugin): cut into cores of
     # 500 triangles, the bunny's 3,674 give several partitions, each in a sandbox of its own.
     whole, _ = apply(binary, "taubin-smoothing-py", BUNNY, tmp_path / "whole.obj",
                      "--plugin", str(python_plugin), "--param", "iterations=2")
@@ -93,6 +103,32 @@ def test_the_python_component_runs_on_partitions_to_its_whole_mesh_hash(binary, 
                      "--max-partition-triangles", "500")
     assert parts["partitions"]["count"] >= 5 and parts["partitions"]["rings"] == 4, parts
     assert parts["output_hash"] == whole["output_hash"] != whole["input_hash"]
+
+
+def test_a_python_filter_declared_in_blocks_runs_block_by_block(binary, blocks_plugin, tmp_path):
+    # The host asks, and the filter declares blocks of 1,000 triangles: the bunny's 3,674 run
+    # block by block, each as a mesh of its own, whose border is a boundary the filter keeps.
+    plugin = ("--plugin", str(blocks_plugin))
+    whole, _ = apply(binary, "lift-py", BUNNY, tmp_path / "whole.obj", *plugin)
+    assert whole["partitions"] is None and whole["report"] == "lifted 1839 of 1839 vertices"
+    blocked, _ = apply(binary, "lift-in-blocks-py", BUNNY, tmp_path / "blocks.obj", *plugin)
+    assert blocked["partitions"]["count"] >= 3 and blocked["partitions"]["rings"] == 0, blocked
+    shared = int(re.search(r"the (\d+) vertices they share kept", blocked["report"]).group(1))
+    # The bunny is closed: the whole run lifts every vertex, the blocks all but those they
+    # share, which stay where they were.
+    lifted, kept = read_obj(tmp_path / "whole.obj")[0], read_obj(tmp_path / "blocks.obj")[0]
+    differ = (lifted != kept).any(axis=1)
+    assert differ.sum() == shared > 0
+    assert (lifted[differ][:, :2] == kept[differ][:, :2]).all()
+    assert np.allclose(lifted[differ][:, 2] - kept[differ][:, 2], 0.01, rtol=1e-3)
+    # Run again on a host with other limits: the same blocks, the same hash.
+    again, _ = apply(binary, "lift-in-blocks-py", BUNNY, tmp_path / "again.obj", *plugin,
+                     "--max-partition-triangles", "500", "--memory-cap", "1024")
+    assert again["output_hash"] == blocked["output_hash"] != whole["output_hash"]
+    # Declared, but 0 triangles: none, so whole, as the filter without the declaration.
+    zero, _ = apply(binary, "lift-in-blocks-py", BUNNY, tmp_path / "zero.obj", *plugin,
+                    "--param", "block-triangles=0")
+    assert zero["partitions"] is None and zero["output_hash"] == whole["output_hash"]
 
 
 def wait_until_idle(engine, timeout=60.0):

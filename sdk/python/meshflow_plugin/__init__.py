@@ -16,9 +16,10 @@ interface::
         mesh.set_positions(p)                # one recorded edit
         return f"lifted {mesh.vertex_count()} vertices"
 
-Build it with ``componentize-py -d wit -w local-plugin componentize app -o plugin.wasm`` (see
-examples/plugin-template-python/; the module also re-exports :class:`Locality`, or use
-``-w plugin`` for a plugin that declares no ``reach``). Inside the sandbox there is no numpy, no files, no
+Build it with ``componentize-py -d wit -w block-plugin componentize app -o plugin.wasm`` (see
+examples/plugin-template-python/; the module also re-exports :class:`Locality` and
+:class:`Blocks`, or use ``-w plugin`` for a plugin that declares neither ``reach`` nor
+``blocks``). Inside the sandbox there is no numpy, no files, no
 network, a frozen clock and seeded randomness: plain Python and the standard library.
 
 The host checks parameters against the description before ``run`` (names, types, ranges,
@@ -35,7 +36,7 @@ from typing import Any, Callable, NamedTuple, Sequence
 
 __all__ = [
     "Mesh", "MeshError", "ServiceError", "Boolean", "Integer", "Real", "Text", "filter", "check",
-    "services", "Service", "Locality", "NativeMesh", "bounds_of", "run_native", "AttributeInfo",
+    "services", "Service", "Locality", "Blocks", "NativeMesh", "bounds_of", "run_native", "AttributeInfo",
     "blend_new_vertex_attributes",
 ]
 
@@ -122,9 +123,9 @@ def _to_value(ty: str, v):
 
 # ---- services -------------------------------------------------------------------------------
 class _Svc:
-    def __init__(self, name, kind, doc, params, fn, result, reach=None):
+    def __init__(self, name, kind, doc, params, fn, result, reach=None, blocks=None):
         self.name, self.kind, self.doc, self.params, self.fn, self.result = name, kind, doc, list(params), fn, result
-        self.reach = reach
+        self.reach, self.blocks = reach, blocks
 
     def _info(self):
         from wit_world.imports import types as t
@@ -145,7 +146,8 @@ def _register(svc: _Svc) -> None:
 
 
 def filter(name: str, doc: str, params: Sequence[_Param] = (),
-           reach: int | Callable[[dict], int] | None = None) -> Callable:
+           reach: int | Callable[[dict], int] | None = None,
+           blocks: int | Callable[[dict], int | None] | None = None) -> Callable:
     """Declares a filter: ``fn(mesh, params) -> str`` edits ``mesh`` and returns a short
     report (``None`` reads as an empty report).
 
@@ -153,10 +155,21 @@ def filter(name: str, doc: str, params: Sequence[_Param] = (),
     vertex's new position depends only on the mesh within that many rings of it (an ``int``,
     or ``fn(params) -> int``), neighbours visited in ascending id order. A host may then run
     it on partitions of a mesh larger than one sandbox, and checks that the result is the
-    same bit for bit. Needs the plugin built for world ``local-plugin``, exporting
-    :class:`Locality`. ``None``: always the whole mesh."""
+    same bit for bit. Needs the plugin built for world ``local-plugin`` or ``block-plugin``,
+    exporting :class:`Locality`. ``None``: always the whole mesh.
+
+    ``blocks`` (an ``int``, or ``fn(params) -> int | None``) declares that on a mesh of more
+    than that many triangles the filter's result is, by definition, its result on each block
+    of about that many triangles run as a mesh of its own, the vertices blocks share kept
+    where they are (WIT ``blocks``, as the Rust SDK's ``Service::blocks``). Every host cuts
+    the same blocks, so results agree across hosts, but not with a whole-mesh run. A block's
+    border is its boundary: a filter that may move or remove boundary vertices with these
+    parameters gives ``None``. A host refuses blocks of fewer than 1000 triangles, and edits
+    it cannot rename into the mesh (``set_positions``, ``transform``, ``clear``, component and
+    attribute edits). Needs world ``block-plugin``, exporting :class:`Blocks` (and
+    :class:`Locality`). ``None`` or ``0``: always the whole mesh."""
     def deco(fn):
-        _register(_Svc(name, "filter", doc, params, fn, None, reach))
+        _register(_Svc(name, "filter", doc, params, fn, None, reach, blocks))
         return fn
     return deco
 
@@ -215,18 +228,34 @@ class Service:
             raise Err(f"{name}: {type(e).__name__}: {e}")
 
 
+def _declared(name: str, params, declaration: str) -> int | None:
+    """A filter's ``reach`` or ``blocks`` with these parameters (the WIT's ``option<u32>``):
+    ``None`` for a service that declared none, an unknown one, or anything but a count a u32
+    holds (the host then runs it whole)."""
+    svc = _SERVICES.get(name)
+    given = None if svc is None else getattr(svc, declaration)
+    if callable(given):
+        given = given({p.name: p.value.value for p in params})
+    return given if isinstance(given, int) and 0 <= given < 2**32 else None
+
+
 class Locality:
-    """The export componentize-py binds to ``locality`` in world ``local-plugin``: each
-    filter's ``reach`` (see :func:`filter`). A plugin built for that world makes it visible
-    with ``from meshflow_plugin import Locality``."""
+    """The export componentize-py binds to ``locality`` in worlds ``local-plugin`` and
+    ``block-plugin``: each filter's ``reach`` (see :func:`filter`). A plugin built for such a
+    world makes it visible with ``from meshflow_plugin import Locality``."""
 
     def reach(self, name, params):
-        svc = _SERVICES.get(name)
-        if svc is None or svc.reach is None:
-            return None
-        rings = svc.reach({p.name: p.value.value for p in params}) if callable(svc.reach) else svc.reach
-        # Anything but a ring count a u32 holds: not local (the host runs it whole).
-        return rings if isinstance(rings, int) and 0 <= rings < 2**32 else None
+        return _declared(name, params, "reach")
+
+
+class Blocks:
+    """The export componentize-py binds to ``blocks`` in world ``block-plugin``: each
+    filter's ``blocks`` (see :func:`filter`). A plugin built for that world makes it visible
+    with ``from meshflow_plugin import Blocks``."""
+
+    def block_triangles(self, name, params):
+        # Blocks of 0 triangles: none, the filter runs whole.
+        return _declared(name, params, "blocks") or None
 
 
 # ---- the mesh -------------------------------------------------------------------------------
