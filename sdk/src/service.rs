@@ -90,7 +90,7 @@ impl Service {
     /// Declares that on a mesh of more than `blocks(params)` triangles (when it gives
     /// `Some`) the filter's result is, by definition, its result on each block of about that
     /// many triangles run as a mesh of its own, the vertices blocks share kept where they
-    /// are (the WIT's `blocks` interface). Every host cuts the same blocks, so results agree
+    /// are (the WIT's `blocks` interface); `Some(0)` runs it whole, as `None`. Every host cuts the same blocks, so results agree
     /// across hosts, but not with a whole-mesh run: quadric decimation keeps the blocks'
     /// borders at full resolution. A filter that may move or remove its input's boundary
     /// vertices with these parameters must return `None`.
@@ -272,11 +272,11 @@ pub fn run(
 
 /// What the export macro calls: above how many triangles the named service runs block by
 /// block with these parameters (`None` for one not declared [`Service::blocks`], one unknown,
-/// or parameters it refuses).
+/// parameters it refuses, or blocks of 0 triangles: whole, as the C++ and Python SDKs read it).
 pub fn block_triangles(services: &[Service], name: &str, params: Vec<Param>) -> Option<u32> {
     let service = services.iter().find(|s| s.info.name == name)?;
     let blocks = service.blocks?;
-    blocks(&Params::new(params)).ok().flatten()
+    blocks(&Params::new(params)).ok().flatten().filter(|&n| n > 0)
 }
 
 /// What the export macro calls: how far the named service reaches with these parameters
