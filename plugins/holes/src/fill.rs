@@ -154,7 +154,8 @@ fn near_hole(rim: &[Vec3]) -> impl Fn(Vec3) -> bool + use<> {
     }
 }
 
-/// Adds a filled patch to the result: its new vertices get ids from `first_new` on.
+/// Adds a filled patch to the result: its new vertices get ids from `first_new` on, and it
+/// goes in [`Patch::walk_order`] (triangles and new vertices both).
 fn append(
     filling: &mut Filling,
     surroundings: &mut Surroundings,
@@ -163,13 +164,18 @@ fn append(
     first_new: u32,
 ) {
     let rim_len = patch.rim_len() as u32;
-    let global =
-        |v: u32| if v < rim_len { hole.vertices[v as usize] } else { first_new + v - rim_len };
-    for p in &patch.points[patch.rim_len()..] {
-        filling.new_positions.extend(p.map(|c| c as f32));
+    let (order, rank) = patch.walk_order();
+    let global = |v: u32| match v.checked_sub(rim_len) {
+        None => hole.vertices[v as usize],
+        Some(new) => first_new + rank[new as usize],
+    };
+    let mut new_points = vec![[0.0f32; 3]; rank.len()];
+    for (p, &r) in patch.points[patch.rim_len()..].iter().zip(&rank) {
+        new_points[r as usize] = p.map(|c| c as f32);
     }
+    filling.new_positions.extend(new_points.iter().flatten());
     filling.blends.extend(crate::blend::rim_first_blends(patch, global));
-    for t in &patch.triangles {
+    for t in order.iter().map(|&t| &patch.triangles[t as usize]) {
         filling.new_triangles.extend(t.map(global));
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
