@@ -90,10 +90,11 @@ impl Service {
     /// Declares that on a mesh of more than `blocks(params)` triangles (when it gives
     /// `Some`) the filter's result is, by definition, its result on each block of about that
     /// many triangles run as a mesh of its own, the vertices blocks share kept where they
-    /// are (the WIT's `blocks` interface); `Some(0)` runs it whole, as `None`. Every host cuts the same blocks, so results agree
-    /// across hosts, but not with a whole-mesh run: quadric decimation keeps the blocks'
-    /// borders at full resolution. A filter that may move or remove its input's boundary
-    /// vertices with these parameters must return `None`.
+    /// are (the WIT's `blocks` interface); `Some(0)` runs it whole, as `None` does. Every
+    /// host cuts the same blocks, so results agree across hosts, but not with a whole-mesh
+    /// run: quadric decimation keeps the blocks' borders at full resolution. A filter that
+    /// may move or remove its input's boundary vertices with these parameters must return
+    /// `None`.
     ///
     /// ```
     /// use meshflow_plugin_sdk::{Mesh, ParamSpec, Params, Result, Service};
@@ -103,10 +104,7 @@ impl Service {
     /// }
     /// /// Blocks of 4M triangles, unless told 0 (always whole).
     /// fn blocks(params: &Params) -> Result<Option<u32>> {
-    ///     Ok(match params.integer("block-triangles")? {
-    ///         0 => None,
-    ///         n => Some(n as u32),
-    ///     })
+    ///     Ok(Some(params.integer("block-triangles")? as u32))
     /// }
     /// let service = Service::filter("my-simplify", "Simplifies.", simplify)
     ///     .param(ParamSpec::integer("block-triangles", 4_000_000).range(0.0, 4e9))

@@ -31,12 +31,13 @@ const DECIMATION_BLOCK_TRIANGLES: u32 = 6_000_000;
 
 /// Blocks for a ratio target with the boundary kept: each block then keeps its share of
 /// the triangles and the vertices blocks share stay. An absolute target has no share of a
-/// block, and a boundary that may move would move the blocks' shared vertices.
+/// block, and a boundary that may move would move the blocks' shared vertices. A size of 0
+/// runs it whole (the SDK reads blocks of 0 triangles so).
 fn decimation_blocks(params: &Params) -> Result<Option<u32>> {
     let by_ratio = params.integer("target-triangles")? == 0;
     let kept = params.boolean("preserve-boundary")?;
     let size = params.integer("block-triangles")?;
-    Ok((by_ratio && kept && size > 0).then_some(size as u32))
+    Ok((by_ratio && kept).then_some(size as u32))
 }
 
 fn quadric_decimation(mesh: &Mesh, params: &Params) -> Result<String> {
